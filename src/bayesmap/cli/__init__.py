@@ -1,0 +1,138 @@
+"""The ``bayesmap`` command: parse, call the library, report; no logic of its own.
+
+Sub-commands live one module per group (``bn``, ``sonar``) and are mounted here.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from bayesmap import __version__
+from bayesmap.errors import BayesmapError
+from bayesmap.experiments import EXPERIMENTS, ExperimentResult, load
+
+app = typer.Typer(
+    name="bayesmap",
+    help="Bayesian mapping and decision-making with sparse, noisy, local sensors.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console(stderr=True)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"bayesmap {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")
+    ] = False,
+    verbose: Annotated[bool, typer.Option("--verbose", "-v", help="Log progress details.")] = False,
+) -> None:
+    """Bayesian mapping and decision-making with sparse, noisy, local sensors."""
+    logging.basicConfig(
+        level=logging.INFO if verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+
+
+@app.command()
+def reproduce(
+    experiments: Annotated[
+        list[str] | None,
+        typer.Argument(help="Experiments to run (default: all). Known: see 'bayesmap reproduce --list'."),
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", help="Output folder; each experiment writes DIR/<name>/.")] = Path(
+        "results"
+    ),
+    list_: Annotated[bool, typer.Option("--list", help="List the experiments and exit.")] = False,
+) -> None:
+    """Run the paper experiments at their default size; write figures, maps and metrics."""
+    if list_:
+        for name in EXPERIMENTS:
+            doc = (load(name).__doc__ or "").strip()
+            typer.echo(f"{name}\t{doc.splitlines()[0] if doc else ''}")
+        return
+    names = list(experiments) if experiments else list(EXPERIMENTS)
+    unknown = [name for name in names if name not in EXPERIMENTS]
+    if unknown:
+        console.print(
+            f"[red]error:[/red] unknown experiment(s) {', '.join(unknown)}; "
+            f"choose from: {', '.join(EXPERIMENTS) or 'none'}"
+        )
+        raise typer.Exit(2)
+    results: list[tuple[ExperimentResult, float]] = []
+    with Progress(
+        TextColumn("[bold]{task.fields[experiment]}[/bold]"),
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        transient=False,
+    ) as progress:
+        for name in names:
+            module = load(name)
+            task = progress.add_task("starting", total=None, experiment=name)
+
+            def hook(description: str, completed: int, total: int, _task: int = task) -> None:
+                progress.update(_task, description=description, completed=completed, total=total)
+
+            started = time.perf_counter()
+            try:
+                result = module.run(module.Config(), out / name, progress=hook)
+            except BayesmapError as error:
+                console.print(f"[red]error in {name}:[/red] {error}")
+                raise typer.Exit(1) from error
+            results.append((result, time.perf_counter() - started))
+            progress.update(task, description="done")
+    _print_summary(results)
+
+
+def _print_summary(results: list[tuple[ExperimentResult, float]]) -> None:
+    table = Table(title="bayesmap reproduce: where the results are")
+    table.add_column("experiment")
+    table.add_column("folder")
+    table.add_column("figures", justify="right")
+    table.add_column("metrics")
+    table.add_column("headline")
+    table.add_column("time", justify="right")
+    for result, seconds in results:
+        table.add_row(
+            result.name,
+            str(result.out_dir),
+            str(len(result.figures)),
+            "\n".join(str(path) for path in result.metrics),
+            "\n".join(f"{key}: {_fmt(value)}" for key, value in result.headline.items()),
+            f"{seconds:.1f} s",
+        )
+    Console().print(table)
+
+
+def _fmt(value: float | int | str) -> str:
+    return f"{value:.3g}" if isinstance(value, float) else str(value)
+
+
+def main() -> None:
+    """Entry point of the ``bayesmap`` console script."""
+    try:
+        app()
+    except BayesmapError as error:
+        console.print(f"[red]error:[/red] {error}")
+        raise SystemExit(1) from error
+
+
+__all__ = ["app", "main"]

@@ -1,0 +1,33 @@
+"""The paper experiments behind ``bayesmap reproduce``.
+
+Each experiment is one module here exposing
+
+- ``Config``: a frozen pydantic model of every setting, with the paper's defaults;
+- ``run(config, out_dir, *, progress=None) -> ExperimentResult``: runs the experiment,
+  writes its figures, maps and metrics under ``out_dir`` and reports progress through
+  the optional :data:`ProgressHook`.
+
+:data:`EXPERIMENTS` maps each experiment's name to its module; ``reproduce`` runs them
+in this order.
+"""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
+
+from bayesmap.errors import ConfigError
+from bayesmap.experiments._common import ExperimentResult, ProgressHook
+
+EXPERIMENTS: dict[str, str] = {}
+
+
+def load(name: str) -> ModuleType:
+    """Import the module of experiment ``name``; raise :class:`ConfigError` if unknown."""
+    if name not in EXPERIMENTS:
+        known = ", ".join(EXPERIMENTS) or "none"
+        raise ConfigError(f"unknown experiment {name!r}; choose from: {known}")
+    return importlib.import_module(EXPERIMENTS[name])
+
+
+__all__ = ["EXPERIMENTS", "ExperimentResult", "ProgressHook", "load"]
