@@ -1,1 +1,41 @@
-"""bn."""
+"""Discrete Bayesian networks: model, forms, exact and fixed-point inference, file formats.
+
+The engine of Post et al. 2016 (§2–3): build a :class:`BayesNet` in code or :func:`read` one
+from XMLBIF/BIF/XBN, then ask it questions — :meth:`~BayesNet.posterior`,
+:meth:`~BayesNet.joint_posterior`, :meth:`~BayesNet.posterior_batch`, :meth:`~BayesNet.map`,
+:meth:`~BayesNet.marginal_map`, :meth:`~BayesNet.probability` of a proposition — exactly, or in
+Q-format fixed point.
+
+Examples
+--------
+>>> from bayesmap.bn import BayesNet, V
+>>> net = BayesNet("rain")
+>>> _ = net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+>>> _ = net.add_variable("Wet", ["no", "yes"], parents=["Rain"], cpt=[[0.9, 0.1], [0.1, 0.9]])
+>>> round(net.probability((V("Rain") == "yes") | (V("Wet") == "yes")), 3)
+0.28
+"""
+
+from bayesmap.bn.fixed_point import FixedResult, QFormat
+from bayesmap.bn.forms import discretised_gaussian, gaussian_cpt
+from bayesmap.bn.io import read, write
+from bayesmap.bn.model import BayesNet, NodeKind, Variable, cpt_from_flat
+from bayesmap.bn.naive_bayes import class_ratio
+from bayesmap.bn.propositions import Proposition, V, parse
+
+__all__ = [
+    "BayesNet",
+    "FixedResult",
+    "NodeKind",
+    "Proposition",
+    "QFormat",
+    "V",
+    "Variable",
+    "class_ratio",
+    "cpt_from_flat",
+    "discretised_gaussian",
+    "gaussian_cpt",
+    "parse",
+    "read",
+    "write",
+]

@@ -32,26 +32,22 @@ precision.
 from __future__ import annotations
 
 import enum
-import warnings
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from bayesmap._typing import CPT, FloatArray
-from bayesmap.errors import ModelError
-
-SUM_TOLERANCE = 1e-2
-"""A CPT column whose sum is further than this from 1 is an error."""
-
-WARN_TOLERANCE = 1e-6
-"""A CPT column whose sum is further than this from 1 is renormalised with a warning."""
-
-
-class CPTNormalisationWarning(UserWarning):
-    """A CPT column summed to 1 only roughly and was renormalised."""
+from bayesmap.bn.fixed_point import FixedResult, QFormat
+from bayesmap.bn.inference import BatchEvidence, Engine, Evidence
+from bayesmap.bn.propositions import Proposition
+from bayesmap.bn.tables import SUM_TOLERANCE as SUM_TOLERANCE
+from bayesmap.bn.tables import WARN_TOLERANCE as WARN_TOLERANCE
+from bayesmap.bn.tables import CPTNormalisationWarning as CPTNormalisationWarning
+from bayesmap.bn.tables import DataSource as DataSource
+from bayesmap.bn.tables import checked_cpt
+from bayesmap.errors import InputError, ModelError
 
 
 class NodeKind(enum.Enum):
@@ -71,14 +67,6 @@ class NodeKind(enum.Enum):
     BUS = "B"
     CLASSIFICATION = "C"
     DATA = "D"
-
-
-DataSource = Callable[[Mapping[str, str]], npt.ArrayLike]
-"""A data node's source: called at query time, returns the node's CPT ``(child, *parents)``.
-
-It receives the network's current evidence (``{variable: state}``) so that it can, for
-example, look up the cell of a map under the robot.
-"""
 
 
 @dataclass
@@ -122,7 +110,8 @@ class Variable:
             if 0 <= int(state) < len(self.states):
                 return int(state)
             raise ModelError(
-                f"variable {self.name!r} has {len(self.states)} states; index {state} is out of range"
+                f"variable {self.name!r} has {len(self.states)} states; "
+                f"index {state} is out of range"
             )
         try:
             return self.states.index(str(state))
@@ -143,8 +132,8 @@ class BayesNet:
     Examples
     --------
     >>> net = BayesNet("rain")
-    >>> net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
-    >>> net.add_variable("Wet", ["no", "yes"], parents=["Rain"], cpt=[[0.9, 0.1], [0.1, 0.9]])
+    >>> _ = net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+    >>> _ = net.add_variable("Wet", ["no", "yes"], parents=["Rain"], cpt=[[0.9, 0.1], [0.1, 0.9]])
     >>> net.cpt("Wet").shape
     (2, 2)
     """
@@ -154,6 +143,7 @@ class BayesNet:
         self._variables: dict[str, Variable] = {}
         self.properties: dict[str, str] = {}
         self._version = 0
+        self._engine = Engine(self)
 
     # ------------------------------------------------------------------ structure
     @property
@@ -289,7 +279,7 @@ class BayesNet:
         table = (
             np.full(shape, 1.0 / len(state_tuple))
             if cpt is None
-            else _checked_cpt(name, cpt, shape, parent_tuple, self)
+            else checked_cpt(name, cpt, shape, parent_tuple, self)
         )
         table.setflags(write=False)
         variable = Variable(
@@ -309,7 +299,7 @@ class BayesNet:
         """Replace the CPT of ``name`` (same shape rules as :meth:`add_variable`)."""
         variable = self.variable(name)
         shape = (variable.cardinality, *(self.cardinality(p) for p in variable.parents))
-        table = _checked_cpt(name, cpt, shape, variable.parents, self)
+        table = checked_cpt(name, cpt, shape, variable.parents, self)
         table.setflags(write=False)
         variable.cpt = table
         self._version += 1
@@ -348,7 +338,7 @@ class BayesNet:
             table = np.repeat(variable.cpt[..., np.newaxis], new_parent.cardinality, axis=-1)
         else:
             shape = (variable.cardinality, *(self.cardinality(p) for p in new_parents))
-            table = _checked_cpt(child, cpt, shape, new_parents, self)
+            table = checked_cpt(child, cpt, shape, new_parents, self)
         table.setflags(write=False)
         variable.parents = new_parents
         variable.cpt = table
@@ -379,6 +369,182 @@ class BayesNet:
             found |= self._ancestors(name)
         return found
 
+    # --------------------------------------------------------------- questions
+    def posterior(
+        self,
+        target: str,
+        evidence: Evidence | None = None,
+        *,
+        fixed_point: QFormat | str | None = None,
+    ) -> dict[str, float]:
+        """Exact ``P(target | evidence)`` (Post et al. 2016 eqs. 22–25).
+
+        Evidence may be on any variables. Barren and d-separated parts are pruned, and the
+        contraction order is cached per pattern of observed variables; where the paper's
+        ancestral recursion (eq. 27) is exact it is used instead (see
+        :meth:`ancestral_posterior`).
+
+        Parameters
+        ----------
+        target
+            The queried variable.
+        evidence
+            Observed values ``{variable: state name or index}``.
+        fixed_point
+            Compute in this Q-format (``"Q16.16"``, ``"Q8.24"``, ...) with integer
+            arithmetic, as the rover's embedded engine does; see :meth:`posterior_fixed`
+            for the error bound.
+
+        Returns
+        -------
+        dict
+            ``{state: probability}`` in state order, summing to 1.
+
+        Raises
+        ------
+        ModelError
+            Unknown variable.
+        InputError
+            Unknown state, or evidence of probability zero.
+
+        Examples
+        --------
+        >>> net = BayesNet("rain")
+        >>> _ = net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+        >>> _ = net.add_variable("Wet", ["no", "yes"], parents=["Rain"],
+        ...                      cpt=[[0.9, 0.1], [0.1, 0.9]])
+        >>> round(net.posterior("Rain", {"Wet": "yes"})["yes"], 4)
+        0.6923
+        """
+        if fixed_point is not None:
+            values = self.posterior_fixed(target, evidence, fixed_point).values
+        else:
+            values = self._engine.posterior(target, evidence or {})
+        return dict(zip(self.variable(target).states, values.tolist(), strict=True))
+
+    def posterior_batch(
+        self, target: str, evidence: BatchEvidence, *, columns: Sequence[str] | None = None
+    ) -> FloatArray:
+        """``P(target | case)`` for many evidence cases: an ``(n_cases, n_states)`` array.
+
+        ``evidence`` is an ``(n_cases, n_columns)`` integer array of state indices (−1 =
+        unobserved; columns are ``columns`` or all variables in network order) or a list
+        of ``{variable: state}`` mappings. Cases observing the same variables are answered
+        by one contraction with a leading case axis.
+        """
+        return self._engine.posterior_batch(target, evidence, columns=columns)
+
+    def joint_posterior(
+        self, targets: Sequence[str], evidence: Evidence | None = None
+    ) -> FloatArray:
+        """Exact joint ``P(targets | evidence)``: one array axis per target, in the given order."""
+        return self._engine.joint_posterior(list(targets), evidence or {})
+
+    def probability_of_evidence(self, evidence: Evidence | None = None) -> float:
+        """``P(evidence)``, the normaliser Σ of Post et al. 2016 eq. 24."""
+        return self._engine.probability_of_evidence(evidence or {})
+
+    def posterior_fixed(
+        self, target: str, evidence: Evidence | None = None, fixed_point: QFormat | str = "Q16.16"
+    ) -> FixedResult:
+        """``P(target | evidence)`` in Q-format integer arithmetic, with a guaranteed error bound.
+
+        Returns a :class:`~bayesmap.bn.fixed_point.FixedResult` (raw integers, values and
+        the bound on ``|value − exact|`` of each state).
+        """
+        return self._engine.fixed_posterior(target, evidence or {}, QFormat.parse(fixed_point))
+
+    def posterior_batch_fixed(
+        self,
+        target: str,
+        evidence: BatchEvidence,
+        fixed_point: QFormat | str = "Q16.16",
+        *,
+        columns: Sequence[str] | None = None,
+    ) -> FixedResult:
+        """:meth:`posterior_batch` in Q-format integer arithmetic, with error bounds."""
+        q = QFormat.parse(fixed_point)
+        return self._engine.fixed_posterior_batch(target, evidence, q, columns=columns)
+
+    def map(
+        self, evidence: Evidence | None = None, *, fixed_point: QFormat | str | None = None
+    ) -> tuple[dict[str, str], float]:
+        """MAP/MPE over all unobserved variables (Post et al. 2016 eq. 13), by max-product.
+
+        A true joint maximisation: the returned assignment maximises ``P(x ∩ e)`` jointly,
+        which per-variable arg-maxes of the marginals need not do.
+
+        Returns
+        -------
+        tuple
+            ``({variable: state}, P(assignment | evidence))``. With ``fixed_point``, the
+            max-product runs in that Q-format (ties broken by the lowest state index).
+        """
+        if fixed_point is not None:
+            assignment, result = self._engine.fixed_mpe(evidence or {}, QFormat.parse(fixed_point))
+            return assignment, float(result.values)
+        return self._engine.mpe(evidence or {})
+
+    def marginal_map(
+        self, variables: Sequence[str], evidence: Evidence | None = None
+    ) -> tuple[dict[str, str], float]:
+        """Marginal MAP over ``variables`` (Post et al. 2016 eq. 14): sum out the rest, then max.
+
+        Returns ``({variable: state}, P(assignment | evidence))``; exact.
+        """
+        return self._engine.marginal_map(list(variables), evidence or {})
+
+    def probability(
+        self, proposition: Proposition | str, evidence: Evidence | None = None
+    ) -> float:
+        """``P(proposition | evidence)`` of a logical proposition (Post et al. 2016 §2.4).
+
+        Build it with :class:`~bayesmap.bn.propositions.V` (``(V("A") == "yes") & ~(V("B")
+        == "no")``) or pass a string such as ``"A=yes & !(B=no)"``.
+        """
+        return self._engine.probability(proposition, evidence or {})
+
+    def class_ratio(
+        self, variable: str, state_1: str, state_2: str, evidence: Evidence | None = None
+    ) -> float:
+        """``P(state_1, e) / P(state_2, e)``, the class ratio of Post et al. 2016 eq. 6.
+
+        Computed exactly by inference, so it holds on any network; on a naive-Bayes
+        network it equals :func:`bayesmap.bn.naive_bayes.class_ratio`.
+        """
+        compiled = self._engine.compiled
+        index = compiled.id(variable)
+        a, b = compiled.state(index, state_1), compiled.state(index, state_2)
+        values = self._engine.posterior(variable, evidence or {})
+        if values[b] == 0.0:
+            if values[a] == 0.0:
+                raise InputError(
+                    f"class_ratio: {variable}={state_1!r} and {variable}={state_2!r} both have "
+                    "probability zero given the evidence"
+                )
+            return float("inf")
+        return float(values[a] / values[b])
+
+    def ancestral_posterior(
+        self, target: str, evidence: Evidence | None = None
+    ) -> dict[str, float]:
+        """The paper's recursive ancestral query (Post et al. 2016 eqs. 10, 26–27).
+
+        Walks up from ``target`` computing each ancestor's distribution from its parents'
+        (saving them, as the paper does), treating observed ancestors as point masses. It
+        ignores evidence on non-ancestors and multiplies parents' distributions as if
+        independent, so it is exact only when :meth:`ancestral_is_exact` says so (then
+        :meth:`posterior` uses it automatically); otherwise it is the paper's
+        approximation.
+        """
+        values = self._engine.ancestral_posterior(target, evidence or {})
+        return dict(zip(self.variable(target).states, values.tolist(), strict=True))
+
+    def ancestral_is_exact(self, target: str, evidence: Evidence | None = None) -> bool:
+        """Whether :meth:`ancestral_posterior` is exact: all evidence on visited ancestors,
+        and the visited ancestors form a polytree."""
+        return self._engine.ancestral_is_exact(target, evidence or {})
+
     def copy(self) -> BayesNet:
         """A copy sharing no mutable state (CPT arrays are read-only and shared)."""
         other = BayesNet(self.name)
@@ -406,7 +572,9 @@ def cpt_from_flat(flat: npt.ArrayLike, shape: Sequence[int]) -> CPT:
     """Inverse of :meth:`BayesNet.flat_cpt`: a flat eq.-29 array to ``(child, *parents)``."""
     values = np.asarray(flat, dtype=np.float64)
     if values.size != int(np.prod(shape)):
-        raise ModelError(f"flat table has {values.size} values; shape {tuple(shape)} needs {int(np.prod(shape))}")
+        raise ModelError(
+            f"flat table has {values.size} values; shape {tuple(shape)} needs {int(np.prod(shape))}"
+        )
     return np.asarray(values.reshape(tuple(shape), order="F"))
 
 
@@ -421,59 +589,3 @@ def _as_kind(kind: NodeKind | str | None, name: str) -> NodeKind | None:
         f"variable {name!r}: unknown node kind {kind!r}; use one of A, B, C, D "
         "(ability, bus, classification, data)"
     )
-
-
-def _checked_cpt(
-    name: str, cpt: npt.ArrayLike, shape: tuple[int, ...], parents: Sequence[str], net: BayesNet
-) -> FloatArray:
-    """Validate and renormalise a CPT by the module's normalisation policy."""
-    try:
-        table = np.array(cpt, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise ModelError(f"variable {name!r}: CPT is not numeric ({error})") from None
-    if table.ndim == 1 and len(shape) > 1 and table.size == int(np.prod(shape)):
-        raise ModelError(
-            f"variable {name!r}: CPT given flat with {table.size} values; pass shape {shape} "
-            "(child, *parents) or use cpt_from_flat for the eq.-29 layout"
-        )
-    if table.shape != shape:
-        raise ModelError(
-            f"variable {name!r}: CPT has shape {table.shape}, expected {shape} "
-            f"(states of {name!r}, then parents {list(parents)})"
-        )
-    if not np.all(np.isfinite(table)):
-        raise ModelError(f"variable {name!r}: CPT holds NaN or infinite values")
-    if np.any(table < 0):
-        column = np.argwhere(table < 0)[0]
-        raise ModelError(f"variable {name!r}: negative probability at {_describe(column, name, parents, net)}")
-    sums = table.sum(axis=0)
-    deviation = np.abs(sums - 1.0)
-    worst = int(np.argmax(deviation)) if deviation.size else 0
-    worst_dev = float(deviation.flat[worst]) if deviation.size else 0.0
-    if worst_dev > SUM_TOLERANCE:
-        where = np.unravel_index(worst, sums.shape) if sums.ndim else ()
-        raise ModelError(
-            f"variable {name!r}: the distribution for {_parent_states(where, parents, net)} "
-            f"sums to {float(sums.flat[worst]):.6g}, not 1"
-        )
-    if worst_dev > WARN_TOLERANCE:
-        where = np.unravel_index(worst, sums.shape) if sums.ndim else ()
-        warnings.warn(
-            f"variable {name!r}: the distribution for {_parent_states(where, parents, net)} "
-            f"sums to {float(sums.flat[worst]):.9g}; renormalised",
-            CPTNormalisationWarning,
-            stacklevel=3,
-        )
-    return np.asarray(table / sums)
-
-
-def _parent_states(where: Sequence[Any], parents: Sequence[str], net: BayesNet) -> str:
-    if not parents:
-        return "the root"
-    pairs = [f"{p}={net.states(p)[int(i)]}" for p, i in zip(parents, where, strict=True)]
-    return "parents " + ", ".join(pairs)
-
-
-def _describe(index: Sequence[Any], name: str, parents: Sequence[str], net: BayesNet) -> str:
-    state = net.states(name)[int(index[0])] if name in net else str(index[0])
-    return f"state {state!r} given {_parent_states(index[1:], parents, net)}"

@@ -16,6 +16,8 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from bayesmap import __version__
+from bayesmap.cli import bn as bn_commands
+from bayesmap.cli import sonar as sonar_commands
 from bayesmap.errors import BayesmapError
 from bayesmap.experiments import EXPERIMENTS, ExperimentResult, load
 
@@ -26,6 +28,8 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
+app.add_typer(bn_commands.app, name="bn")
+app.add_typer(sonar_commands.app, name="sonar")
 console = Console(stderr=True)
 
 

@@ -19,7 +19,11 @@ from types import ModuleType
 from bayesmap.errors import ConfigError
 from bayesmap.experiments._common import ExperimentResult, ProgressHook
 
-EXPERIMENTS: dict[str, str] = {}
+EXPERIMENTS: dict[str, str] = {
+    "rover": "bayesmap.experiments.rover",
+    "sonar": "bayesmap.experiments.sonar",
+    "blackboard": "bayesmap.experiments.blackboard",
+}
 
 
 def load(name: str) -> ModuleType:

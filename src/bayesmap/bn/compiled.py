@@ -1,0 +1,139 @@
+"""A network frozen into integer ids and arrays, the evidence-independent part of every query.
+
+The inference code never walks :class:`~bayesmap.bn.model.BayesNet` objects on the hot
+path: it works on a :class:`Compiled` snapshot (variables as integer ids in insertion
+order, parents as id tuples, CPTs as read-only arrays, a state-name → index dictionary per
+variable), rebuilt only when the network's version counter changes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from bayesmap._typing import FloatArray
+from bayesmap.bn.tables import DataSource, checked_cpt
+from bayesmap.errors import InputError, ModelError
+
+
+class _Variable(Protocol):
+    name: str
+    states: tuple[str, ...]
+    parents: tuple[str, ...]
+    cpt: FloatArray
+    source: DataSource | None
+
+
+class NetworkLike(Protocol):
+    """What the inference code needs of a network (satisfied by ``BayesNet``)."""
+
+    name: str
+
+    @property
+    def version(self) -> int: ...
+
+    @property
+    def variables(self) -> tuple[str, ...]: ...
+
+    def variable(self, name: str) -> _Variable: ...
+
+    def states(self, name: str) -> tuple[str, ...]: ...
+
+    def topological_order(self) -> tuple[str, ...]: ...
+
+    def __contains__(self, name: object) -> bool: ...
+
+
+class Compiled:
+    """The arrays and id tables of one version of a network.
+
+    Attributes
+    ----------
+    names
+        Variable names; a variable's id is its position here.
+    card
+        Number of states of each variable.
+    parents
+        Parent ids of each variable, in CPT axis order.
+    cpts
+        CPT of each variable, shape ``(child, *parents)``.
+    topo
+        Ids in a topological order (parents first).
+    sources
+        Ids of data nodes whose table comes from a callable at query time.
+    """
+
+    def __init__(self, net: NetworkLike) -> None:
+        self.net = net
+        self.version = net.version
+        self.topo_names = net.topological_order()
+        self.names: tuple[str, ...] = tuple(net.variables)
+        self.index = {name: i for i, name in enumerate(self.names)}
+        variables = [net.variable(name) for name in self.names]
+        self.states = tuple(v.states for v in variables)
+        self.card = tuple(len(v.states) for v in variables)
+        self.parents = tuple(tuple(self.index[p] for p in v.parents) for v in variables)
+        self.cpts: tuple[FloatArray, ...] = tuple(v.cpt for v in variables)
+        self.lookup = tuple({s: k for k, s in enumerate(v.states)} for v in variables)
+        self.topo = tuple(self.index[n] for n in self.topo_names)
+        self.sources = {i: v.source for i, v in enumerate(variables) if v.source is not None}
+        children: list[list[int]] = [[] for _ in self.names]
+        for child, parents in enumerate(self.parents):
+            for parent in parents:
+                children[parent].append(child)
+        self.children = tuple(tuple(c) for c in children)
+        masks = [0] * len(self.names)
+        for v in self.topo:
+            for parent in self.parents[v]:
+                masks[v] |= masks[parent] | (1 << parent)
+        self.ancestor_masks = tuple(masks)
+        """Ancestors of each variable as a bit mask (bit ``i`` = variable id ``i``)."""
+
+    def id(self, name: str) -> int:
+        """Id of variable ``name``; :class:`ModelError` if it is not in the network."""
+        try:
+            return self.index[name]
+        except (KeyError, TypeError):
+            raise ModelError(f"network {self.net.name!r} has no variable {name!r}") from None
+
+    def state(self, var: int, value: object) -> int:
+        """Index of state ``value`` (a name or an index) of variable ``var``."""
+        try:
+            return self.lookup[var][value]  # type: ignore[index]
+        except (KeyError, TypeError):
+            pass
+        if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+            if 0 <= int(value) < self.card[var]:
+                return int(value)
+        raise InputError(
+            f"variable {self.names[var]!r} has no state {value!r}; "
+            f"its states are {list(self.states[var])}"
+        )
+
+    def ancestors(self, ids: Iterable[int]) -> set[int]:
+        """Ids of all ancestors of ``ids`` (not including them)."""
+        seen: set[int] = set()
+        stack = [p for i in ids for p in self.parents[i]]
+        while stack:
+            node = stack.pop()
+            if node not in seen:
+                seen.add(node)
+                stack.extend(self.parents[node])
+        return seen
+
+    def table(self, var: int, evidence: Mapping[str, str]) -> FloatArray:
+        """CPT of ``var``: stored, or asked of its data source with the query's evidence."""
+        source = self.sources.get(var)
+        if source is None:
+            return self.cpts[var]
+        shape = (self.card[var], *(self.card[p] for p in self.parents[var]))
+        raw: npt.ArrayLike = source(evidence)
+        parent_names: Sequence[str] = [self.names[p] for p in self.parents[var]]
+        return checked_cpt(self.names[var], raw, shape, parent_names, self.net)
+
+    def evidence_names(self, evidence: Mapping[int, int]) -> dict[str, str]:
+        """Evidence as ``{variable name: state name}`` (what data sources receive)."""
+        return {self.names[v]: self.states[v][s] for v, s in evidence.items()}

@@ -1,0 +1,257 @@
+"""What every format shares: parsed specs → a fresh network, node kinds as properties, names.
+
+A reader parses its file into :class:`VariableSpec` records (plain data, each carrying
+where in the file it came from) and hands them to :func:`build_network`, which orders the
+variables so that parents come first, checks the graph and builds a *fresh*
+:class:`~bayesmap.bn.model.BayesNet`. Any :class:`~bayesmap.errors.ModelError` the model
+raises becomes a :class:`~bayesmap.errors.FormatError` that names the file and the line or
+element of the offending variable, and nothing half-built ever escapes.
+"""
+
+from __future__ import annotations
+
+import gzip
+import heapq
+import warnings
+import zlib
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bayesmap._io import write_bytes
+from bayesmap._typing import FloatArray
+from bayesmap.bn.model import BayesNet, NodeKind, Variable
+from bayesmap.errors import FormatError, ModelError
+
+KIND_PROPERTY = "kind"
+"""Property name under which a node's kind (Post et al. 2016 §3.4) is stored in files."""
+
+
+@dataclass
+class Location:
+    """Where something was found in a file: a 1-based line and/or an element description."""
+
+    path: str | None = None
+    line: int | None = None
+    element: str | None = None
+
+    def error(self, message: str) -> FormatError:
+        """A :class:`FormatError` at this location."""
+        return FormatError(message, path=self.path, line=self.line, element=self.element)
+
+
+@dataclass
+class VariableSpec:
+    """One variable as parsed from a file, before it is checked by the model."""
+
+    name: str
+    states: tuple[str, ...]
+    where: Location
+    parents: tuple[str, ...] = ()
+    cpt: FloatArray | None = None
+    cpt_where: Location | None = None
+    properties: dict[str, str] = field(default_factory=dict)
+
+
+def build_network(
+    name: str,
+    specs: Iterable[VariableSpec],
+    *,
+    properties: Mapping[str, str] | None = None,
+    path: str | None = None,
+) -> BayesNet:
+    """Check parsed variables and build a new :class:`BayesNet` from them.
+
+    Variables are added in declaration order as far as the graph allows (a parent always
+    before its children). Unknown parents, cycles, missing tables and every model error
+    raise :class:`FormatError` at the location of the variable concerned.
+    """
+    by_name: dict[str, VariableSpec] = {}
+    for spec in specs:
+        if spec.name in by_name:
+            first = by_name[spec.name].where
+            raise spec.where.error(
+                f"variable {spec.name!r} is declared twice (first at {_describe(first)})"
+            )
+        by_name[spec.name] = spec
+    order = _topological(by_name)
+    net = BayesNet(name)
+    net.properties = dict(properties or {})
+    for variable_name in order:
+        spec = by_name[variable_name]
+        where = spec.cpt_where or spec.where
+        if spec.cpt is None:
+            raise spec.where.error(f"variable {variable_name!r} has no probability table")
+        kind, props = split_kind(spec.properties)
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                net.add_variable(
+                    variable_name,
+                    spec.states,
+                    parents=spec.parents,
+                    cpt=spec.cpt,
+                    kind=kind,
+                    properties=props,
+                )
+        except ModelError as error:
+            raise where.error(str(error)) from None
+        for warning in caught:
+            warnings.warn_explicit(
+                f"{_describe(where)}: {warning.message}",
+                warning.category,
+                where.path or "<string>",
+                where.line or 0,
+            )
+    return net
+
+
+def _topological(by_name: Mapping[str, VariableSpec]) -> list[str]:
+    """Kahn's algorithm, preferring declaration order; errors for unknown parents and cycles."""
+    rank = {n: i for i, n in enumerate(by_name)}
+    waiting: dict[str, int] = {}
+    children: dict[str, list[str]] = {n: [] for n in by_name}
+    for spec in by_name.values():
+        for parent in spec.parents:
+            if parent not in by_name:
+                raise (spec.cpt_where or spec.where).error(
+                    f"variable {spec.name!r} has parent {parent!r}, which is not declared"
+                )
+            children[parent].append(spec.name)
+        waiting[spec.name] = len(spec.parents)
+    ready = [rank[n] for n, count in waiting.items() if count == 0]
+    heapq.heapify(ready)
+    names = list(by_name)
+    order: list[str] = []
+    while ready:
+        current = names[heapq.heappop(ready)]
+        order.append(current)
+        for child in children[current]:
+            waiting[child] -= 1
+            if waiting[child] == 0:
+                heapq.heappush(ready, rank[child])
+    if len(order) != len(by_name):
+        stuck = sorted((n for n in by_name if waiting[n] > 0), key=rank.__getitem__)
+        first = by_name[stuck[0]]
+        raise (first.cpt_where or first.where).error(
+            f"the parents form a cycle through {stuck[:8]}" + (" ..." if len(stuck) > 8 else "")
+        )
+    return order
+
+
+def _describe(where: Location) -> str:
+    parts = [
+        p for p in (where.path, f"line {where.line}" if where.line else None, where.element) if p
+    ]
+    return ", ".join(parts) if parts else "an earlier place"
+
+
+def split_kind(properties: Mapping[str, str]) -> tuple[NodeKind | None, dict[str, str]]:
+    """Take the node kind out of a file's properties (``kind = A``; other values stay)."""
+    props = dict(properties)
+    text = props.get(KIND_PROPERTY)
+    if text is None:
+        return None, props
+    kind = parse_kind(text)
+    if kind is not None:
+        del props[KIND_PROPERTY]
+    return kind, props
+
+
+def parse_kind(text: str) -> NodeKind | None:
+    """The :class:`NodeKind` written as ``text`` (letter or name), or ``None``."""
+    key = text.strip().upper()
+    for member in NodeKind:
+        if key in (member.value, member.name):
+            return member
+    return None
+
+
+def properties_with_kind(variable: Variable, *, path: str | None = None) -> dict[str, str]:
+    """The properties to write for ``variable``: its own, plus ``kind`` if it has one.
+
+    Raises
+    ------
+    FormatError
+        When a property called ``kind`` would be read back as the node kind, or clashes
+        with it.
+    """
+    props = dict(variable.properties)
+    clash = KIND_PROPERTY in props and (
+        variable.kind is not None or parse_kind(props[KIND_PROPERTY]) is not None
+    )
+    if clash:
+        raise FormatError(
+            f"variable {variable.name!r} has a property {KIND_PROPERTY!r} = "
+            f"{props[KIND_PROPERTY]!r}, but that name stores the node kind in files; rename it",
+            path=path,
+        )
+    if variable.kind is not None:
+        props[KIND_PROPERTY] = variable.kind.value
+    return props
+
+
+def check_name(what: str, name: str, *, path: str | None = None) -> None:
+    """Refuse names a file cannot hold exactly: empty, or with surrounding whitespace."""
+    if not name or name != name.strip():
+        raise FormatError(
+            f"{what} {name!r} is empty or starts/ends with whitespace, which no network "
+            "file format keeps; rename it",
+            path=path,
+        )
+
+
+def check_property(owner: str, key: str, value: str, *, path: str | None = None) -> None:
+    """Refuse properties that cannot be written as ``key = value`` and read back exactly."""
+    if not key or key != key.strip() or "=" in key:
+        raise FormatError(
+            f"{owner}: property name {key!r} is empty, has surrounding whitespace or "
+            "contains '='; rename it",
+            path=path,
+        )
+    if value != value.strip():
+        raise FormatError(
+            f"{owner}: the value of property {key!r} starts or ends with whitespace, "
+            "which files do not keep; strip it",
+            path=path,
+        )
+
+
+def split_property(text: str) -> tuple[str, str]:
+    """``"key = value"`` → ``("key", "value")``; text without ``=`` is a key with value ``""``."""
+    key, _, value = text.partition("=")
+    return key.strip(), value.strip()
+
+
+def table_values(array: FloatArray) -> str:
+    """Probabilities as text with every digit a double needs (shortest round-trip form)."""
+    return " ".join(map(repr, np.asarray(array, dtype=np.float64).ravel().tolist()))
+
+
+def read_source(path: str | Path) -> bytes:
+    """The bytes of ``path``, gunzipped when its name ends in ``.gz``; errors as FormatError."""
+    try:
+        data = Path(path).read_bytes()
+        return gzip.decompress(data) if str(path).lower().endswith(".gz") else data
+    except (OSError, EOFError, zlib.error) as error:
+        raise FormatError(f"cannot read the file: {error}", path=str(path)) from None
+
+
+def write_output(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically, gzipped when the name ends in ``.gz``."""
+    data = text.encode("utf-8")
+    if str(path).lower().endswith(".gz"):
+        data = gzip.compress(data, mtime=0)
+    return write_bytes(path, data)
+
+
+def decode(data: str | bytes) -> str:
+    """Text of a plain-text network file: UTF-8, or Latin-1 when it is not UTF-8."""
+    if isinstance(data, str):
+        return data
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")

@@ -1,0 +1,370 @@
+"""The whiskered robot mapping tables with a Bayesian blackboard (Fox & Prescott 2011 §III).
+
+The robot visits the 10 × 10 × 4 poses of the ``"whisker-tables-v1"`` world in a fixed
+order (Fig. 4); at each pose its six whiskers' shapelets go to one
+:class:`~bayesmap.blackboard.TableMapper` time step (Algorithm 1), whose MAP tables
+(eq. 18) are scored against the true tables. This is done under three sensor conditions:
+``normal`` (Fig. 5), ``noiseless`` (Fig. 6) and ``noisy`` (Fig. 7: σ_r = 0.5 m,
+σ_θ = π/8).
+
+Every random stream comes from one ``SeedSequence(seed)``: child 0 builds the world, and
+condition ``k`` (its position in :data:`~bayesmap.sim.whiskers.CONDITIONS`) draws its
+sensor noise from child ``1 + 2k`` and runs its chain on child ``2 + 2k`` — so a condition's
+result does not depend on which other conditions run.
+
+Outputs under ``out_dir``: ``ground_truth.png`` (Fig. 4); per condition
+``<condition>/montage.png`` (Figs. 5–7) and ``<condition>/metrics.json``;
+``snapshot_high.png`` and ``snapshot_low.png`` (Figs. 1–2) and ``annealing.gif`` for one
+pose of the ``normal`` run; ``summary.md``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from bayesmap._io import write_bytes, write_json, write_text
+from bayesmap.blackboard import BlackboardParams, Snapshot, TableMapper
+from bayesmap.errors import ConfigError
+from bayesmap.experiments._common import ExperimentResult, ProgressHook, no_progress
+from bayesmap.experiments.table_metrics import MatchTolerance, score_run
+from bayesmap.sim.tables_world import TablesWorld, initial, pose_sequence, scenario
+from bayesmap.sim.whiskers import CONDITIONS, WhiskerParams, h, observe
+from bayesmap.viz.tables import (
+    TableShape,
+    annealing_gif,
+    figure_png,
+    ground_truth_figure,
+    montage_figure,
+    snapshot_figure,
+)
+
+__all__ = ["Config", "run"]
+
+PAPER = {
+    "contacts": "4.2 ± 1.7",
+    "normal": "tables usually found in the right place; many ambiguous tables (Fig. 3) "
+    "and phantoms along the walls (Fig. 5)",
+    "noiseless": "same approximate locations, sharper poses (Fig. 6)",
+    "noisy": "same approximate locations, less accurate poses (Fig. 7)",
+}
+
+
+class Config(BaseModel):
+    """Settings of the blackboard experiment (paper defaults where the paper gives them).
+
+    Attributes
+    ----------
+    seed
+        Root seed of every random stream.
+    scenario
+        Versioned world name.
+    conditions
+        Sensor conditions to run, from ``normal``, ``noiseless``, ``noisy``.
+    poses
+        How many poses of the fixed tour to visit (the paper's 400).
+    sigmas
+        Per condition, the whisker noise ``(sigma_r [m], sigma_theta [rad], sigma_tau)``.
+    mapper
+        Overrides of :class:`~bayesmap.blackboard.BlackboardParams` fields. The table
+        size always comes from the world, and each condition raises the model's shapelet
+        σ's (``sigma_*_shapelet``) to at least the sensor's σ's.
+    snapshot_pose
+        Pose index whose annealing is drawn (Figs. 1–2, GIF); ``None`` picks the first
+        pose whose whiskers touch three legs of one table (chosen from the truth alone,
+        never from the mapper's result).
+    position_tol, angle_tol, gospa_c
+        Match tolerances [m], [rad] and the GOSPA cut-off [m]
+        (:mod:`~bayesmap.experiments.table_metrics`).
+    loose_position_tol, loose_angle_tol
+        Looser tolerances [m], [rad] for the secondary ``precision_loose`` and
+        ``recall_loose`` ("roughly the right place", as the paper judges its Fig. 7).
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    seed: int = 2011
+    scenario: str = "whisker-tables-v1"
+    conditions: tuple[str, ...] = ("normal", "noiseless", "noisy")
+    poses: int = Field(400, ge=1, le=400)
+    sigmas: dict[str, tuple[float, float, float]] = Field(
+        default_factory=lambda: {
+            name: (v["sigma_r"], v["sigma_theta"], v["sigma_tau"]) for name, v in CONDITIONS.items()
+        }
+    )
+    mapper: dict[str, float] = Field(default_factory=dict)
+    snapshot_pose: int | None = None
+    position_tol: float = Field(0.2, gt=0)
+    angle_tol: float = Field(float(np.pi / 12), gt=0)
+    gospa_c: float = Field(0.5, gt=0)
+    loose_position_tol: float = Field(0.5, gt=0)
+    loose_angle_tol: float = Field(float(np.pi / 6), gt=0)
+
+    @field_validator("conditions")
+    @classmethod
+    def _known_conditions(cls, value: tuple[str, ...]) -> tuple[str, ...]:
+        unknown = [c for c in value if c not in CONDITIONS]
+        if unknown or len(set(value)) != len(value):
+            raise ValueError(
+                f"conditions must be distinct names from {list(CONDITIONS)}; got {value}"
+            )
+        return value
+
+
+def _mapper_params(config: Config, world: TablesWorld, sensor: WhiskerParams) -> BlackboardParams:
+    """Blackboard constants for one condition: the world's table size, the sensor's σ's."""
+    geometry = world.params
+    overrides: dict[str, Any] = dict(config.mapper)
+    try:
+        base = replace(
+            BlackboardParams(),
+            table_length=geometry.table_length,
+            table_width=geometry.table_width,
+            leg_width=geometry.leg_width,
+            **overrides,
+        )
+    except TypeError as error:
+        raise ConfigError(
+            f"Config.mapper has an unknown BlackboardParams field: {error}"
+        ) from error
+    return replace(
+        base,
+        sigma_r_shapelet=max(base.sigma_r_shapelet, sensor.sigma_r),
+        sigma_theta_shapelet=max(base.sigma_theta_shapelet, sensor.sigma_theta),
+        sigma_tau_shapelet=max(base.sigma_tau_shapelet, sensor.sigma_tau),
+    )
+
+
+def _snapshot_pose(world: TablesWorld, poses: np.ndarray, whiskers: WhiskerParams) -> int:
+    """The first pose whose whiskers touch three legs of one table (0 if none does)."""
+    for index, pose in enumerate(poses):
+        contacts = h(world, pose, whiskers)
+        for table in np.unique(contacts.table[contacts.table >= 0]):
+            if len(np.unique(contacts.leg[contacts.table == table])) >= 3:
+                return index
+    return 0
+
+
+def _run_condition(
+    name: str,
+    config: Config,
+    world: TablesWorld,
+    poses: np.ndarray,
+    seeds: list[np.random.SeedSequence],
+    snapshot_at: int,
+    progress: ProgressHook,
+) -> dict[str, Any]:
+    """One condition's 400-pose run: MAP tables per pose, timings, contacts, snapshots."""
+    k = list(CONDITIONS).index(name)
+    sensor_rng = np.random.default_rng(seeds[1 + 2 * k])
+    chain_rng = np.random.default_rng(seeds[2 + 2 * k])
+    sigma_r, sigma_theta, sigma_tau = config.sigmas.get(name, tuple(CONDITIONS[name].values()))
+    sensor = WhiskerParams(sigma_r=sigma_r, sigma_theta=sigma_theta, sigma_tau=sigma_tau)
+    mapper = TableMapper(_mapper_params(config, world, sensor))
+    maps, touched, contacts, step_s = [], [], [], []
+    snapshots: list[Snapshot] = []
+    whisker_points = np.zeros((0, 2))
+    start = time.perf_counter()
+    for index, pose in enumerate(poses):
+        reading = observe(world, pose, sensor_rng, sensor)
+        callback = snapshots.append if index == snapshot_at else None
+        tic = time.perf_counter()
+        result = mapper.step(reading.shapelets, rng=chain_rng, callback=callback)
+        step_s.append(time.perf_counter() - tic)
+        maps.append(result.tables)
+        touched.append(np.unique(reading.table[reading.table >= 0]))
+        contacts.append(int((reading.table >= 0).sum()))
+        if index == snapshot_at:
+            whisker_points = reading.contacts.point
+        progress(name, index + 1, len(poses))
+    return {
+        "maps": maps,
+        "touched": touched,
+        "contacts": np.asarray(contacts),
+        "step_ms": 1e3 * np.asarray(step_s),
+        "wall_s": time.perf_counter() - start,
+        "snapshots": snapshots,
+        "whisker_points": whisker_points,
+        "sensor": sensor,
+    }
+
+
+def _metrics(run: dict[str, Any], config: Config, world: TablesWorld) -> dict[str, Any]:
+    tol = MatchTolerance(
+        position_tol=config.position_tol,
+        angle_tol=config.angle_tol,
+        angle_scale=world.params.table_length / 2,
+        c=config.gospa_c,
+    )
+    scores = score_run(
+        run["maps"], run["touched"], world.tables, world.bounds, world.params.table_length, tol
+    )
+    loose = replace(tol, position_tol=config.loose_position_tol, angle_tol=config.loose_angle_tol)
+    rough = score_run(
+        run["maps"], run["touched"], world.tables, world.bounds, world.params.table_length, loose
+    )
+    contacts = run["contacts"][run["contacts"] > 0]
+    sensor: WhiskerParams = run["sensor"]
+    return {
+        "scenario": world.name,
+        "poses": len(run["maps"]),
+        "sigma_r": sensor.sigma_r,
+        "sigma_theta": sensor.sigma_theta,
+        "sigma_tau": sensor.sigma_tau,
+        "poses_with_table_contact": len(contacts),
+        "contacts_mean": float(contacts.mean()) if len(contacts) else float("nan"),
+        "contacts_std": float(contacts.std()) if len(contacts) else float("nan"),
+        **scores,
+        "position_tol": tol.position_tol,
+        "angle_tol": tol.angle_tol,
+        "gospa_c": tol.c,
+        "gospa_p": tol.p,
+        "gospa_alpha": 2.0,
+        "gospa_angle_scale": tol.angle_scale,
+        "precision_loose": rough["precision"],
+        "recall_loose": rough["recall"],
+        "loose_position_tol": loose.position_tol,
+        "loose_angle_tol": loose.angle_tol,
+        "per_pose_ms_median": float(np.median(run["step_ms"])),
+        "per_pose_ms_p95": float(np.percentile(run["step_ms"], 95)),
+        "wall_s": float(run["wall_s"]),
+    }
+
+
+def _summary(metrics: dict[str, dict[str, Any]], world: TablesWorld, config: Config) -> str:
+    rows: list[tuple[str, Callable[[dict[str, Any]], str]]] = [
+        (
+            "contacts per contacting pose",
+            lambda m: f"{m['contacts_mean']:.2f} ± {m['contacts_std']:.2f}",
+        ),
+        ("MAP tables (all poses)", lambda m: f"{m['map_tables']}"),
+        ("precision", lambda m: f"{m['precision']:.3f}"),
+        ("recall", lambda m: f"{m['recall']:.3f}"),
+        (
+            "precision / recall, loose match",
+            lambda m: f"{m['precision_loose']:.3f} / {m['recall_loose']:.3f}",
+        ),
+        ("position error mean [m]", lambda m: f"{m['position_error_mean']:.3f}"),
+        ("angle error mean [°]", lambda m: f"{np.degrees(m['angle_error_mean']):.1f}"),
+        ("GOSPA mean [m]", lambda m: f"{m['gospa_mean']:.3f}"),
+        ("phantoms / near walls", lambda m: f"{m['phantoms']} / {m['phantom_near_walls']}"),
+        (
+            "per-pose ms median / p95",
+            lambda m: f"{m['per_pose_ms_median']:.1f} / {m['per_pose_ms_p95']:.1f}",
+        ),
+        ("wall time [s]", lambda m: f"{m['wall_s']:.1f}"),
+    ]
+    names = list(metrics)
+    lines = [
+        "# Blackboard experiment (Fox & Prescott 2011)",
+        "",
+        f"World `{world.name}`, seed {config.seed}, {config.poses} poses. Matches: within "
+        f"{config.position_tol} m and {np.degrees(config.angle_tol):.0f}° (mod 180°). GOSPA: "
+        f"c = {config.gospa_c} m, p = 2, α = 2, "
+        f"angle weight {world.params.table_length / 2} m/rad. Loose match: within "
+        f"{config.loose_position_tol} m and {np.degrees(config.loose_angle_tol):.0f}°.",
+        "",
+        "| metric | " + " | ".join(names) + " |",
+        "|---|" + "---|" * len(names),
+    ]
+    for label, fmt in rows:
+        lines.append(f"| {label} | " + " | ".join(fmt(metrics[n]) for n in names) + " |")
+    lines += [
+        "",
+        "What the paper shows (qualitatively; it gives no numbers but the contacts):",
+        "",
+        f"- contacts per pose with a table contact: {PAPER['contacts']};",
+    ]
+    lines += [f"- `{n}`: {PAPER[n]}." for n in names]
+    lines += [
+        "",
+        "Figures: `ground_truth.png` (Fig. 4), `<condition>/montage.png` (Figs. 5–7), "
+        "`snapshot_high.png`, `snapshot_low.png` (Figs. 1–2), `annealing.gif`.",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) -> ExperimentResult:
+    """Run the blackboard experiment and write its figures, metrics and summary.
+
+    Parameters
+    ----------
+    config
+        The settings.
+    out_dir
+        Folder for the outputs (created if missing).
+    progress
+        Called as ``progress(condition, poses_done, poses_total)`` after every pose.
+    """
+    progress = progress or no_progress
+    out_dir = Path(out_dir)
+    seeds = np.random.SeedSequence(config.seed).spawn(1 + 2 * len(CONDITIONS))
+    world = initial(
+        np.random.default_rng(seeds[0]), scenario(config.scenario), name=config.scenario
+    )
+    poses = pose_sequence(world.params)[: config.poses]
+    shape = TableShape(world.params.table_length, world.params.table_width, world.params.leg_width)
+    snapshot_at = config.snapshot_pose
+    if snapshot_at is None:
+        snapshot_at = _snapshot_pose(world, poses, WhiskerParams())
+    if not 0 <= snapshot_at < len(poses):
+        raise ConfigError(f"Config.snapshot_pose {snapshot_at} must lie in [0, {len(poses)})")
+    figures = [
+        write_bytes(
+            out_dir / "ground_truth.png",
+            figure_png(ground_truth_figure(world.tables, shape, world.bounds, poses)),
+        )
+    ]
+    metric_files: list[Path] = []
+    metrics: dict[str, dict[str, Any]] = {}
+    snap_run = None
+    for name in config.conditions:
+        result = _run_condition(name, config, world, poses, seeds, snapshot_at, progress)
+        metrics[name] = _metrics(result, config, world)
+        metric_files.append(write_json(out_dir / name / "metrics.json", metrics[name]))
+        title = (
+            f"{name}: MAP tables of {len(poses)} poses (σ_r = {result['sensor'].sigma_r:g} m, "
+            f"σ_θ = {result['sensor'].sigma_theta:.3g} rad)"
+        )
+        figures.append(
+            write_bytes(
+                out_dir / name / "montage.png",
+                figure_png(
+                    montage_figure(world.tables, result["maps"], shape, world.bounds, title)
+                ),
+            )
+        )
+        if snap_run is None or name == "normal":
+            snap_run = result
+    if snap_run is not None and snap_run["snapshots"]:
+        figures += _snapshot_figures(snap_run, world, shape, poses[snapshot_at], out_dir)
+    metric_files.append(write_text(out_dir / "summary.md", _summary(metrics, world, config)))
+    headline: dict[str, float | int | str] = {"scenario": world.name}
+    for name, values in metrics.items():
+        headline.update({f"{name}_{k}": values[k] for k in ("precision", "recall", "gospa_mean")})
+    return ExperimentResult("blackboard", out_dir, tuple(figures), tuple(metric_files), headline)
+
+
+def _snapshot_figures(
+    run: dict[str, Any], world: TablesWorld, shape: TableShape, pose: np.ndarray, out_dir: Path
+) -> list[Path]:
+    """Figs. 1–2 (the busiest early blackboard and the last) and the annealing GIF."""
+    snapshots: list[Snapshot] = run["snapshots"]
+    early = snapshots[: max(1, len(snapshots) // 2)]
+    busiest = max(early, key=lambda s: len(s.tables) + len(s.legs))
+    points = run["whisker_points"]
+    args = (shape, world.tables, pose, points, world.bounds)
+    return [
+        write_bytes(out_dir / "snapshot_high.png", figure_png(snapshot_figure(busiest, *args))),
+        write_bytes(
+            out_dir / "snapshot_low.png", figure_png(snapshot_figure(snapshots[-1], *args))
+        ),
+        write_bytes(out_dir / "annealing.gif", annealing_gif(snapshots, *args)),
+    ]

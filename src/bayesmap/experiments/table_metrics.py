@@ -1,0 +1,208 @@
+"""Scores of mapped tables against the true tables (the blackboard experiment's metrics).
+
+Tables are compared by pose ``x, y`` [m], ``theta`` [rad]. A rectangle is the same under
+``theta → theta + π``, so every angle difference is taken modulo π, in [0, π/2].
+
+- **Match.** A mapped table matches a true table when their centres are within
+  ``position_tol`` (default 0.2 m, a quarter of the 0.8 m table width) and their angles
+  within ``angle_tol`` (default 15°, modulo π). Mapped and true tables are paired one to
+  one by the Hungarian algorithm on the pose distance below, among the pairs that match.
+- **Pose distance** (for pairing and GOSPA):
+  ``d = sqrt(Δx² + Δy² + (angle_scale · Δθ)²)`` with Δθ the symmetric angle difference
+  and ``angle_scale`` [m/rad] (default 0.6 m, half a table length): a rotation by Δθ
+  counts as the distance a table's end moves. It is a metric (a weighted Euclidean
+  product of metrics).
+- **GOSPA** (Rahmathullah, García-Fernández & Svensson 2017, "Generalized optimal
+  sub-pattern assignment metric"), with cut-off ``c`` (default 0.5 m), order ``p = 2`` and
+  ``α = 2``: ``(min_γ Σ_{(i,j)∈γ} d(x_i, y_j)^p + c^p/2 · (|X| + |Y| − 2|γ|))^{1/p}``
+  over assignments γ of pairs closer than c — each miss or phantom costs c^p / 2.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from bayesmap._typing import FloatArray, IntArray
+from bayesmap.errors import InputError
+
+__all__ = [
+    "MatchTolerance",
+    "angle_difference",
+    "gospa",
+    "match_tables",
+    "near_wall",
+    "pose_distance",
+    "score_run",
+]
+
+
+@dataclass(frozen=True)
+class MatchTolerance:
+    """When a mapped table counts as a true one, and the GOSPA parameters.
+
+    Parameters
+    ----------
+    position_tol
+        Largest centre distance of a match [m].
+    angle_tol
+        Largest angle difference of a match [rad], modulo π.
+    angle_scale
+        Metres per radian of angle error in :func:`pose_distance` [m/rad].
+    c
+        GOSPA cut-off [m].
+    p
+        GOSPA order.
+    """
+
+    position_tol: float = 0.2
+    angle_tol: float = np.pi / 12
+    angle_scale: float = 0.6
+    c: float = 0.5
+    p: float = 2.0
+
+
+def _poses(tables: FloatArray, what: str) -> FloatArray:
+    array = np.asarray(tables, dtype=np.float64)
+    if array.size == 0:
+        return np.zeros((0, 3))
+    if array.ndim != 2 or array.shape[1] < 3:
+        raise InputError(f"{what} must be a (k, >=3) array of x, y, theta rows, got {array.shape}")
+    return array[:, :3]
+
+
+def angle_difference(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Symmetric angle difference [rad] in [0, π/2] of rectangles at angles ``a``, ``b``."""
+    d = np.mod(np.asarray(a) - np.asarray(b), np.pi)
+    return np.asarray(np.minimum(d, np.pi - d))
+
+
+def pose_distance(a: FloatArray, b: FloatArray, angle_scale: float = 0.6) -> FloatArray:
+    """``(k, m)`` pose distances [m] between tables ``a`` (k, ≥3) and ``b`` (m, ≥3)."""
+    a, b = _poses(a, "a"), _poses(b, "b")
+    dxy = np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1])
+    dtheta = angle_difference(a[:, None, 2], b[None, :, 2])
+    return np.asarray(np.hypot(dxy, angle_scale * dtheta))
+
+
+def match_tables(
+    estimated: FloatArray, truth: FloatArray, tol: MatchTolerance = MatchTolerance()
+) -> tuple[IntArray, IntArray]:
+    """One-to-one matches of mapped to true tables within the tolerances.
+
+    Returns index arrays ``(i, j)``: ``estimated[i[k]]`` matches ``truth[j[k]]``.
+    """
+    est, tru = _poses(estimated, "estimated"), _poses(truth, "truth")
+    if not len(est) or not len(tru):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    dxy = np.hypot(est[:, None, 0] - tru[None, :, 0], est[:, None, 1] - tru[None, :, 1])
+    ok = (dxy <= tol.position_tol) & (
+        angle_difference(est[:, None, 2], tru[None, :, 2]) <= tol.angle_tol
+    )
+    cost = np.where(ok, pose_distance(est, tru, tol.angle_scale), 1e6)
+    rows, cols = linear_sum_assignment(cost)
+    keep = ok[rows, cols]
+    return rows[keep].astype(np.int64), cols[keep].astype(np.int64)
+
+
+def gospa(
+    estimated: FloatArray, truth: FloatArray, tol: MatchTolerance = MatchTolerance()
+) -> float:
+    """GOSPA distance [m] (α = 2) between two sets of tables (Rahmathullah et al. 2017)."""
+    est, tru = _poses(estimated, "estimated"), _poses(truth, "truth")
+    c, p = tol.c, tol.p
+    unassigned = (len(est) + len(tru)) * c**p / 2.0
+    if len(est) and len(tru):
+        d = np.minimum(pose_distance(est, tru, tol.angle_scale), c) ** p
+        rows, cols = linear_sum_assignment(d - c**p)
+        paired = d[rows, cols]
+        unassigned -= c**p * len(rows)
+        total = paired.sum() + unassigned
+    else:
+        total = unassigned
+    return float(total ** (1.0 / p))
+
+
+def near_wall(
+    tables: FloatArray, bounds: tuple[float, float, float, float], margin: float
+) -> np.ndarray:
+    """Whether each table's centre lies within ``margin`` [m] of the arena's walls."""
+    xy = _poses(tables, "tables")[:, :2]
+    xmin, ymin, xmax, ymax = bounds
+    gap = np.minimum.reduce([xy[:, 0] - xmin, xy[:, 1] - ymin, xmax - xy[:, 0], ymax - xy[:, 1]])
+    return np.asarray(gap <= margin)
+
+
+def score_run(
+    maps: Sequence[FloatArray],
+    touched: Sequence[IntArray],
+    truth: FloatArray,
+    bounds: tuple[float, float, float, float],
+    wall_margin: float,
+    tol: MatchTolerance = MatchTolerance(),
+) -> dict[str, float]:
+    """Score every pose's MAP tables against the true tables.
+
+    Parameters
+    ----------
+    maps
+        Per pose, the ``(k, ≥3)`` MAP tables.
+    touched
+        Per pose, the indices of the true tables its whiskers touched.
+    truth
+        ``(n, ≥3)`` true tables.
+    bounds
+        Arena ``(xmin, ymin, xmax, ymax)`` [m].
+    wall_margin
+        A phantom (unmatched mapped table) within this distance [m] of a wall counts in
+        ``phantom_near_walls`` (the experiment uses one table length).
+
+    Returns
+    -------
+    dict
+        ``map_tables`` (count over all poses), ``matched``, ``precision`` (matched / map
+        tables, any true table), ``recall`` (over (pose, touched table) pairs, the
+        fraction whose pose's MAP holds that table), ``position_error_mean`` [m] and
+        ``angle_error_mean`` [rad] over matches, ``gospa_mean`` [m] (MAP tables against
+        the touched tables, averaged over all poses), ``phantoms`` and
+        ``phantom_near_walls``.
+    """
+    if len(maps) != len(touched):
+        raise InputError(
+            f"maps ({len(maps)}) and touched ({len(touched)}) must have one entry per pose"
+        )
+    tru = _poses(truth, "truth")
+    n_map = n_matched = n_pairs = n_found = n_phantom = n_wall = 0
+    pos_err: list[float] = []
+    ang_err: list[float] = []
+    scores: list[float] = []
+    for tables, hit in zip(maps, touched, strict=True):
+        est = _poses(tables, "map tables")
+        hit = np.unique(np.asarray(hit, dtype=np.int64))
+        i, j = match_tables(est, tru, tol)
+        n_map += len(est)
+        n_matched += len(i)
+        pos_err.extend(np.hypot(*(est[i, :2] - tru[j, :2]).T).tolist())
+        ang_err.extend(angle_difference(est[i, 2], tru[j, 2]).tolist())
+        phantom = np.ones(len(est), bool)
+        phantom[i] = False
+        n_phantom += int(phantom.sum())
+        n_wall += int(near_wall(est[phantom], bounds, wall_margin).sum())
+        n_pairs += len(hit)
+        n_found += int(np.isin(hit, j).sum())
+        scores.append(gospa(est, tru[hit], tol))
+    nan = float("nan")
+    return {
+        "map_tables": n_map,
+        "matched": n_matched,
+        "precision": n_matched / n_map if n_map else nan,
+        "recall": n_found / n_pairs if n_pairs else nan,
+        "position_error_mean": float(np.mean(pos_err)) if pos_err else nan,
+        "angle_error_mean": float(np.mean(ang_err)) if ang_err else nan,
+        "gospa_mean": float(np.mean(scores)) if scores else nan,
+        "phantoms": n_phantom,
+        "phantom_near_walls": n_wall,
+    }

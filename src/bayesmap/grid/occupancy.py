@@ -1,0 +1,283 @@
+"""The occupancy grid: a probability layer and an entropy layer over a rectangle of the world.
+
+Conventions (the ROS ``nav_msgs/OccupancyGrid`` ones): ``origin`` is the world position
+``(x, y)`` [m] of the lower-left *corner* of cell ``(0, 0)``; row ``i`` is the ``i``-th cell
+along +y, column ``j`` the ``j``-th along +x; the centre of cell ``(i, j)`` is
+``origin + ((j + 0.5) res, (i + 0.5) res)``. Layers are float64 arrays of shape ``(ny, nx)``.
+
+Updates touch a :class:`Window` of cells around a point, so their cost is proportional to
+the cells touched, never to the whole map.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from bayesmap._io import write_bytes
+from bayesmap._typing import BoolArray, FloatArray, Grid, IntArray
+from bayesmap.errors import ConfigError, FormatError, InputError
+from bayesmap.grid.entropy import binary_entropy_bits
+
+_NPZ_KEYS = ("probability", "entropy", "resolution", "origin", "prior")
+
+
+@dataclass(frozen=True)
+class Window:
+    """A rectangular block of cells, ``rows = [row0, row1)``, ``cols = [col0, col1)``.
+
+    Index a layer with ``layer[window.rows, window.cols]`` to get a writable view.
+    """
+
+    row0: int
+    row1: int
+    col0: int
+    col1: int
+
+    @property
+    def rows(self) -> slice:
+        """Row slice of the window."""
+        return slice(self.row0, self.row1)
+
+    @property
+    def cols(self) -> slice:
+        """Column slice of the window."""
+        return slice(self.col0, self.col1)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(rows, cols)`` of the window (0 for an empty window)."""
+        return (max(self.row1 - self.row0, 0), max(self.col1 - self.col0, 0))
+
+    @property
+    def size(self) -> int:
+        """Number of cells in the window."""
+        rows, cols = self.shape
+        return rows * cols
+
+
+class OccupancyGrid:
+    """An occupancy grid with a probability layer and an entropy layer [bits].
+
+    Parameters
+    ----------
+    width, height
+        Size of the mapped rectangle along x and y [m]; rounded to whole cells.
+    resolution
+        Cell side [m].
+    origin
+        World position ``(x, y)`` of the lower-left corner of cell ``(0, 0)`` [m].
+    prior
+        Initial obstacle probability of every cell (Post et al. 2016 §4.3: ``P(R)``).
+    initial_entropy
+        Initial entropy of every cell [bits]; 1 (the maximum, "unknown") by default, as in
+        Post et al. 2016 §4.4.
+
+    Attributes
+    ----------
+    probability
+        ``(ny, nx)`` obstacle probability of each cell.
+    entropy
+        ``(ny, nx)`` entropy of each cell [bits].
+
+    Examples
+    --------
+    >>> grid = OccupancyGrid(20.0, 10.0, 0.5, prior=0.2)
+    >>> grid.shape
+    (20, 40)
+    >>> rows, cols = grid.world_to_cell(np.array([0.1, 19.9]), np.array([0.1, 9.9]))
+    >>> rows.tolist(), cols.tolist()
+    ([0, 19], [0, 39])
+    """
+
+    def __init__(
+        self,
+        width: float,
+        height: float,
+        resolution: float,
+        origin: tuple[float, float] = (0.0, 0.0),
+        prior: float = 0.5,
+        initial_entropy: float = 1.0,
+    ) -> None:
+        if not (math.isfinite(resolution) and resolution > 0):
+            raise ConfigError(
+                f"grid resolution must be a positive number of metres, got {resolution!r}"
+            )
+        if not (math.isfinite(width) and math.isfinite(height) and width > 0 and height > 0):
+            raise ConfigError(
+                f"grid width and height must be positive metres, got {width!r} x {height!r}"
+            )
+        if not 0.0 <= prior <= 1.0:
+            raise ConfigError(f"grid prior must be a probability in [0, 1], got {prior!r}")
+        if not 0.0 <= initial_entropy <= 1.0:
+            raise ConfigError(f"initial entropy must be in [0, 1] bits, got {initial_entropy!r}")
+        nx = max(int(round(width / resolution)), 1)
+        ny = max(int(round(height / resolution)), 1)
+        self.resolution = float(resolution)
+        self.origin = (float(origin[0]), float(origin[1]))
+        self.prior = float(prior)
+        self.probability: Grid = np.full((ny, nx), self.prior)
+        self.entropy: Grid = np.full((ny, nx), float(initial_entropy))
+
+    # ----------------------------------------------------------------- geometry
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(ny, nx)``: rows along y, columns along x."""
+        ny, nx = self.probability.shape
+        return (int(ny), int(nx))
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """``(xmin, xmax, ymin, ymax)`` [m] of the mapped rectangle (matplotlib ``extent``)."""
+        ny, nx = self.shape
+        x0, y0 = self.origin
+        return (x0, x0 + nx * self.resolution, y0, y0 + ny * self.resolution)
+
+    def world_to_cell(self, x: npt.ArrayLike, y: npt.ArrayLike) -> tuple[IntArray, IntArray]:
+        """Cell ``(rows, cols)`` holding world points ``(x, y)`` [m]; may be out of bounds."""
+        xs = np.asarray(x, dtype=np.float64)
+        ys = np.asarray(y, dtype=np.float64)
+        cols = np.floor((xs - self.origin[0]) / self.resolution).astype(np.int64)
+        rows = np.floor((ys - self.origin[1]) / self.resolution).astype(np.int64)
+        return rows, cols
+
+    def cell_centers(
+        self, rows: npt.ArrayLike, cols: npt.ArrayLike
+    ) -> tuple[FloatArray, FloatArray]:
+        """World ``(x, y)`` [m] of the centres of cells ``(rows, cols)``."""
+        r = np.asarray(rows, dtype=np.float64)
+        c = np.asarray(cols, dtype=np.float64)
+        return self.origin[0] + (c + 0.5) * self.resolution, self.origin[1] + (
+            r + 0.5
+        ) * self.resolution
+
+    def in_bounds(self, rows: npt.ArrayLike, cols: npt.ArrayLike) -> BoolArray:
+        """Whether each cell ``(rows, cols)`` lies inside the grid."""
+        r = np.asarray(rows)
+        c = np.asarray(cols)
+        ny, nx = self.shape
+        return np.asarray((r >= 0) & (r < ny) & (c >= 0) & (c < nx))
+
+    def window(self, x: float, y: float, radius: float) -> Window:
+        """Cells whose centres may lie within ``radius`` [m] of ``(x, y)``, clipped to the grid.
+
+        The window is the bounding square of the disc; it is empty when the disc misses the
+        grid. Its size depends on ``radius`` only, never on the size of the map.
+        """
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise InputError(f"window centre must be finite, got ({x!r}, {y!r})")
+        if not (math.isfinite(radius) and radius >= 0):
+            raise InputError(
+                f"window radius must be a non-negative number of metres, got {radius!r}"
+            )
+        ny, nx = self.shape
+        res = self.resolution
+        col0 = math.floor((x - radius - self.origin[0]) / res)
+        col1 = math.floor((x + radius - self.origin[0]) / res) + 1
+        row0 = math.floor((y - radius - self.origin[1]) / res)
+        row1 = math.floor((y + radius - self.origin[1]) / res) + 1
+        return Window(
+            row0=min(max(row0, 0), ny),
+            row1=min(max(row1, 0), ny),
+            col0=min(max(col0, 0), nx),
+            col1=min(max(col1, 0), nx),
+        )
+
+    def window_centers(self, window: Window) -> tuple[FloatArray, FloatArray]:
+        """World ``(x, y)`` [m] of the cell centres of ``window``, each ``window.shape``."""
+        cols = np.arange(window.col0, max(window.col1, window.col0))
+        rows = np.arange(window.row0, max(window.row1, window.row0))
+        xc, yc = self.cell_centers(rows[:, None], cols[None, :])
+        shape = window.shape
+        return np.broadcast_to(xc, shape).copy(), np.broadcast_to(yc, shape).copy()
+
+    # ----------------------------------------------------------------- updates
+    def set_probability(
+        self, window: Window, probability: npt.ArrayLike, mask: npt.ArrayLike | None = None
+    ) -> None:
+        """Write ``probability`` into ``window`` and lower its entropy to ``H(p)`` where smaller.
+
+        The entropy layer keeps, per cell, the minimum over time of the Bernoulli entropy
+        of the cell's probability [bits] (Post et al. 2016 eq. 37, measured in bits). With
+        ``mask`` (booleans of ``window.shape``) only the cells it marks are written.
+        """
+        values = np.asarray(probability, dtype=np.float64)
+        if values.shape != window.shape:
+            raise InputError(
+                f"probability block has shape {values.shape}, window is {window.shape}"
+            )
+        if values.size and not (np.all(values >= 0.0) and np.all(values <= 1.0)):
+            raise InputError("probabilities written to the grid must lie in [0, 1]")
+        block = self.probability[window.rows, window.cols]
+        entropy = self.entropy[window.rows, window.cols]
+        if mask is None:
+            block[...] = values
+            np.minimum(entropy, binary_entropy_bits(values), out=entropy)
+            return
+        chosen = np.asarray(mask, dtype=bool)
+        if chosen.shape != window.shape:
+            raise InputError(f"mask has shape {chosen.shape}, window is {window.shape}")
+        block[chosen] = values[chosen]
+        entropy[chosen] = np.minimum(entropy[chosen], binary_entropy_bits(values[chosen]))
+
+    def unobserved(self) -> BoolArray:
+        """Cells no reading has informed: probability still exactly the prior (Yamauchi 1997)."""
+        return np.asarray(self.probability == self.prior)
+
+    # ----------------------------------------------------------------- files
+    def save_npz(self, path: str | Path) -> Path:
+        """Write the grid (both layers, resolution, origin, prior) to a ``.npz`` file atomically."""
+        buffer = io.BytesIO()
+        np.savez_compressed(
+            buffer,
+            probability=self.probability,
+            entropy=self.entropy,
+            resolution=np.float64(self.resolution),
+            origin=np.asarray(self.origin, dtype=np.float64),
+            prior=np.float64(self.prior),
+        )
+        return write_bytes(path, buffer.getvalue())
+
+    @classmethod
+    def load_npz(cls, path: str | Path) -> OccupancyGrid:
+        """Read a grid written by :meth:`save_npz`; :class:`FormatError` if it is not one."""
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                missing = [key for key in _NPZ_KEYS if key not in data.files]
+                if missing:
+                    raise FormatError(f"not an occupancy grid: missing arrays {missing}", path=path)
+                arrays = {key: np.asarray(data[key]) for key in _NPZ_KEYS}
+        except FormatError:
+            raise
+        except (OSError, ValueError, EOFError) as error:
+            raise FormatError(f"cannot read .npz occupancy grid ({error})", path=path) from None
+        probability = arrays["probability"].astype(np.float64)
+        entropy = arrays["entropy"].astype(np.float64)
+        if probability.ndim != 2 or probability.shape != entropy.shape or probability.size == 0:
+            raise FormatError(
+                f"layers must be equal 2-D arrays, got {probability.shape}, {entropy.shape}",
+                path=path,
+            )
+        origin = arrays["origin"].astype(np.float64)
+        if origin.shape != (2,):
+            raise FormatError(f"origin must hold 2 numbers, got shape {origin.shape}", path=path)
+        ny, nx = probability.shape
+        resolution = float(arrays["resolution"])
+        try:
+            grid = cls(
+                nx * resolution,
+                ny * resolution,
+                resolution,
+                (origin[0], origin[1]),
+                prior=float(arrays["prior"]),
+            )
+        except ConfigError as error:
+            raise FormatError(str(error), path=path) from None
+        grid.probability = probability
+        grid.entropy = entropy
+        return grid

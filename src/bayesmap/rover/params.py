@@ -1,0 +1,107 @@
+"""Parameters of the rover's mapping and decisions, with the paper's defaults (§5)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from bayesmap.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class RoverParams:
+    """Everything the rover's brain needs to know about itself and its task.
+
+    Attributes
+    ----------
+    prior
+        ``P(R)``: prior probability of an obstacle in a cell (§5: 0.2).
+    beta_b
+        Base probability of a correct detection, eq. 31 (§5: 0.2).
+    r_max
+        Maximum range of the IR rangers [m] (§4.1: 2 m).
+    reliability_floor
+        Lower bound on ``beta_r`` (see :func:`bayesmap.sensing.fusion.ir_cell_evidence`).
+    sigma_r
+        RMS noise of an IR reading [ADC units], for contact detection (eq. 33).
+    w_r
+        Angular sensitivity of a ranger [rad] (eq. 34).
+    sigma_xy
+        Spread of a contact on the map (2-D Gaussian) [m].
+    sensor_angles
+        Mounting angles of the rangers relative to the heading [rad] (0, ±30°).
+    sensor_offset
+        Distance of the rangers ahead of the rover's centre [m].
+    d_max
+        Radius of the local area searched for targets and obstacles [m] (§5: 8 m).
+    d_min
+        Targets closer than this are skipped (they lie inside the turning circle) [m].
+    target_margin
+        ``delta_h`` margin of eq. 39 [bits]: among cells this close to the largest entropy,
+        the nearest is chosen.
+    n_headings
+        ``M``, number of discrete headings (eqs. 41–43).
+    clearance
+        Half-width of the corridor swept along each heading (eqs. 41–42) [m].
+    distance_weighted
+        Use eq. 42 (closer obstacles count more) rather than eq. 41.
+    stop_distance, p_block
+        A heading whose corridor holds a cell with probability at least ``p_block`` closer
+        than ``stop_distance`` [m] is blocked (``P(O | theta) = 1``).
+    h_desired
+        Mapping is done when every cell's entropy is below this [bits].
+    speed, min_turn_radius, pivot_rate
+        The rover's drive limits: speed [m/s], turning radius [m], pivot rate [rad/s].
+    """
+
+    prior: float = 0.2
+    beta_b: float = 0.2
+    r_max: float = 2.0
+    reliability_floor: float = 0.5
+    sigma_r: float = 2.777
+    w_r: float = 0.3
+    sigma_xy: float = 0.25
+    sensor_angles: tuple[float, ...] = (math.radians(30.0), 0.0, -math.radians(30.0))
+    sensor_offset: float = 0.15
+    d_max: float = 8.0
+    d_min: float = 1.0
+    target_margin: float = 0.05
+    n_headings: int = 36
+    clearance: float = 0.6
+    distance_weighted: bool = True
+    stop_distance: float = 1.0
+    p_block: float = 0.5
+    h_desired: float = 0.3
+    speed: float = 0.25
+    min_turn_radius: float = 0.4
+    pivot_rate: float = 0.8
+
+    def __post_init__(self) -> None:
+        checks = {
+            "prior in (0, 1)": 0.0 < self.prior < 1.0,
+            "beta_b in [0, 1]": 0.0 <= self.beta_b <= 1.0,
+            "reliability_floor in [0, 1)": 0.0 <= self.reliability_floor < 1.0,
+            "r_max > 0": self.r_max > 0,
+            "w_r > 0": self.w_r > 0,
+            "sigma_xy > 0": self.sigma_xy > 0,
+            "sigma_r >= 0": self.sigma_r >= 0,
+            "0 <= d_min < d_max": 0.0 <= self.d_min < self.d_max,
+            "target_margin >= 0": self.target_margin >= 0,
+            "n_headings >= 4": self.n_headings >= 4,
+            "clearance > 0": self.clearance > 0,
+            "p_block in (0, 1]": 0.0 < self.p_block <= 1.0,
+            "h_desired in (0, 1]": 0.0 < self.h_desired <= 1.0,
+            "speed, min_turn_radius, pivot_rate > 0": min(
+                self.speed, self.min_turn_radius, self.pivot_rate
+            )
+            > 0,
+            "at least one sensor angle": len(self.sensor_angles) > 0,
+        }
+        failed = [name for name, ok in checks.items() if not ok]
+        if failed:
+            raise ConfigError(f"RoverParams: need {', '.join(failed)}")
+
+    @property
+    def headings(self) -> tuple[float, ...]:
+        """The ``M`` discrete world headings ``theta_m = 2 pi m / M`` [rad]."""
+        return tuple(2.0 * math.pi * m / self.n_headings for m in range(self.n_headings))

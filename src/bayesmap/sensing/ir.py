@@ -1,0 +1,115 @@
+"""Infrared ranger models of Post et al. 2016 (§4.1, §5.1): reliability, Bayes update, contact.
+
+Symbols: ``R`` the distance from the rover to a map point [m]; ``r_max`` the ranger's maximum
+range [m]; ``beta_b`` the base probability that a detection is correct; ``beta_r`` the
+probability that the range sensor state is correct (eq. 31); ``o`` the contact flag (eq. 33);
+``r_raw`` the 8-bit ADC reading and ``sigma_r`` its RMS noise [ADC units].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from bayesmap._typing import BoolArray, FloatArray
+
+R_MAX = 2.0
+"""Maximum range of the Beaver's IR rangers [m] (§4.1, §5.1)."""
+
+SIGMA_R = 2.777
+"""RMS noise of the IR reading in 8-bit ADC units (§5.1)."""
+
+RAW_FIT = (-7.933, 56.61, 0.07544)
+"""First-order rational fit ``r_raw = (a r + b) / (r + c)`` of §5.1: ``(a, b, c)``."""
+
+
+def beta_r(R: npt.ArrayLike, *, r_max: float = R_MAX, beta_b: float = 0.2) -> FloatArray:
+    """Probability that the range sensor state is correct at distance ``R`` [m].
+
+    Inverse IR sensor model, Post et al. 2016 eq. 31:
+    ``beta_b + (1 - beta_b) (r_max^2 - R^2)^2 / r_max^4`` for ``R <= r_max``, else ``beta_b``.
+    It is 1 at the sensor and falls to ``beta_b`` at ``r_max``.
+
+    Examples
+    --------
+    >>> beta_r([0.0, 2.0, 5.0], beta_b=0.2).tolist()
+    [1.0, 0.2, 0.2]
+    """
+    distance = np.asarray(R, dtype=np.float64)
+    inside = beta_b + (1.0 - beta_b) * (r_max**2 - distance**2) ** 2 / r_max**4
+    return np.asarray(np.where(distance <= r_max, inside, beta_b))
+
+
+def sensor_posterior(beta: npt.ArrayLike, prior: npt.ArrayLike, o: npt.ArrayLike) -> FloatArray:
+    """Probability of an object at range ``R`` after a reading with contact flag ``o``.
+
+    Inverse IR sensor model, Post et al. 2016 eq. 32 (Bayes' rule with ``P(r|R) = beta_r``):
+    ``beta P / (2 beta P - beta - P + 1)`` if ``o = 1`` and
+    ``(1 - beta) P / (-2 beta P + beta + P)`` if ``o = 0``, with ``P = P(R, t)``.
+
+    Examples
+    --------
+    >>> float(sensor_posterior(1.0, 0.2, 1)), float(sensor_posterior(1.0, 0.2, 0))
+    (1.0, 0.0)
+    >>> round(float(sensor_posterior(0.5, 0.2, 1)), 12)
+    0.2
+    """
+    b = np.asarray(beta, dtype=np.float64)
+    p = np.asarray(prior, dtype=np.float64)
+    contact = np.asarray(o).astype(bool)
+    hit = b * p / (2.0 * b * p - b - p + 1.0)
+    miss = (1.0 - b) * p / (-2.0 * b * p + b + p)
+    return np.asarray(np.where(contact, hit, miss))
+
+
+def contact(
+    raw: npt.ArrayLike, previous_raw: npt.ArrayLike, *, sigma_r: float = SIGMA_R
+) -> BoolArray:
+    """Contact flag ``o``: two readings in a row above ``2 sigma_r`` (Post et al. 2016 eq. 33).
+
+    Examples
+    --------
+    >>> contact([10, 10, 3], [10, 3, 10]).tolist()
+    [True, False, False]
+    """
+    threshold = 2.0 * sigma_r
+    now = np.asarray(raw, dtype=np.float64)
+    before = np.asarray(previous_raw, dtype=np.float64)
+    return np.asarray((now > threshold) & (before > threshold))
+
+
+def angular_weight(theta: npt.ArrayLike, w_r: float) -> FloatArray:
+    """Detection weight of a ranger at angle ``theta`` [rad] off its axis.
+
+    Post et al. 2016 eq. 34: ``alpha = exp(-(theta / w_r)^2) / (w_r^2 sqrt(2 pi))``, with
+    ``w_r`` the sensor's angle of view [rad].
+    """
+    t = np.asarray(theta, dtype=np.float64)
+    return np.asarray(np.exp(-((t / w_r) ** 2)) / (w_r**2 * np.sqrt(2.0 * np.pi)))
+
+
+def raw_from_range(r: npt.ArrayLike) -> FloatArray:
+    """Noise-free ADC reading of an IR ranger at range ``r`` [m] (§5.1 fit; ``inf`` → asymptote).
+
+    ``r_raw = (-7.933 r + 56.61) / (r + 0.07544)`` (unclipped, unquantised).
+    """
+    a, b, c = RAW_FIT
+    distance = np.asarray(r, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        value = (a * distance + b) / (distance + c)
+    return np.asarray(np.where(np.isinf(distance), a, value))
+
+
+def range_from_raw(raw: npt.ArrayLike) -> FloatArray:
+    """Range [m] from an ADC reading, the §5.1 transfer function.
+
+    ``r = -0.08 (943 r_raw - 707625) / (1000 r_raw + 7933)``, the inverse of
+    :func:`raw_from_range`.
+
+    Examples
+    --------
+    >>> round(float(range_from_raw(raw_from_range(1.5))), 9)
+    1.5
+    """
+    value = np.asarray(raw, dtype=np.float64)
+    return np.asarray(-0.08 * (943.0 * value - 707625.0) / (1000.0 * value + 7933.0))

@@ -1,0 +1,155 @@
+"""A skid-steer micro-rover with compass, time-averaged GPS and IR rangers (Post et al. 2016 §5).
+
+Functional shape: :func:`initial` → :func:`transition` (one control period) →
+:func:`observe` (noisy) beside :func:`h` (noise-free). The rover drives at up to ``speed``
+with its turning radius at least ``min_turn_radius``; a skid-steer rover may also pivot in
+place at zero speed. Nothing keeps it inside the mapped area.
+
+Positions come from a GPS whose error is a slowly varying (time-averaged) Gauss–Markov
+process of standard deviation ``gps_sigma`` and correlation time ``gps_tau``; the heading from
+a compass with white noise ``compass_sigma``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from bayesmap._typing import FloatArray
+from bayesmap.errors import ConfigError
+from bayesmap.sim import ir
+from bayesmap.sim.world2d import BoxWorld, circle_hits
+
+
+@dataclass(frozen=True)
+class RoverParams:
+    """Physical and sensor parameters of the simulated rover.
+
+    Attributes
+    ----------
+    speed
+        Forward speed when driving [m/s].
+    min_turn_radius
+        Smallest turning radius while driving [m].
+    pivot_rate
+        Yaw rate when pivoting in place at zero speed [rad/s].
+    dt
+        Control period [s].
+    radius
+        Radius of the rover's footprint [m] (touching an obstacle is a collision).
+    gps_sigma
+        Standard deviation of the time-averaged GPS error, per axis [m].
+    gps_tau
+        Correlation time of the GPS error [s].
+    compass_sigma
+        Standard deviation of the compass error [rad].
+    rangers
+        The IR rangers.
+    """
+
+    speed: float = 0.25
+    min_turn_radius: float = 0.4
+    pivot_rate: float = 0.8
+    dt: float = 0.4
+    radius: float = 0.2
+    gps_sigma: float = 0.1
+    gps_tau: float = 20.0
+    compass_sigma: float = math.radians(2.0)
+    rangers: ir.IRRangers = field(default_factory=ir.IRRangers)
+
+    def __post_init__(self) -> None:
+        positive = {
+            "speed": self.speed,
+            "min_turn_radius": self.min_turn_radius,
+            "pivot_rate": self.pivot_rate,
+            "dt": self.dt,
+            "radius": self.radius,
+            "gps_tau": self.gps_tau,
+        }
+        bad = {k: v for k, v in positive.items() if not v > 0}
+        if bad or self.gps_sigma < 0 or self.compass_sigma < 0:
+            raise ConfigError(
+                f"RoverParams: these must be positive (noise non-negative): {bad or positive}"
+            )
+
+    @property
+    def max_yaw_rate(self) -> float:
+        """Largest yaw rate while driving at full speed [rad/s]: ``speed / min_turn_radius``."""
+        return self.speed / self.min_turn_radius
+
+
+class RoverState(NamedTuple):
+    """True pose and the GPS error process."""
+
+    pose: FloatArray
+    """``(x [m], y [m], heading [rad])``."""
+    gps_error: FloatArray
+    """``(ex, ey)`` current GPS error [m]."""
+
+
+class Observation(NamedTuple):
+    """What the rover's own sensors report in one control period."""
+
+    raw: FloatArray
+    """``(n,)`` 8-bit IR readings."""
+    pose: FloatArray
+    """``(x, y, heading)`` estimated from GPS and compass."""
+
+
+def initial(pose: npt.ArrayLike, params: RoverParams, *, rng: np.random.Generator) -> RoverState:
+    """Start at ``pose`` with a GPS error drawn from its stationary distribution."""
+    start = np.asarray(pose, dtype=np.float64).reshape(3)
+    return RoverState(start, rng.normal(0.0, params.gps_sigma, size=2))
+
+
+def transition(
+    state: RoverState,
+    command: tuple[float, float],
+    params: RoverParams,
+    *,
+    rng: np.random.Generator,
+) -> RoverState:
+    """Drive one period with ``command = (speed [m/s], yaw_rate [rad/s])``, limits enforced.
+
+    Speed is clipped to ``[0, params.speed]``; while moving, the yaw rate is clipped so the
+    turning radius stays at least ``min_turn_radius``; at zero speed the rover pivots at up to
+    ``pivot_rate``. The pose is integrated exactly along the arc.
+    """
+    v = float(np.clip(command[0], 0.0, params.speed))
+    limit = v / params.min_turn_radius if v > 0 else params.pivot_rate
+    w = float(np.clip(command[1], -limit, limit))
+    x, y, psi = state.pose
+    dt = params.dt
+    if abs(w) < 1e-9:
+        x, y = x + v * dt * math.cos(psi), y + v * dt * math.sin(psi)
+    else:
+        x += v / w * (math.sin(psi + w * dt) - math.sin(psi))
+        y -= v / w * (math.cos(psi + w * dt) - math.cos(psi))
+    psi = math.remainder(psi + w * dt, 2.0 * math.pi)
+    rho = math.exp(-dt / params.gps_tau)
+    error = rho * state.gps_error + math.sqrt(1.0 - rho**2) * rng.normal(0.0, params.gps_sigma, 2)
+    return RoverState(np.array([x, y, psi]), error)
+
+
+def h(state: RoverState, world: BoxWorld, params: RoverParams) -> Observation:
+    """Noise-free observation: exact pose and unquantised IR readings."""
+    return Observation(ir.h(world.boxes, state.pose, params.rangers), state.pose.copy())
+
+
+def observe(
+    state: RoverState, world: BoxWorld, params: RoverParams, *, rng: np.random.Generator
+) -> Observation:
+    """Noisy observation: quantised IR readings, GPS position and compass heading."""
+    raw = ir.observe(world.boxes, state.pose, params.rangers, rng=rng)
+    x, y, psi = state.pose
+    heading = math.remainder(psi + rng.normal(0.0, params.compass_sigma), 2.0 * math.pi)
+    return Observation(raw, np.array([x + state.gps_error[0], y + state.gps_error[1], heading]))
+
+
+def collides(state: RoverState, world: BoxWorld, params: RoverParams) -> bool:
+    """Whether the rover's footprint touches an obstacle."""
+    return circle_hits(world.boxes, float(state.pose[0]), float(state.pose[1]), params.radius)

@@ -1,0 +1,364 @@
+"""The specular-reading filter of the ICINCO 2007 fragment as one stateful object.
+
+:class:`SpecularFilter` takes one ring of readings at a time and runs the switchable stages
+Acceptability → Agreeability → Trait Verification, recording every rejection with its
+stage and reason. Its accumulated state (the local view ``L``, the recent echo points, the
+path length, the rejection log) lives in attributes ending in ``_`` (DESIGN convention 6).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from bayesmap._typing import BoolArray, FloatArray, IntArray
+from bayesmap.errors import ConfigError, InputError
+from bayesmap.sonar.bottom_up import acceptability, agreeability
+from bayesmap.sonar.geometry import SonarGeometry
+from bayesmap.sonar.traits import fit_traits, point_segment_distance
+from bayesmap.sonar.verification import (
+    TVReason,
+    certainty,
+    equivalent,
+    extend_segments,
+    reconcile,
+)
+
+__all__ = ["Rejection", "RingVerdict", "SpecularFilter", "Stage"]
+
+
+class Stage(IntEnum):
+    """The stage that discarded a reading (``ACCEPTED``: none did)."""
+
+    ACCEPTED = 0
+    ACCEPTABILITY = 1
+    AGREEABILITY = 2
+    TRAIT_VERIFICATION = 3
+
+
+_STAGE_REASONS = {
+    Stage.ACCEPTABILITY: "obstacle reading outside the bounds from both neighbours",
+    Stage.AGREEABILITY: "free-space reading and neither neighbour reports free space",
+}
+_TV_REASONS = {
+    TVReason.UNSUPPORTED_FLAGGED: "flagged and no equivalent trait in L",
+    TVReason.UNSUPPORTED_UNCERTAIN: "certainty below threshold and no equivalent trait in L",
+    TVReason.CONTRADICTS_L: "claims free space through a trait of L",
+    TVReason.FLAGGED_UNCERTAIN: "coincides with L but flagged and below the certainty threshold",
+}
+
+
+@dataclass(frozen=True)
+class Rejection:
+    """One discarded reading: ring number, transducer, stage and reason."""
+
+    ring: int
+    sensor: int
+    stage: Stage
+    reason: str
+
+
+class RingVerdict(NamedTuple):
+    """The filter's decision on one ring.
+
+    Attributes
+    ----------
+    accepted
+        ``(n,)`` readings to pass to the map.
+    flagged
+        ``(n,)`` readings flagged as possibly erroneous by Acceptability/Agreeability.
+    stage
+        ``(n,)`` :class:`Stage` that discarded each reading.
+    """
+
+    accepted: BoolArray
+    flagged: BoolArray
+    stage: IntArray
+
+
+class SpecularFilter:
+    """Reject specular sonar readings before they reach the map (ICINCO 2007, p. 494).
+
+    Parameters
+    ----------
+    geometry
+        The ring (angles, cone width, max range, sigma).
+    acceptability, agreeability, trait_verification
+        Which stages run.
+    critical_angle
+        Largest incidence off a wall's normal that still echoes [rad] (Acceptability bounds).
+    k_sigma
+        The sensor's "natural error range" in standard deviations.
+    tilts
+        Wall orientations sampled by Acceptability.
+    window
+        Rings whose accepted echo points, with the current ones, form ``V``.
+    split_tolerance, min_points, max_gap
+        Split-and-merge parameters [m], [points], [m].
+    certainty_threshold
+        Readings behind ``V`` traits below this certainty need support from ``L``.
+    match_angle, match_offset
+        Trait equivalence tolerances [rad], [m].
+    perceptual_length
+        One perceptual length [m] (default: the max range); ``L`` keeps the traits seen
+        over the last four of them along the path, and holds "enough state" once the
+        robot has travelled four.
+    extension
+        How far ``L``'s traits are extended at both ends towards the robot [m].
+    margin
+        How far before a reading's range an ``L`` trait must cross its axis to contradict it [m].
+
+    Attributes
+    ----------
+    rings_
+        Rings processed.
+    path_
+        Distance travelled [m].
+    l_segments_, l_seen_
+        ``L``: ``(k, 4)`` traits [m] and the path position [m] where each was last seen.
+    rejections_
+        Every rejection, in order.
+    counts_
+        Rejections per stage name.
+    """
+
+    def __init__(
+        self,
+        geometry: SonarGeometry,
+        *,
+        acceptability: bool = True,
+        agreeability: bool = True,
+        trait_verification: bool = True,
+        critical_angle: float = math.radians(15.0),
+        k_sigma: float = 3.0,
+        tilts: int = 9,
+        window: int = 5,
+        split_tolerance: float = 0.1,
+        min_points: int = 3,
+        max_gap: float = 1.0,
+        certainty_threshold: float = 0.5,
+        match_angle: float = math.radians(10.0),
+        match_offset: float = 0.2,
+        perceptual_length: float | None = None,
+        extension: float = 1.0,
+        margin: float = 0.3,
+    ) -> None:
+        if not 0.0 < critical_angle < math.pi / 2:
+            raise ConfigError(f"critical_angle must be in (0, pi/2) rad, got {critical_angle}")
+        if not (k_sigma > 0 and tilts >= 2 and window >= 1 and min_points >= 2):
+            raise ConfigError("need k_sigma > 0, tilts >= 2, window >= 1 and min_points >= 2")
+        if not 0.0 <= certainty_threshold <= 1.0:
+            raise ConfigError(f"certainty_threshold must be in [0, 1], got {certainty_threshold}")
+        positive = (
+            split_tolerance,
+            max_gap,
+            match_angle,
+            match_offset,
+            extension + 1e-12,
+            margin + 1e-12,
+        )
+        if not all(value > 0 for value in positive):
+            raise ConfigError(
+                "tolerances, gaps and lengths must be positive (extension, margin >= 0)"
+            )
+        self.geometry = geometry
+        self.stages = {
+            Stage.ACCEPTABILITY: acceptability,
+            Stage.AGREEABILITY: agreeability,
+            Stage.TRAIT_VERIFICATION: trait_verification,
+        }
+        self.critical_angle = critical_angle
+        self.k_sigma = k_sigma
+        self.tilts = tilts
+        self.window = window
+        self.split_tolerance = split_tolerance
+        self.min_points = min_points
+        self.max_gap = max_gap
+        self.certainty_threshold = certainty_threshold
+        self.match_angle = match_angle
+        self.match_offset = match_offset
+        self.perceptual_length = (
+            geometry.max_range if perceptual_length is None else perceptual_length
+        )
+        if not self.perceptual_length > 0:
+            raise ConfigError(f"perceptual_length must be positive metres, got {perceptual_length}")
+        self.extension = extension
+        self.margin = margin
+        self.left, self.right = geometry.neighbours()
+        self.rings_ = 0
+        self.path_ = 0.0
+        self.last_pose_: FloatArray | None = None
+        self.points_: deque[FloatArray] = deque(maxlen=window - 1)
+        self.l_segments_: FloatArray = np.zeros((0, 4))
+        self.l_seen_: FloatArray = np.zeros(0)
+        self.rejections_: list[Rejection] = []
+        self.counts_: dict[str, int] = {
+            stage.name.lower(): 0 for stage in Stage if stage != Stage.ACCEPTED
+        }
+
+    @property
+    def enough_state(self) -> bool:
+        """Whether ``L`` spans four perceptual lengths of path (the fragment's case B)."""
+        return self.path_ >= 4.0 * self.perceptual_length
+
+    def process(self, pose: npt.ArrayLike, ranges: npt.ArrayLike) -> RingVerdict:
+        """Judge one ring of ``ranges`` [m] taken at ``pose`` ``(x, y, heading)``.
+
+        Returns
+        -------
+        :class:`RingVerdict`; the rejections are also appended to ``rejections_``.
+        """
+        geometry = self.geometry
+        p = np.asarray(pose, dtype=np.float64)
+        centres, axis = geometry.sensors(p)
+        r = np.asarray(ranges, dtype=np.float64)
+        if r.shape != (geometry.n,) or np.any(np.isnan(r)):
+            raise InputError(f"a ring has {geometry.n} non-NaN readings, got shape {r.shape}")
+        r = np.minimum(r, geometry.max_range)
+        echo = geometry.echo(r)
+        if self.last_pose_ is not None:
+            self.path_ += float(np.hypot(*(p[:2] - self.last_pose_[:2])))
+        self.last_pose_ = p
+        stage = np.full(geometry.n, Stage.ACCEPTED, dtype=np.int64)
+        flagged = np.zeros(geometry.n, dtype=bool)
+        half = geometry.beam_width / 2.0
+        if self.stages[Stage.ACCEPTABILITY]:
+            verdict = acceptability(
+                r,
+                echo,
+                centres,
+                axis,
+                self.left,
+                self.right,
+                sigma=geometry.sigma,
+                half_width=half,
+                critical_angle=self.critical_angle,
+                k=self.k_sigma,
+                tilts=self.tilts,
+            )
+            stage[verdict.discard] = Stage.ACCEPTABILITY
+            flagged |= verdict.flag
+        if self.stages[Stage.AGREEABILITY]:
+            verdict = agreeability(echo, self.left, self.right)
+            stage[verdict.discard & (stage == Stage.ACCEPTED)] = Stage.AGREEABILITY
+            flagged |= verdict.flag
+        reasons = {int(k): _STAGE_REASONS[Stage(int(stage[k]))] for k in np.flatnonzero(stage)}
+        if self.stages[Stage.TRAIT_VERIFICATION]:
+            tv = self._trait_verification(
+                p, r, echo, centres, axis, flagged, stage == Stage.ACCEPTED
+            )
+            for k in np.flatnonzero(tv):
+                stage[k] = Stage.TRAIT_VERIFICATION
+                reasons[int(k)] = _TV_REASONS[TVReason(int(tv[k]))]
+        accepted = stage == Stage.ACCEPTED
+        self._remember(centres, axis, r, echo & accepted)
+        for sensor, reason in sorted(reasons.items()):
+            kind = Stage(int(stage[sensor]))
+            self.rejections_.append(Rejection(self.rings_, sensor, kind, reason))
+            self.counts_[kind.name.lower()] += 1
+        self.rings_ += 1
+        return RingVerdict(accepted=accepted, flagged=flagged, stage=stage)
+
+    def _echo_points(self, centres: FloatArray, axis: FloatArray, r: FloatArray) -> FloatArray:
+        return np.asarray(centres + r[:, None] * np.column_stack([np.cos(axis), np.sin(axis)]))
+
+    def _trait_verification(
+        self,
+        pose: FloatArray,
+        r: FloatArray,
+        echo: BoolArray,
+        centres: FloatArray,
+        axis: FloatArray,
+        flagged: BoolArray,
+        candidate: BoolArray,
+    ) -> IntArray:
+        current = np.flatnonzero(echo & candidate)
+        points_now = self._echo_points(centres[current], axis[current], r[current])
+        past = list(self.points_)
+        points = np.vstack([points_now, *past]) if past else points_now
+        owner = np.concatenate([current, np.full(len(points) - len(current), -1)])
+        order = np.argsort(
+            np.arctan2(points[:, 1] - pose[1], points[:, 0] - pose[0]), kind="stable"
+        )
+        traits = fit_traits(
+            points[order],
+            tolerance=self.split_tolerance,
+            min_points=self.min_points,
+            max_gap=self.max_gap,
+        )
+        labels = np.full(self.geometry.n, -1, dtype=np.int64)
+        residual = np.full(self.geometry.n, np.nan)
+        mine = owner[order] >= 0
+        labels[owner[order][mine]] = traits.labels[mine]
+        residual[owner[order][mine]] = traits.residuals[mine]
+        certainties = certainty(
+            residual, r, sigma=self.geometry.sigma, half_width=self.geometry.beam_width / 2
+        )
+        l_view = self.l_segments_
+        if not self.enough_state and len(l_view):
+            near = point_segment_distance(pose[:2], l_view)[0] <= self.geometry.max_range
+            l_view = l_view[near]
+        reason = reconcile(
+            candidate=candidate,
+            echo=echo,
+            flagged=flagged,
+            ranges=r,
+            centres=centres,
+            axis=axis,
+            labels=labels,
+            certainties=certainties,
+            v_segments=traits.segments,
+            l_segments=extend_segments(l_view, self.extension),
+            enough_state=self.enough_state,
+            max_range=self.geometry.max_range,
+            certainty_threshold=self.certainty_threshold,
+            match_angle=self.match_angle,
+            match_offset=self.match_offset,
+            margin=self.margin,
+        )
+        kept = candidate & (reason == TVReason.KEPT)
+        rejected_traits = set(labels[candidate & ~kept & (labels >= 0)].tolist())
+        good = [i for i in set(labels[kept & (labels >= 0)].tolist()) if i not in rejected_traits]
+        self._grow_l(traits.segments[sorted(good)])
+        return reason
+
+    def _grow_l(self, segments: FloatArray) -> None:
+        """Merge ``V`` traits into ``L`` (extending equivalent ones) and forget old traits."""
+        for segment in segments:
+            match = equivalent(
+                segment[None],
+                self.l_segments_,
+                match_angle=self.match_angle,
+                match_offset=self.match_offset,
+            )[0]
+            if np.any(match):
+                j = int(np.flatnonzero(match)[0])
+                a, b = self.l_segments_[j, :2], self.l_segments_[j, 2:]
+                u = (b - a) / max(float(np.hypot(*(b - a))), 1e-12)
+                t = np.array(
+                    [
+                        0.0,
+                        float((b - a) @ u),
+                        float((segment[:2] - a) @ u),
+                        float((segment[2:] - a) @ u),
+                    ]
+                )
+                self.l_segments_[j] = np.concatenate([a + t.min() * u, a + t.max() * u])
+                self.l_seen_[j] = self.path_
+            else:
+                self.l_segments_ = np.vstack([self.l_segments_, segment])
+                self.l_seen_ = np.append(self.l_seen_, self.path_)
+        keep = self.l_seen_ >= self.path_ - 4.0 * self.perceptual_length
+        self.l_segments_ = self.l_segments_[keep]
+        self.l_seen_ = self.l_seen_[keep]
+
+    def _remember(
+        self, centres: FloatArray, axis: FloatArray, r: FloatArray, use: BoolArray
+    ) -> None:
+        self.points_.appendleft(self._echo_points(centres[use], axis[use], r[use]))

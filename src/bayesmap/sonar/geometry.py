@@ -1,0 +1,180 @@
+"""Where a ring's transducers are and which grid cells each beam cone covers."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from bayesmap._typing import FloatArray, IntArray
+from bayesmap.errors import ConfigError, InputError
+from bayesmap.grid import OccupancyGrid
+
+__all__ = ["ConeCells", "SonarGeometry", "cone_cells"]
+
+
+@dataclass(frozen=True)
+class SonarGeometry:
+    """The ring as the mapping code knows it (no truth, no simulator).
+
+    Parameters
+    ----------
+    angles
+        Bearing of each transducer's axis from the robot heading [rad], in ring order; the
+        neighbours of transducer ``k`` are ``k - 1`` and ``k + 1``.
+    beam_width
+        Full cone width [rad].
+    max_range
+        Maximum range [m]; a reading at or above it (or not finite) means no echo.
+    sigma
+        Standard deviation of the range error [m] (eq. 1).
+    radius
+        Distance of the transducers from the robot centre [m].
+    closed
+        Whether the first and last transducers are neighbours. ``None``: decide from the
+        angles (closed when the gap from the last back to the first is at most 1.5 times
+        the largest gap between consecutive transducers).
+    """
+
+    angles: tuple[float, ...]
+    beam_width: float = math.radians(25.0)
+    max_range: float = 5.0
+    sigma: float = 0.02
+    radius: float = 0.0
+    closed: bool | None = None
+
+    def __post_init__(self) -> None:
+        if len(self.angles) < 2:
+            raise ConfigError(f"a sonar ring needs at least 2 transducers, got {len(self.angles)}")
+        if not all(math.isfinite(a) for a in self.angles):
+            raise ConfigError("transducer angles must be finite radians")
+        if not 0.0 < self.beam_width < math.pi:
+            raise ConfigError(f"beam width must be in (0, pi) rad, got {self.beam_width}")
+        if not (math.isfinite(self.max_range) and self.max_range > 0):
+            raise ConfigError(
+                f"max range must be a positive number of metres, got {self.max_range}"
+            )
+        if not (self.sigma > 0 and self.radius >= 0):
+            raise ConfigError(
+                f"need sigma > 0 and radius >= 0 [m], got {self.sigma}, {self.radius}"
+            )
+
+    @property
+    def n(self) -> int:
+        """Number of transducers."""
+        return len(self.angles)
+
+    @property
+    def is_closed(self) -> bool:
+        """Whether transducer 0 and ``n - 1`` are neighbours (see ``closed``)."""
+        if self.closed is not None:
+            return self.closed
+        a = np.unwrap(np.asarray(self.angles))
+        gaps = np.abs(np.diff(a))
+        wrap = 2.0 * math.pi - abs(a[-1] - a[0])
+        return bool(wrap <= 1.5 * gaps.max())
+
+    def neighbours(self) -> tuple[IntArray, IntArray]:
+        """Indices of the left (``k - 1``) and right (``k + 1``) neighbour; −1 where none."""
+        k = np.arange(self.n)
+        left, right = k - 1, k + 1
+        if self.is_closed:
+            return left % self.n, right % self.n
+        right[-1] = -1
+        return left, right
+
+    def sensors(self, pose: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Transducer positions ``(n, 2)`` [m] and axis bearings ``(n,)`` [rad] at ``pose``."""
+        p = np.asarray(pose, dtype=np.float64)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise InputError(f"a pose must be 3 finite numbers (x, y, heading), got {p!r}")
+        axis = p[2] + np.asarray(self.angles)
+        centres = p[:2] + self.radius * np.column_stack([np.cos(axis), np.sin(axis)])
+        return centres, axis
+
+    def echo(self, ranges: FloatArray) -> np.ndarray:
+        """``True`` where a reading reports an obstacle (finite and below the max range)."""
+        r = np.asarray(ranges, dtype=np.float64)
+        return np.asarray(np.isfinite(r) & (r < self.max_range))
+
+
+class ConeCells(NamedTuple):
+    """Grid cells inside beam cones, flattened over the readings of one ring.
+
+    ``rows``, ``cols``: the cells; ``rho``: distance of each cell centre from its transducer
+    [m]; ``theta``: bearing off its beam axis [rad]; ``reading``: index of the reading.
+    """
+
+    rows: IntArray
+    cols: IntArray
+    rho: FloatArray
+    theta: FloatArray
+    reading: IntArray
+
+
+def cone_cells(
+    grid: OccupancyGrid,
+    centres: FloatArray,
+    axis: FloatArray,
+    reach: FloatArray,
+    half_width: float,
+) -> ConeCells:
+    """Cells whose centres lie in each cone ``|theta| <= half_width``, ``rho <= reach``.
+
+    Parameters
+    ----------
+    grid
+        The map (geometry only).
+    centres
+        ``(n, 2)`` transducer positions [m].
+    axis
+        ``(n,)`` beam bearings [rad].
+    reach
+        ``(n,)`` how far each cone extends [m]; readings with ``reach <= 0`` are skipped.
+    half_width
+        Half the cone width [rad].
+    """
+    res = grid.resolution
+    ny, nx = grid.shape
+    x0, y0 = grid.origin
+    ks = np.flatnonzero(np.asarray(reach) > 0)
+    empty_i = np.zeros(0, dtype=np.int64)
+    if len(ks) == 0:
+        return ConeCells(empty_i, empty_i, np.zeros(0), np.zeros(0), empty_i)
+    cx, cy, ax, rk = centres[ks, 0], centres[ks, 1], axis[ks], np.asarray(reach)[ks]
+    ang = ax[:, None] + np.linspace(-half_width, half_width, 5)[None, :]
+    xs = np.column_stack([cx, cx[:, None] + rk[:, None] * np.cos(ang)])
+    ys = np.column_stack([cy, cy[:, None] + rk[:, None] * np.sin(ang)])
+    c0 = np.clip(np.floor((xs.min(axis=1) - x0) / res).astype(np.int64) - 1, 0, nx)
+    c1 = np.clip(np.floor((xs.max(axis=1) - x0) / res).astype(np.int64) + 2, 0, nx)
+    r0 = np.clip(np.floor((ys.min(axis=1) - y0) / res).astype(np.int64) - 1, 0, ny)
+    r1 = np.clip(np.floor((ys.max(axis=1) - y0) / res).astype(np.int64) + 2, 0, ny)
+    height = int(max((r1 - r0).max(), 0))
+    width = int(max((c1 - c0).max(), 0))
+    if height == 0 or width == 0:
+        return ConeCells(empty_i, empty_i, np.zeros(0), np.zeros(0), empty_i)
+    rows = r0[:, None, None] + np.arange(height)[None, :, None]
+    cols = c0[:, None, None] + np.arange(width)[None, None, :]
+    ux = np.cos(ax)[:, None, None]
+    uy = np.sin(ax)[:, None, None]
+    dx = x0 + (cols + 0.5) * res - cx[:, None, None]
+    dy = y0 + (rows + 0.5) * res - cy[:, None, None]
+    along = dx * ux + dy * uy
+    across = dy * ux - dx * uy
+    inside = (
+        (rows < r1[:, None, None])
+        & (cols < c1[:, None, None])
+        & (np.abs(across) <= along * math.tan(half_width))
+        & (along * along + across * across <= (rk * rk)[:, None, None])
+    )
+    which, i, j = np.nonzero(inside)
+    a, b = along[which, i, j], across[which, i, j]
+    return ConeCells(
+        rows=r0[which] + i,
+        cols=c0[which] + j,
+        rho=np.hypot(a, b),
+        theta=np.arctan2(b, a),
+        reading=ks[which],
+    )

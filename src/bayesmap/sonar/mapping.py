@@ -1,0 +1,288 @@
+"""Grid mappers that integrate sonar rings into a :class:`~bayesmap.grid.OccupancyGrid`.
+
+- :class:`ElfesMapper`: log-odds accumulation of the eq. 1 inverse cone model
+  (:func:`bayesmap.sensing.sonar.elfes_inverse_model`);
+- :class:`ThrunMapper`: log-odds ±0.4 of Thrun et al. (2005) Table 9.2;
+- :class:`RosRangeLayerMapper`: the ROS costmap ``range_sensor_layer`` update.
+
+Each keeps its own layer (log-odds, or the ROS layer's probabilities) and writes the
+probabilities into the shared grid on :meth:`sync` (which also lowers the entropy layer).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from bayesmap._typing import FloatArray, Grid
+from bayesmap.errors import ConfigError, InputError
+from bayesmap.grid import OccupancyGrid, Window
+from bayesmap.sensing.sonar import elfes_inverse_model, log_odds
+from bayesmap.sensing.sonar_baselines import ros_bayes_update, ros_sensor_model, thrun_inverse_model
+from bayesmap.sonar.geometry import ConeCells, SonarGeometry, cone_cells
+
+__all__ = ["ElfesMapper", "RosRangeLayerMapper", "ThrunMapper"]
+
+
+class _ConeMapper:
+    """Shared shell: checks a ring's readings and finds the cells of each cone."""
+
+    def __init__(self, grid: OccupancyGrid, geometry: SonarGeometry) -> None:
+        self.grid = grid
+        self.geometry = geometry
+        self.rings_ = 0
+        self.readings_ = 0
+
+    def _prepare(
+        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None
+    ) -> tuple[FloatArray, FloatArray, FloatArray, np.ndarray]:
+        r = np.asarray(ranges, dtype=np.float64)
+        if r.shape != (self.geometry.n,):
+            raise InputError(f"a ring has {self.geometry.n} readings, got shape {r.shape}")
+        if np.any(np.isnan(r)) or np.any(r < 0):
+            raise InputError(
+                "sonar ranges must be non-negative numbers (inf = no echo), got NaN or < 0"
+            )
+        mask = np.ones(self.geometry.n, dtype=bool) if use is None else np.asarray(use, dtype=bool)
+        if mask.shape != r.shape:
+            raise InputError(f"'use' mask has shape {mask.shape}, the ring {r.shape}")
+        centres, axis = self.geometry.sensors(np.asarray(pose, dtype=np.float64))
+        r = np.minimum(r, self.geometry.max_range)
+        self.rings_ += 1
+        self.readings_ += int(mask.sum())
+        return centres, axis, r, mask
+
+    def _cells(self, centres: FloatArray, axis: FloatArray, reach: FloatArray) -> ConeCells:
+        return cone_cells(self.grid, centres, axis, reach, self.geometry.beam_width / 2.0)
+
+
+class _LogOddsMapper(_ConeMapper):
+    """Log-odds layer ``log_odds_`` ``(ny, nx)``, clamped to ``±clamp``."""
+
+    def __init__(self, grid: OccupancyGrid, geometry: SonarGeometry, clamp: float) -> None:
+        super().__init__(grid, geometry)
+        if not clamp > 0:
+            raise ConfigError(f"log-odds clamp must be positive, got {clamp}")
+        self.clamp = float(clamp)
+        prior = min(max(grid.prior, 1e-9), 1 - 1e-9)
+        self.prior_log_odds = float(log_odds(prior))
+        self.log_odds_: Grid = np.full(grid.shape, self.prior_log_odds)
+
+    def _add(self, cells: ConeCells, increment: FloatArray) -> None:
+        np.add.at(self.log_odds_, (cells.rows, cells.cols), increment)
+        np.clip(self.log_odds_, -self.clamp, self.clamp, out=self.log_odds_)
+
+    def probability(self) -> Grid:
+        """``(ny, nx)`` occupancy probability of each cell."""
+        return np.asarray(1.0 / (1.0 + np.exp(-self.log_odds_)))
+
+    def observed(self) -> np.ndarray:
+        """``(ny, nx)``: cells some reading has changed."""
+        return np.asarray(self.log_odds_ != self.prior_log_odds)
+
+    def sync(self) -> OccupancyGrid:
+        """Write the probabilities into the grid (and its entropy layer); return the grid."""
+        ny, nx = self.grid.shape
+        self.grid.set_probability(Window(0, ny, 0, nx), self.probability())
+        return self.grid
+
+
+class ElfesMapper(_LogOddsMapper):
+    """Log-odds mapping with the eq. 1 inverse cone model (ICINCO 2007 eq. 1, Elfes 1989).
+
+    Parameters
+    ----------
+    grid
+        The map to fill.
+    geometry
+        The ring.
+    p_occ, p_free
+        Peak and free probabilities of :func:`~bayesmap.sensing.sonar.elfes_inverse_model`.
+    clamp
+        Log-odds bound (numerical safety).
+
+    Attributes
+    ----------
+    log_odds_
+        ``(ny, nx)`` accumulated log-odds.
+    rings_, readings_
+        Rings and readings integrated so far.
+    """
+
+    def __init__(
+        self,
+        grid: OccupancyGrid,
+        geometry: SonarGeometry,
+        *,
+        p_occ: float = 0.7,
+        p_free: float = 0.35,
+        clamp: float = 10.0,
+    ) -> None:
+        super().__init__(grid, geometry, clamp)
+        self.p_occ = p_occ
+        self.p_free = p_free
+        self.sigma_map = max(geometry.sigma, grid.resolution)
+        elfes_inverse_model(
+            1.0,
+            1.0,
+            0.0,
+            sigma=self.sigma_map,
+            beam_width=geometry.beam_width,
+            max_range=geometry.max_range,
+            p_occ=p_occ,
+            p_free=p_free,
+        )
+
+    def integrate(
+        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+    ) -> None:
+        """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
+        centres, axis, r, mask = self._prepare(pose, ranges, use)
+        echo = r < self.geometry.max_range
+        reach = np.where(echo, r + 3.0 * self.sigma_map, self.geometry.max_range)
+        cells = self._cells(centres, axis, np.where(mask, reach, 0.0))
+        p = elfes_inverse_model(
+            r[cells.reading],
+            cells.rho,
+            cells.theta,
+            sigma=self.sigma_map,
+            beam_width=self.geometry.beam_width,
+            max_range=self.geometry.max_range,
+            p_occ=self.p_occ,
+            p_free=self.p_free,
+        )
+        self._add(cells, log_odds(p))
+
+
+class ThrunMapper(_LogOddsMapper):
+    """Log-odds ±0.4 mapping, Thrun, Burgard & Fox (2005) Table 9.2, every beam its own cone.
+
+    Parameters
+    ----------
+    grid, geometry
+        The map and the ring.
+    alpha
+        Obstacle thickness [m]; default twice the grid resolution.
+    l_occ, l_free
+        Log-odds per hit and per miss.
+    clamp
+        Log-odds bound (numerical safety).
+    """
+
+    def __init__(
+        self,
+        grid: OccupancyGrid,
+        geometry: SonarGeometry,
+        *,
+        alpha: float | None = None,
+        l_occ: float = 0.4,
+        l_free: float = -0.4,
+        clamp: float = 10.0,
+    ) -> None:
+        super().__init__(grid, geometry, clamp)
+        self.alpha = 2.0 * grid.resolution if alpha is None else float(alpha)
+        if not self.alpha > 0:
+            raise ConfigError(f"obstacle thickness alpha must be positive metres, got {alpha}")
+        self.l_occ = l_occ
+        self.l_free = l_free
+
+    def integrate(
+        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+    ) -> None:
+        """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
+        centres, axis, r, mask = self._prepare(pose, ranges, use)
+        reach = np.minimum(self.geometry.max_range, r + self.alpha / 2.0)
+        cells = self._cells(centres, axis, np.where(mask, reach, 0.0))
+        increment = thrun_inverse_model(
+            r[cells.reading],
+            cells.rho,
+            cells.theta,
+            z_max=self.geometry.max_range,
+            alpha=self.alpha,
+            beta=self.geometry.beam_width,
+            l_occ=self.l_occ,
+            l_free=self.l_free,
+        )
+        self._add(cells, increment)
+
+
+class RosRangeLayerMapper(_ConeMapper):
+    """The ROS costmap ``range_sensor_layer`` sonar update (DLu/navigation_layers).
+
+    Per reading, in ring order: the target cell's cost is set to 233, then every cell of
+    the update triangle (the transducer and the cone edges at 1.2 times the range) gets
+    Bayes' rule with :func:`~bayesmap.sensing.sonar_baselines.ros_sensor_model`, stored with
+    the layer's ``(uchar)(p · 254)`` quantisation. A reading at the maximum range clears its
+    cone (sensor value 0) when ``clear_on_max_reading``, and otherwise marks an arc at the
+    maximum range like any echo (the layer's default). Our clearing touches the cone's
+    cells only.
+
+    Attributes
+    ----------
+    probability_
+        ``(ny, nx)`` the layer's probabilities (start 127/254 = 0.5).
+    """
+
+    def __init__(
+        self,
+        grid: OccupancyGrid,
+        geometry: SonarGeometry,
+        *,
+        phi_v: float = 1.2,
+        clear_on_max_reading: bool = False,
+    ) -> None:
+        super().__init__(grid, geometry)
+        self.phi_v = float(phi_v)
+        self.clear_on_max_reading = bool(clear_on_max_reading)
+        self.probability_: Grid = np.full(grid.shape, 127.0 / 254.0)
+        self.touched_ = np.zeros(grid.shape, dtype=bool)
+
+    def integrate(
+        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+    ) -> None:
+        """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
+        centres, axis, r, mask = self._prepare(pose, ranges, use)
+        half = self.geometry.beam_width / 2.0
+        edge = 1.2 * r * math.cos(half)  # the triangle's far side, along the axis
+        cells = self._cells(centres, axis, np.where(mask, edge / math.cos(half), 0.0))
+        keep = cells.rho * np.cos(cells.theta) <= edge[cells.reading]
+        starts = np.searchsorted(cells.reading[keep], np.arange(self.geometry.n + 1))
+        rows_all, cols_all = cells.rows[keep], cells.cols[keep]
+        rho_all, theta_all = cells.rho[keep], cells.theta[keep]
+        for k in np.flatnonzero(mask):
+            part = slice(starts[k], starts[k + 1])
+            rows, cols = rows_all[part], cols_all[part]
+            if self.clear_on_max_reading and r[k] >= self.geometry.max_range:
+                sensor = np.zeros(len(rows))
+            else:
+                target = centres[k] + r[k] * np.array([math.cos(axis[k]), math.sin(axis[k])])
+                tr, tc = self.grid.world_to_cell(target[0], target[1])
+                if self.grid.in_bounds(tr, tc):
+                    self.probability_[tr, tc] = 233.0 / 254.0
+                    self.touched_[tr, tc] = True
+                sensor = ros_sensor_model(
+                    r[k],
+                    rho_all[part],
+                    theta_all[part],
+                    max_angle=half,
+                    resolution=self.grid.resolution,
+                    phi_v=self.phi_v,
+                )
+            self.probability_[rows, cols] = ros_bayes_update(self.probability_[rows, cols], sensor)
+            self.touched_[rows, cols] |= sensor != 0.5
+
+    def probability(self) -> Grid:
+        """``(ny, nx)`` occupancy probability of each cell."""
+        return self.probability_.copy()
+
+    def observed(self) -> np.ndarray:
+        """``(ny, nx)``: cells some reading has changed."""
+        return self.touched_.copy()
+
+    def sync(self) -> OccupancyGrid:
+        """Write the probabilities into the grid (and its entropy layer); return the grid."""
+        ny, nx = self.grid.shape
+        self.grid.set_probability(Window(0, ny, 0, nx), self.probability_)
+        return self.grid

@@ -1,0 +1,201 @@
+"""Trait Verification: the top-down stage of the ICINCO 2007 fragment (p. 494).
+
+``V`` holds the traits fitted to the current readings, ``L`` the traits of past readings
+along the path, extended to the robot's current position. Certainty values in [0, 1] are
+computed for the readings behind traits of ``V`` and ``V`` is reconciled with ``L``.
+
+The fragment stops mid-sentence; the choices below are ours (docs/sonar.md):
+
+- *certainty* ``c = exp(-½ e² / sigma_c²)`` (eq. 1 scaled to peak 1), with ``e`` the
+  reading's distance to its trait's line and ``sigma_c = sigma + d (1 - cos(beta/2))``
+  (Elfes' range error plus the displacement of a reading across its cone);
+- *equivalent traits*: directions within ``match_angle``, the ``V`` trait's midpoint within
+  ``match_offset`` of the ``L`` trait's line, and overlapping projections;
+- a reading is *supported* by ``L`` when its trait has an equivalent in ``L``; an echo on no
+  trait when its echo point lies within ``match_offset`` of an ``L`` trait; a no-echo
+  reading when no ``L`` trait crosses its axis;
+- a reading is *contradicted* by ``L`` when its axis crosses an ``L`` trait more than
+  ``margin`` before the range it reports (it claims free space through a known wall);
+- *not enough state for L* (case A, as the fragment says): discard a reading that is flagged
+  or below the certainty threshold and not supported;
+- *enough state* (case B): discard contradicted readings; a supported reading is accepted
+  unless flagged with certainty below the threshold (the fragment's missing rule, mirroring
+  case A); an unsupported one is judged as in case A.
+"""
+
+from __future__ import annotations
+
+import math
+from enum import IntEnum
+
+import numpy as np
+
+from bayesmap._typing import BoolArray, FloatArray, IntArray
+from bayesmap.sonar.traits import point_segment_distance
+
+__all__ = [
+    "TVReason",
+    "axis_crossings",
+    "certainty",
+    "equivalent",
+    "extend_segments",
+    "reconcile",
+]
+
+
+class TVReason(IntEnum):
+    """Why Trait Verification kept or discarded a reading."""
+
+    KEPT = 0
+    UNSUPPORTED_FLAGGED = 1
+    """Case A (or unsupported in case B): flagged, and no equivalent trait in L."""
+    UNSUPPORTED_UNCERTAIN = 2
+    """Case A (or unsupported in case B): certainty below the threshold, no equivalent in L."""
+    CONTRADICTS_L = 3
+    """Case B: the reading claims free space through a trait of L."""
+    FLAGGED_UNCERTAIN = 4
+    """Case B: coincides with L but flagged and below the certainty threshold."""
+
+
+def certainty(
+    residual: FloatArray, distance: FloatArray, *, sigma: float, half_width: float
+) -> FloatArray:
+    """Certainty in [0, 1] of readings behind traits (our reading of the fragment's rule).
+
+    ``c = exp(-½ e² / sigma_c²)``, ``sigma_c = sigma + distance · (1 - cos(half_width))``.
+
+    Parameters
+    ----------
+    residual
+        Distance of each reading's echo point from its trait's line [m] (``nan``: no trait).
+    distance
+        Range of each reading [m].
+    sigma
+        Range standard deviation [m].
+    half_width
+        Half the cone width [rad].
+    """
+    sigma_c = sigma + np.asarray(distance) * (1.0 - math.cos(half_width))
+    return np.asarray(np.exp(-0.5 * (np.asarray(residual) / sigma_c) ** 2))
+
+
+def extend_segments(segments: FloatArray, length: float) -> FloatArray:
+    """Lengthen each segment ``(m, 4)`` by ``length`` [m] at both ends."""
+    a, b = segments[:, :2], segments[:, 2:]
+    d = b - a
+    norm = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-12)[:, None]
+    u = d / norm
+    return np.hstack([a - length * u, b + length * u])
+
+
+def equivalent(
+    v: FloatArray, ell: FloatArray, *, match_angle: float, match_offset: float
+) -> BoolArray:
+    """``(m, k)``: trait ``v[i]`` coincides with trait ``ell[j]`` (angle, offset, overlap)."""
+    if len(v) == 0 or len(ell) == 0:
+        return np.zeros((len(v), len(ell)), dtype=bool)
+    dv = v[:, 2:] - v[:, :2]
+    dl = ell[:, 2:] - ell[:, :2]
+    av = np.arctan2(dv[:, 1], dv[:, 0])[:, None]
+    al = np.arctan2(dl[:, 1], dl[:, 0])[None, :]
+    diff = np.abs((av - al + math.pi / 2) % math.pi - math.pi / 2)
+    ul = dl / np.maximum(np.hypot(dl[:, 0], dl[:, 1]), 1e-12)[:, None]
+    mid = (v[:, :2] + v[:, 2:]) / 2.0
+    rel = mid[:, None, :] - ell[None, :, :2]
+    offset = np.abs(rel[..., 0] * ul[None, :, 1] - rel[..., 1] * ul[None, :, 0])
+    length = np.hypot(dl[:, 0], dl[:, 1])[None, :]
+    t0 = ((v[:, None, :2] - ell[None, :, :2]) * ul[None]).sum(-1)
+    t1 = ((v[:, None, 2:] - ell[None, :, :2]) * ul[None]).sum(-1)
+    overlap = (np.maximum(t0, t1) >= 0.0) & (np.minimum(t0, t1) <= length)
+    return np.asarray((diff <= match_angle) & (offset <= match_offset) & overlap)
+
+
+def axis_crossings(centres: FloatArray, axis: FloatArray, segments: FloatArray) -> FloatArray:
+    """``(n,)`` distance [m] along each beam axis to the first segment crossed (``inf``: none)."""
+    n = len(centres)
+    if len(segments) == 0 or n == 0:
+        return np.full(n, np.inf)
+    d = np.column_stack([np.cos(axis), np.sin(axis)])[:, None, :]
+    p = segments[None, :, :2]
+    e = segments[None, :, 2:] - p
+    w = p - centres[:, None, :]
+    denom = d[..., 0] * e[..., 1] - d[..., 1] * e[..., 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (w[..., 0] * e[..., 1] - w[..., 1] * e[..., 0]) / denom
+        u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / denom
+    ok = (np.abs(denom) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
+    return np.asarray(np.where(ok, t, np.inf).min(axis=1))
+
+
+def reconcile(
+    *,
+    candidate: BoolArray,
+    echo: BoolArray,
+    flagged: BoolArray,
+    ranges: FloatArray,
+    centres: FloatArray,
+    axis: FloatArray,
+    labels: IntArray,
+    certainties: FloatArray,
+    v_segments: FloatArray,
+    l_segments: FloatArray,
+    enough_state: bool,
+    max_range: float,
+    certainty_threshold: float,
+    match_angle: float,
+    match_offset: float,
+    margin: float,
+) -> IntArray:
+    """Reconcile the current readings' traits ``V`` with the local view ``L``.
+
+    Parameters
+    ----------
+    candidate
+        ``(n,)`` readings still in play (not discarded by earlier stages).
+    echo, flagged
+        ``(n,)`` obstacle readings; readings flagged by earlier stages.
+    ranges, centres, axis
+        ``(n,)`` ranges [m], ``(n, 2)`` transducer positions [m], ``(n,)`` bearings [rad].
+    labels, certainties
+        ``(n,)`` index of each reading's trait in ``v_segments`` (−1: none) and its certainty.
+    v_segments, l_segments
+        ``V`` and the (extended) ``L`` as ``(m, 4)`` and ``(k, 4)`` segments [m].
+    enough_state
+        Whether ``L`` spans four perceptual lengths (case B) or not (case A).
+    max_range, certainty_threshold, match_angle, match_offset, margin
+        See :class:`~bayesmap.sonar.filter.SpecularFilter`.
+
+    Returns
+    -------
+    ``(n,)`` :class:`TVReason` codes; ``KEPT`` for readings not discarded.
+    """
+    n = len(ranges)
+    reason = np.full(n, TVReason.KEPT, dtype=np.int64)
+    on_trait = labels >= 0
+    trait_supported = np.asarray(
+        equivalent(v_segments, l_segments, match_angle=match_angle, match_offset=match_offset).any(
+            axis=1
+        )
+    )
+    supported = np.zeros(n, dtype=bool)
+    supported[on_trait] = trait_supported[labels[on_trait]]
+    crossing = axis_crossings(centres, axis, l_segments)
+    reach = np.where(echo, ranges, max_range)
+    contradicted = crossing < reach - margin
+    loose = echo & ~on_trait
+    if np.any(loose) and len(l_segments):
+        points = centres[loose] + ranges[loose, None] * np.column_stack(
+            [np.cos(axis[loose]), np.sin(axis[loose])]
+        )
+        supported[loose] = point_segment_distance(points, l_segments).min(axis=1) <= match_offset
+    supported[~echo] = ~contradicted[~echo]
+    uncertain = on_trait & (certainties < certainty_threshold)
+    unsupported_flagged = ~supported & flagged
+    unsupported_uncertain = ~supported & uncertain & ~flagged
+    reason[unsupported_flagged] = TVReason.UNSUPPORTED_FLAGGED
+    reason[unsupported_uncertain] = TVReason.UNSUPPORTED_UNCERTAIN
+    if enough_state:
+        reason[supported & flagged & uncertain] = TVReason.FLAGGED_UNCERTAIN
+        reason[contradicted] = TVReason.CONTRADICTS_L
+    reason[~candidate] = TVReason.KEPT
+    return reason

@@ -1,0 +1,137 @@
+"""Figures of the micro-rover experiments: maps with the path (Post et al. 2016 Figs. 11–14).
+
+Every function takes arrays and returns PNG bytes; the caller writes them atomically.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Mapping, Sequence
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import numpy.typing as npt  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.patches import Rectangle  # noqa: E402
+
+_DPI = 90
+
+
+def _png(fig: Figure) -> bytes:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=_DPI)
+    plt.close(fig)
+    return buffer.getvalue()
+
+
+def _draw_extras(
+    ax: Axes, path: npt.ArrayLike | None, boxes: npt.ArrayLike | None, colour: str
+) -> None:
+    if boxes is not None:
+        for xmin, ymin, xmax, ymax in np.asarray(boxes, dtype=float).reshape(-1, 4):
+            ax.add_patch(
+                Rectangle(
+                    (xmin, ymin),
+                    xmax - xmin,
+                    ymax - ymin,
+                    fill=False,
+                    edgecolor="red",
+                    linewidth=1.2,
+                    linestyle="--",
+                )
+            )
+    if path is not None:
+        xy = np.asarray(path, dtype=float)
+        if xy.size:
+            ax.plot(xy[:, 0], xy[:, 1], color=colour, linewidth=0.7)
+            ax.plot(xy[0, 0], xy[0, 1], marker="o", color=colour, markersize=4)
+
+
+def map_figure(
+    layer: npt.ArrayLike,
+    extent: tuple[float, float, float, float],
+    *,
+    title: str,
+    label: str,
+    cmap: str = "viridis",
+    vmin: float = 0.0,
+    vmax: float = 1.0,
+    path: npt.ArrayLike | None = None,
+    boxes: npt.ArrayLike | None = None,
+    path_colour: str = "black",
+) -> bytes:
+    """One map layer (row 0 at the bottom) with an optional path and obstacle outlines."""
+    fig, ax = plt.subplots(figsize=(4.8, 4.0), layout="constrained")
+    image = ax.imshow(
+        np.asarray(layer),
+        origin="lower",
+        extent=extent,
+        cmap=cmap,
+        vmin=vmin,
+        vmax=vmax,
+        interpolation="nearest",
+    )
+    fig.colorbar(image, ax=ax, label=label, fraction=0.046, pad=0.04)
+    _draw_extras(ax, path, boxes, path_colour)
+    ax.set_xlim(extent[0], extent[1])
+    ax.set_ylim(extent[2], extent[3])
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title, fontsize=10)
+    return _png(fig)
+
+
+def maps_pair_figure(
+    probability: npt.ArrayLike,
+    entropy: npt.ArrayLike,
+    extent: tuple[float, float, float, float],
+    *,
+    title: str,
+    path: npt.ArrayLike | None = None,
+    boxes: npt.ArrayLike | None = None,
+) -> bytes:
+    """Probability and entropy maps side by side with the path, as in Figs. 11–14."""
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.2), layout="constrained")
+    panels = [
+        (probability, "(a) P(O | R, r, x)", "viridis", "probability"),
+        (entropy, "(b) H(O | R, r, x) [bits]", "magma", "entropy [bits]"),
+    ]
+    for ax, (layer, sub, cmap, label) in zip(axes, panels, strict=True):
+        image = ax.imshow(
+            np.asarray(layer),
+            origin="lower",
+            extent=extent,
+            cmap=cmap,
+            vmin=0.0,
+            vmax=1.0,
+            interpolation="nearest",
+        )
+        fig.colorbar(image, ax=ax, label=label, fraction=0.046, pad=0.04)
+        _draw_extras(ax, path, boxes, "white" if cmap == "viridis" else "cyan")
+        ax.set_xlim(extent[0], extent[1])
+        ax.set_ylim(extent[2], extent[3])
+        ax.set_title(sub, fontsize=10)
+        ax.set_xlabel("x [m]")
+    axes[0].set_ylabel("y [m]")
+    fig.suptitle(title, fontsize=11)
+    return _png(fig)
+
+
+def coverage_figure(curves: Mapping[str, Sequence[tuple[float, float]]], *, title: str) -> bytes:
+    """Coverage (fraction of cells below ``H_desired``) against distance driven, per run."""
+    fig, ax = plt.subplots(figsize=(6.0, 4.0))
+    for name, curve in curves.items():
+        xy = np.asarray(curve, dtype=float).reshape(-1, 2)
+        ax.plot(xy[:, 0], xy[:, 1], label=name, linestyle="--" if "frontier" in name else "-")
+    ax.axhline(0.9, color="grey", linewidth=0.8, linestyle=":")
+    ax.set_xlabel("distance driven [m]")
+    ax.set_ylabel("coverage")
+    ax.set_ylim(0.0, 1.0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title, fontsize=10)
+    return _png(fig)

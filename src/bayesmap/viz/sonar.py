@@ -1,0 +1,107 @@
+"""Figures for sonar mapping: occupancy maps side by side, with the true walls overlaid."""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from bayesmap._typing import FloatArray, Grid
+
+__all__ = ["map_png", "maps_side_by_side"]
+
+
+def _draw(
+    ax: Axes,
+    probability: Grid,
+    extent: tuple[float, float, float, float],
+    observed: np.ndarray | None,
+    walls: FloatArray | None,
+    path: FloatArray | None,
+) -> None:
+    shown = np.array(probability, dtype=np.float64)
+    if observed is not None:
+        shown = np.where(observed, shown, 0.5)
+    ax.imshow(
+        shown,
+        origin="lower",
+        extent=extent,
+        cmap="gray_r",
+        vmin=0.0,
+        vmax=1.0,
+        interpolation="nearest",
+    )
+    if walls is not None:
+        for x0, y0, x1, y1 in walls:
+            ax.plot([x0, x1], [y0, y1], color="tab:red", lw=0.8, alpha=0.8)
+    if path is not None and len(path):
+        ax.plot(path[:, 0], path[:, 1], color="tab:blue", lw=0.6, ls=":")
+    ax.set_aspect("equal")
+    ax.set_xlim(extent[0], extent[1])
+    ax.set_ylim(extent[2], extent[3])
+    ax.tick_params(labelsize=6)
+
+
+def maps_side_by_side(
+    panels: Sequence[tuple[str, Grid]],
+    extent: tuple[float, float, float, float],
+    *,
+    walls: FloatArray | None = None,
+    path: FloatArray | None = None,
+    title: str = "",
+    columns: int = 3,
+    panel_width: float = 3.2,
+) -> bytes:
+    """PNG bytes of occupancy maps side by side (black = occupied, white = free, grey = unknown).
+
+    Parameters
+    ----------
+    panels
+        ``(title, probability)`` pairs; each probability is ``(ny, nx)`` with row 0 at the bottom.
+    extent
+        ``(xmin, xmax, ymin, ymax)`` [m] of the maps.
+    walls
+        Optional ``(n, 4)`` true wall segments [m], drawn in red.
+    path
+        Optional ``(m, 2)`` robot path [m], drawn dotted.
+    title
+        Figure title.
+    columns
+        Panels per row.
+    panel_width
+        Width of each panel [inches].
+    """
+    n = len(panels)
+    cols = min(columns, n)
+    rows = (n + cols - 1) // cols
+    width = extent[1] - extent[0]
+    height = extent[3] - extent[2]
+    panel_w = panel_width
+    panel_h = panel_w * height / max(width, 1e-9) + 0.35
+    fig = Figure(figsize=(panel_w * cols, panel_h * rows + 0.4))
+    axes = fig.subplots(rows, cols, squeeze=False)
+    for ax, (name, probability) in zip(axes.ravel(), panels, strict=False):
+        _draw(ax, probability, extent, None, walls, path)
+        ax.set_title(name, fontsize=8)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=90)
+    return buffer.getvalue()
+
+
+def map_png(
+    probability: Grid,
+    extent: tuple[float, float, float, float],
+    *,
+    path: FloatArray | None = None,
+    title: str = "",
+) -> bytes:
+    """PNG bytes of one occupancy map, with the robot path if given."""
+    return maps_side_by_side([(title, probability)], extent, path=path, columns=1, panel_width=6.0)

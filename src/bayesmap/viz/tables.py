@@ -1,0 +1,271 @@
+"""Figures of the whiskered table-mapping experiment (Fox & Prescott 2011 Figs. 1–2, 4–7).
+
+Everything here takes arrays: tables as ``(k, ≥3)`` rows ``x, y, theta`` [m, m, rad],
+legs as ``(m, ≥3)`` rows ``x, y, theta``, shapelets as ``(n, 4)`` rows
+``x, y, theta, tau``, and a :class:`TableShape` giving the one table size. A table is a
+``length`` × ``width`` rectangle centred at ``(x, y)`` with its long side along ``theta``
+and square legs of side ``leg_width`` flush with its corners.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from typing import NamedTuple, Protocol
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.collections import PolyCollection  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from PIL import Image  # noqa: E402
+
+from bayesmap._typing import FloatArray  # noqa: E402
+
+__all__ = [
+    "BoardView",
+    "TableShape",
+    "annealing_gif",
+    "figure_png",
+    "ground_truth_figure",
+    "montage_figure",
+    "snapshot_figure",
+]
+
+TRUTH_COLOR = "#e377c2"
+MAP_COLOR = "#1f4e9c"
+
+
+class TableShape(NamedTuple):
+    """The microworld's one table size [m]."""
+
+    length: float
+    width: float
+    leg_width: float
+
+
+class BoardView(Protocol):
+    """What a blackboard snapshot must offer to be drawn (e.g. a blackboard ``Snapshot``)."""
+
+    @property
+    def beta(self) -> float: ...
+    @property
+    def index(self) -> int: ...
+    @property
+    def n_temperatures(self) -> int: ...
+    @property
+    def tables(self) -> FloatArray: ...
+    @property
+    def legs(self) -> FloatArray: ...
+    @property
+    def shapelets(self) -> FloatArray: ...
+
+
+def _rectangles(poses: FloatArray, length: float, width: float) -> FloatArray:
+    """``(k, 4, 2)`` corners of rectangles at ``(k, ≥3)`` poses ``x, y, theta``."""
+    poses = np.asarray(poses, dtype=np.float64).reshape(
+        -1, np.shape(poses)[-1] if np.size(poses) else 3
+    )
+    local = 0.5 * np.array([[length, width], [-length, width], [-length, -width], [length, -width]])
+    c, s = np.cos(poses[:, 2:3]), np.sin(poses[:, 2:3])
+    x = poses[:, 0:1] + c * local[:, 0] - s * local[:, 1]
+    y = poses[:, 1:2] + s * local[:, 0] + c * local[:, 1]
+    return np.stack([x, y], axis=-1)
+
+
+def _legs_of(tables: FloatArray, shape: TableShape) -> FloatArray:
+    """``(4k, 3)`` leg poses of ``(k, ≥3)`` tables."""
+    tables = np.asarray(tables, dtype=np.float64).reshape(
+        -1, np.shape(tables)[-1] if np.size(tables) else 3
+    )
+    centres = _rectangles(tables, shape.length - shape.leg_width, shape.width - shape.leg_width)
+    theta = np.repeat(tables[:, 2], 4)
+    return np.column_stack([centres.reshape(-1, 2), theta])
+
+
+def draw_tables(
+    ax: Axes,
+    tables: FloatArray,
+    shape: TableShape,
+    *,
+    color: str,
+    alpha: float,
+    filled: bool = True,
+    linewidth: float = 0.8,
+) -> None:
+    """Draw tables (outline or translucent fill) with their four legs."""
+    if not np.size(tables):
+        return
+    tops = _rectangles(tables, shape.length, shape.width)
+    legs = _rectangles(_legs_of(tables, shape), shape.leg_width, shape.leg_width)
+    if filled:
+        ax.add_collection(
+            PolyCollection(list(tops), facecolors=color, edgecolors="none", alpha=alpha)
+        )
+        ax.add_collection(
+            PolyCollection(
+                list(legs), facecolors=color, edgecolors="none", alpha=min(1.0, 2 * alpha)
+            )
+        )
+    else:
+        ax.add_collection(
+            PolyCollection(
+                list(tops), facecolors="none", edgecolors=color, alpha=alpha, linewidths=linewidth
+            )
+        )
+        ax.add_collection(
+            PolyCollection(
+                list(legs), facecolors="none", edgecolors=color, alpha=alpha, linewidths=linewidth
+            )
+        )
+
+
+def _arena(ax: Axes, bounds: tuple[float, float, float, float], pad: float = 0.3) -> None:
+    xmin, ymin, xmax, ymax = bounds
+    ax.plot([xmin, xmax, xmax, xmin, xmin], [ymin, ymin, ymax, ymax, ymin], color="k", lw=1.5)
+    ax.set_xlim(xmin - pad, xmax + pad)
+    ax.set_ylim(ymin - pad, ymax + pad)
+    ax.set_aspect("equal")
+    ax.tick_params(labelsize=7)
+    ax.set_xlabel("x [m]", fontsize=8)
+    ax.set_ylabel("y [m]", fontsize=8)
+
+
+def figure_png(fig: Figure, dpi: int = 110, *, tight: bool = True) -> bytes:
+    """Render a figure to PNG bytes and close it (``tight``: crop to its content)."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight" if tight else None)
+    plt.close(fig)
+    return buffer.getvalue()
+
+
+def ground_truth_figure(
+    truth: FloatArray,
+    shape: TableShape,
+    bounds: tuple[float, float, float, float],
+    poses: FloatArray,
+) -> Figure:
+    """Fig. 4: the true tables and the robot's positions, with the order they are visited."""
+    fig, ax = plt.subplots(figsize=(5.2, 5.2))
+    draw_tables(ax, truth, shape, color=TRUTH_COLOR, alpha=0.55)
+    xy = np.asarray(poses)[:, :2]
+    _, first = np.unique(xy, axis=0, return_index=True)
+    path = xy[np.sort(first)]
+    ax.plot(path[:, 0], path[:, 1], color="0.6", lw=0.6, zorder=1)
+    ax.plot(path[:, 0], path[:, 1], "k.", ms=4, zorder=2)
+    ax.annotate("start", path[0], xytext=(4, -10), textcoords="offset points", fontsize=7)
+    for i, (x, y, _) in enumerate(np.asarray(truth)[:, :3]):
+        ax.text(x, y, f"T{i}", ha="center", va="center", fontsize=8, color="0.15")
+    _arena(ax, bounds)
+    ax.set_title("Ground truth and robot positions (4 headings each)", fontsize=9)
+    return fig
+
+
+def montage_figure(
+    truth: FloatArray,
+    maps: Sequence[FloatArray],
+    shape: TableShape,
+    bounds: tuple[float, float, float, float],
+    title: str,
+) -> Figure:
+    """Figs. 5–7: every pose's MAP tables, translucent, over the true tables' outlines.
+
+    The fill's opacity falls with the number of tables drawn, so that where many poses
+    agree on a table the map is dark and a lone table stays faint.
+    """
+    fig, ax = plt.subplots(figsize=(5.2, 5.2))
+    stacked = [np.asarray(m)[:, :3] for m in maps if np.size(m)]
+    if stacked:
+        every = np.concatenate(stacked)
+        alpha = float(np.clip(12.0 / len(every), 0.025, 0.3))
+        draw_tables(ax, every, shape, color=MAP_COLOR, alpha=alpha)
+    draw_tables(ax, truth, shape, color=TRUTH_COLOR, alpha=1.0, filled=False, linewidth=1.4)
+    _arena(ax, bounds)
+    ax.set_title(title, fontsize=9)
+    return fig
+
+
+def snapshot_figure(
+    board: BoardView,
+    shape: TableShape,
+    truth: FloatArray,
+    pose: FloatArray,
+    whisker_points: FloatArray,
+    bounds: tuple[float, float, float, float],
+    *,
+    radius: float = 2.0,
+) -> Figure:
+    """Figs. 1–2: one blackboard around the robot.
+
+    True tables filled pink; hypothesised tables and legs as wire frames; shapelets as
+    small yellow bars along the touched surface with a tick along their normal; the robot
+    as a cone and its whiskers as lines to their contacts (or protracted tips).
+    """
+    fig, ax = plt.subplots(figsize=(4.6, 4.6))
+    draw_tables(ax, truth, shape, color=TRUTH_COLOR, alpha=0.45)
+    draw_tables(ax, board.tables, shape, color="tab:blue", alpha=0.9, filled=False, linewidth=0.8)
+    legs = np.asarray(board.legs, dtype=np.float64).reshape(-1, 6)
+    if len(legs):
+        squares = _rectangles(legs[:, :3], shape.leg_width, shape.leg_width)
+        ax.add_collection(
+            PolyCollection(list(squares), facecolors="none", edgecolors="tab:green", linewidths=0.7)
+        )
+    x, y, heading = np.asarray(pose, dtype=np.float64)
+    for px, py in np.asarray(whisker_points).reshape(-1, 2):
+        ax.plot([x, px], [y, py], color="0.35", lw=0.7)
+    cone = np.array([[0.18, 0.0], [-0.12, 0.1], [-0.12, -0.1]])
+    c, s = np.cos(heading), np.sin(heading)
+    ax.fill(x + c * cone[:, 0] - s * cone[:, 1], y + s * cone[:, 0] + c * cone[:, 1], color="k")
+    shapelets = np.asarray(board.shapelets, dtype=np.float64).reshape(-1, 4)
+    if len(shapelets):
+        bars = _rectangles(
+            np.column_stack([shapelets[:, :2], shapelets[:, 2] + np.pi / 2]), 0.12, 0.03
+        )
+        ax.add_collection(
+            PolyCollection(list(bars), facecolors="gold", edgecolors="k", linewidths=0.5, zorder=5)
+        )
+        tips = shapelets[:, :2] + 0.1 * np.column_stack(
+            [np.cos(shapelets[:, 2]), np.sin(shapelets[:, 2])]
+        )
+        for (sx, sy), (tx, ty) in zip(shapelets[:, :2], tips, strict=True):
+            ax.plot([sx, tx], [sy, ty], color="darkgoldenrod", lw=0.8, zorder=5)
+    _arena(ax, bounds, pad=0.3)
+    ax.set_xlim(max(bounds[0] - 0.3, x - radius), min(bounds[2] + 0.3, x + radius))
+    ax.set_ylim(max(bounds[1] - 0.3, y - radius), min(bounds[3] + 0.3, y + radius))
+    ax.set_title(
+        f"temperature {board.index + 1}/{board.n_temperatures}, β = {board.beta:.3g}: "
+        f"{len(np.asarray(board.tables).reshape(-1, 5))} tables, {len(legs)} legs",
+        fontsize=8,
+    )
+    return fig
+
+
+def annealing_gif(
+    boards: Sequence[BoardView],
+    shape: TableShape,
+    truth: FloatArray,
+    pose: FloatArray,
+    whisker_points: FloatArray,
+    bounds: tuple[float, float, float, float],
+    *,
+    frame_ms: int = 150,
+) -> bytes:
+    """A GIF of one pose's annealing: one :func:`snapshot_figure` frame per temperature."""
+    frames = []
+    for board in boards:
+        fig = snapshot_figure(board, shape, truth, pose, whisker_points, bounds)
+        fig.subplots_adjust(left=0.12, right=0.97, bottom=0.1, top=0.93)
+        png = figure_png(fig, dpi=80, tight=False)
+        frames.append(Image.open(io.BytesIO(png)).convert("P", palette=Image.Palette.ADAPTIVE))
+    if not frames:
+        return b""
+    size = frames[0].size
+    frames = [f if f.size == size else f.resize(size) for f in frames]
+    buffer = io.BytesIO()
+    frames[0].save(
+        buffer, format="GIF", save_all=True, append_images=frames[1:], duration=frame_ms, loop=0
+    )
+    return buffer.getvalue()

@@ -1,0 +1,138 @@
+"""Corrupted files raise FormatError and nothing else, and never give a half-built network."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from bayesmap.bn import io
+from bayesmap.bn.io import bif, xbn, xmlbif
+from bayesmap.bn.model import BayesNet
+from bayesmap.errors import FormatError
+
+from .helpers import example
+
+
+def _seed_network() -> BayesNet:
+    net = io.read(example("asia"))
+    net.properties["author"] = 'x "y" <z>'
+    net.set_kind("smoke", "B")
+    net.variable("either").properties["note"] = "a; b } c"
+    return net
+
+
+SEEDS = {
+    module.__name__.rsplit(".", 1)[-1]: module.dumps(_seed_network())
+    for module in (bif, xmlbif, xbn)
+}
+SPECIAL = st.sampled_from(
+    list('{}()[];,|"=\\<>/&*\n\t 0123456789.-eabcxyz')
+    + [
+        "table",
+        "default",
+        "property",
+        "variable",
+        "probability",
+        "network",
+        "//",
+        "/*",
+        "*/",
+        "<GIVEN>a</GIVEN>",
+        "<DPI>0.5 0.5</DPI>",
+        'INDEXES="0 0"',
+        "&amp;",
+        "&bogus;",
+        "<!--",
+        "]]>",
+    ]
+)
+
+
+@st.composite
+def mutations(draw: st.DrawFn, text: str) -> str:
+    """``text`` with a few deletions, insertions, duplications and swaps."""
+    for _ in range(draw(st.integers(1, 4))):
+        n = len(text)
+        op = draw(st.sampled_from(["delete", "insert", "duplicate", "replace"]))
+        i = draw(st.integers(0, n))
+        j = min(n, i + draw(st.integers(0, 40)))
+        if op == "delete":
+            text = text[:i] + text[j:]
+        elif op == "insert":
+            text = text[:i] + draw(SPECIAL) + text[i:]
+        elif op == "duplicate":
+            text = text[:j] + text[i:j] + text[j:]
+        else:
+            text = text[:i] + draw(SPECIAL) + text[j:]
+    return text
+
+
+def _check(module, text: str | bytes) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            net = module.loads(text, path="fuzz")
+        except FormatError as error:
+            assert error.path == "fuzz"
+            return
+    # A network came back: it must be whole.
+    assert isinstance(net, BayesNet)
+    for name in net.variables:
+        shape = (net.cardinality(name), *(net.cardinality(p) for p in net.parents(name)))
+        assert net.cpt(name).shape == shape
+        np.testing.assert_allclose(net.cpt(name).sum(axis=0), 1.0, atol=1e-9)
+    net.topological_order()
+
+
+@pytest.mark.parametrize("fmt", sorted(SEEDS))
+@settings(max_examples=150, deadline=None)
+@given(data=st.data())
+def test_mutated_files_raise_only_format_error(fmt: str, data: st.DataObject) -> None:
+    module = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn}[fmt]
+    _check(module, data.draw(mutations(SEEDS[fmt])))
+
+
+@pytest.mark.parametrize("module", [bif, xmlbif, xbn], ids=lambda m: m.__name__.rsplit(".", 1)[-1])
+@settings(max_examples=60, deadline=None)
+@given(blob=st.binary(max_size=200) | st.text(max_size=200))
+def test_arbitrary_input_raises_only_format_error(module, blob: bytes | str) -> None:
+    _check(module, blob)
+
+
+def test_unknown_extension_and_missing_file(tmp_path) -> None:
+    with pytest.raises(FormatError, match="extension"):
+        io.read(tmp_path / "net.json")
+    with pytest.raises(FormatError, match="cannot read") as caught:
+        io.read(tmp_path / "missing.bif")
+    assert caught.value.path == str(tmp_path / "missing.bif")
+    (tmp_path / "broken.bif.gz").write_bytes(b"not gzip")
+    with pytest.raises(FormatError, match="cannot read"):
+        io.read(tmp_path / "broken.bif.gz")
+
+
+def test_failed_write_leaves_no_file(tmp_path) -> None:
+    net = BayesNet("n")
+    net.add_variable("a", ["x\x00", "y"], cpt=[0.5, 0.5])
+    with pytest.raises(FormatError):
+        io.write(net, tmp_path / "n.xml")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("name", "fmt"),
+    [
+        ("a.xml", "xmlbif"),
+        ("a.XMLBIF", "xmlbif"),
+        ("a.bifxml.gz", "xmlbif"),
+        ("a.bif", "bif"),
+        ("a.bif.gz", "bif"),
+        ("a.xbn", "xbn"),
+        ("a.xbn.GZ", "xbn"),
+    ],
+)
+def test_extensions_choose_the_format(name: str, fmt: str) -> None:
+    assert io.format_of(name).name == fmt

@@ -1,0 +1,84 @@
+"""A reduced blackboard experiment: its files, the sanity of its metrics, determinism."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pydantic
+import pytest
+
+from bayesmap.errors import ConfigError
+from bayesmap.experiments import blackboard
+
+POSES = 12
+TIMINGS = ("per_pose_ms_median", "per_pose_ms_p95", "wall_s")
+
+
+def _scores(out_dir, condition):
+    metrics = json.loads((out_dir / condition / "metrics.json").read_text())
+    return {k: v for k, v in metrics.items() if k not in TIMINGS}
+
+
+@pytest.fixture(scope="module")
+def reduced(tmp_path_factory):
+    out = tmp_path_factory.mktemp("blackboard")
+    calls = []
+    config = blackboard.Config(poses=POSES)
+    result = blackboard.run(config, out, progress=lambda *a: calls.append(a))
+    return out, result, calls
+
+
+def test_writes_every_file(reduced):
+    out, result, _ = reduced
+    for name in ("ground_truth.png", "snapshot_high.png", "snapshot_low.png"):
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (out / "annealing.gif").read_bytes()[:6] == b"GIF89a"
+    for condition in ("normal", "noiseless", "noisy"):
+        assert (out / condition / "montage.png").stat().st_size > 1000
+        assert (out / condition / "metrics.json") in result.metrics
+    summary = (out / "summary.md").read_text()
+    assert "| precision |" in summary and "4.2 ± 1.7" in summary
+    assert result.headline["scenario"] == "whisker-tables-v1"
+
+
+def test_metrics_are_sane(reduced):
+    out, _, calls = reduced
+    assert calls[-1] == ("noisy", POSES, POSES)
+    assert [c[1] for c in calls if c[0] == "normal"] == list(range(1, POSES + 1))
+    contacts = None
+    for condition in ("normal", "noiseless", "noisy"):
+        m = json.loads((out / condition / "metrics.json").read_text())
+        assert m["scenario"] == "whisker-tables-v1" and m["poses"] == POSES
+        for key in ("precision", "recall"):
+            assert math.isnan(m[key]) or 0.0 <= m[key] <= 1.0
+        assert 0 <= m["matched"] <= m["map_tables"]
+        assert m["phantoms"] == m["map_tables"] - m["matched"]
+        assert 0 <= m["phantom_near_walls"] <= m["phantoms"]
+        assert 0.0 <= m["gospa_mean"] <= m["gospa_c"] * math.sqrt(7)
+        assert 1 <= m["contacts_mean"] <= 6
+        assert m["per_pose_ms_median"] > 0 and m["wall_s"] > 0
+        # the same world and poses: contacts do not depend on the noise
+        contacts = contacts or (m["contacts_mean"], m["contacts_std"])
+        assert (m["contacts_mean"], m["contacts_std"]) == contacts
+    noisy = json.loads((out / "noisy" / "metrics.json").read_text())
+    assert noisy["sigma_r"] == 0.5 and noisy["sigma_theta"] == pytest.approx(np.pi / 8)
+
+
+def test_same_seed_same_result_and_independent_streams(reduced, tmp_path):
+    out, _, _ = reduced
+    blackboard.run(blackboard.Config(poses=POSES, conditions=("noisy",)), tmp_path)
+    # a condition's streams do not depend on which other conditions run
+    assert _scores(tmp_path, "noisy") == _scores(out, "noisy")
+
+
+def test_bad_config():
+    with pytest.raises(pydantic.ValidationError):
+        blackboard.Config(conditions=("foggy",))
+    with pytest.raises(pydantic.ValidationError):
+        blackboard.Config(poses=0)
+    with pytest.raises(pydantic.ValidationError):
+        blackboard.Config().seed = 3  # frozen
+    with pytest.raises(ConfigError, match="snapshot_pose"):
+        blackboard.run(blackboard.Config(poses=3, snapshot_pose=5, conditions=()), "unused")

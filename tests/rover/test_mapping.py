@@ -1,0 +1,86 @@
+"""Tests of the IR mapper and the target rules."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bayesmap.grid import OccupancyGrid
+from bayesmap.rover.mapping import IRMapper, local_patch
+from bayesmap.rover.params import RoverParams
+from bayesmap.rover.targets import EntropyTarget, FrontierTarget, clear_of_obstacles
+from bayesmap.sensing.ir import raw_from_range
+
+PARAMS = RoverParams()
+
+
+def _raw(r: float) -> np.ndarray:
+    return np.clip(np.rint(raw_from_range(np.array([np.inf, r, np.inf]))), 0, 255)
+
+
+def test_mapper_marks_obstacle_ahead_and_free_space_before_it() -> None:
+    grid = OccupancyGrid(10.0, 10.0, 0.5, prior=0.2)
+    mapper = IRMapper(grid, PARAMS)
+    pose = (2.1, 5.1, 0.0)
+    mapper.update(_raw(1.0), pose)
+    assert not mapper.last_contacts_.any()  # eq. 33 needs two readings in a row
+    for _ in range(7):
+        mapper.update(_raw(1.0), pose)
+    assert mapper.last_contacts_.tolist() == [False, True, False]
+    ahead = grid.world_to_cell(2.1 + 0.15 + 1.0, 5.1)
+    before = grid.world_to_cell(2.1 + 0.15 + 0.4, 5.1)
+    behind = grid.world_to_cell(1.0, 5.1)
+    assert grid.probability[ahead] > 0.5
+    assert grid.probability[before] < 0.05 and grid.entropy[before] < 0.3
+    assert grid.probability[behind] == 0.2 and grid.entropy[behind] == 1.0
+    assert mapper.n_uncertain_ == int(np.count_nonzero(grid.entropy >= PARAMS.h_desired))
+
+
+def test_update_cost_is_local() -> None:
+    small = IRMapper(OccupancyGrid(20.0, 20.0, 0.5, prior=0.2), PARAMS)
+    large = IRMapper(OccupancyGrid(200.0, 200.0, 0.5, prior=0.2), PARAMS)
+    a = small.update(_raw(1.0), (10.1, 10.1, 0.3))
+    b = large.update(_raw(1.0), (100.1, 100.1, 0.3))
+    assert a.shape == b.shape
+    np.testing.assert_allclose(
+        small.grid_.probability[a.rows, a.cols], large.grid_.probability[b.rows, b.cols], atol=1e-12
+    )
+
+
+def test_local_patch_fills_outside_cells() -> None:
+    grid = OccupancyGrid(4.0, 4.0, 0.5, prior=0.2)
+    grid.probability[:] = 0.7
+    xc, yc, values = local_patch(grid, grid.probability, 0.2, 0.2, 1.0, fill=0.2)
+    inside = (xc > 0) & (yc > 0)
+    assert np.all(values[inside] == 0.7) and np.all(values[~inside] == 0.2)
+    assert values.shape == local_patch(grid, grid.probability, 2.0, 2.0, 1.0, 0.2)[2].shape
+
+
+def test_entropy_target_prefers_high_entropy_then_nearest() -> None:
+    grid = OccupancyGrid(20.0, 20.0, 0.5, prior=0.2, initial_entropy=0.1)
+    rows, cols = grid.world_to_cell(np.array([5.2, 8.2]), np.array([5.2, 5.2]))
+    grid.entropy[rows, cols] = [0.98, 1.0]
+    assert EntropyTarget(PARAMS).select(grid, (3.0, 5.2, 0.0)) == (5.25, 5.25)  # within margin
+    tight = EntropyTarget(RoverParams(target_margin=0.0))
+    assert tight.select(grid, (3.0, 5.2, 0.0)) == (8.25, 5.25)
+    grid.entropy[:] = 0.1
+    assert EntropyTarget(PARAMS).select(grid, (3.0, 5.2, 0.0)) is None
+
+
+def test_frontier_target_picks_unknown_next_to_open() -> None:
+    grid = OccupancyGrid(10.0, 10.0, 0.5, prior=0.2)
+    grid.probability[:, :8] = 0.05  # x < 4 m explored and free
+    grid.entropy[:, :8] = 0.1
+    target = FrontierTarget(PARAMS).select(grid, (1.0, 5.0, 0.0))
+    assert target is not None and target[0] == 4.25  # the first unknown column
+    grid.entropy[:] = 0.1
+    assert FrontierTarget(PARAMS).select(grid, (1.0, 5.0, 0.0)) is None
+
+
+def test_targets_keep_clear_of_likely_obstacles() -> None:
+    grid = OccupancyGrid(10.0, 10.0, 0.5, prior=0.2, initial_entropy=0.1)
+    rows, cols = grid.world_to_cell(np.array([5.2, 8.2]), np.array([5.2, 5.2]))
+    grid.entropy[rows, cols] = 1.0  # two unseen cells; the nearer sits against an obstacle
+    grid.probability[grid.world_to_cell(5.7, 5.2)] = 0.9
+    clear = clear_of_obstacles(grid.probability, PARAMS, grid.resolution)
+    assert not clear[grid.world_to_cell(5.2, 5.2)] and clear[grid.world_to_cell(8.2, 5.2)]
+    assert EntropyTarget(PARAMS).select(grid, (3.0, 5.2, 0.0)) == (8.25, 5.25)

@@ -1,0 +1,80 @@
+"""The decision network (Fig. 8) must agree with the numpy decision maths."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from bayesmap import bn
+from bayesmap.bn.model import NodeKind
+from bayesmap.rover.decisions import movement_distribution, navigation_goal
+from bayesmap.rover.network import DecisionNetwork
+from bayesmap.rover.params import RoverParams
+from bayesmap.sensing.fusion import opinion_pool
+from bayesmap.sensing.ir import angular_weight, beta_r, sensor_posterior
+
+PARAMS = RoverParams(n_headings=12)
+NETWORK = DecisionNetwork(PARAMS)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_network_heading_distribution_equals_eq_43(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    theta = np.asarray(PARAMS.headings)
+    p_t = navigation_goal(theta, rng.uniform(-np.pi, np.pi))
+    p_o = rng.uniform(size=theta.size) ** rng.uniform(0.2, 3.0)
+    p_o[rng.uniform(size=theta.size) < 0.2] = 1.0  # blocked headings
+    contacts = rng.uniform(size=3) < 0.5
+    ranges = rng.uniform(0.2, 7.0, size=3)
+    index, distribution = NETWORK.decide(p_t, p_o, contacts, ranges)
+    expected = movement_distribution(p_t, np.minimum(p_o, 1 - 1e-9))
+    np.testing.assert_allclose(distribution, expected, atol=1e-9)
+    assert index == int(np.argmax(expected))
+
+
+def test_fusion_node_is_the_opinion_pool() -> None:
+    contacts = np.array([True, False, True])
+    ranges = np.array([0.6, 7.0, 1.1])
+    beta = np.maximum(beta_r(ranges, beta_b=PARAMS.beta_b), PARAMS.reliability_floor)
+    s = sensor_posterior(beta, PARAMS.prior, contacts)
+    alpha = angular_weight(np.asarray(PARAMS.sensor_angles), PARAMS.w_r)
+    expected = float(opinion_pool(s, alpha))
+    assert NETWORK.fused(contacts, ranges) == pytest.approx(expected, abs=1e-12)
+
+
+def test_network_has_the_node_kinds_of_fig_8(tmp_path: Path) -> None:
+    net = NETWORK.net
+    kinds = {name: net.kind(name) for name in net.variables}
+    assert kinds["ProbabilityMap"] is NodeKind.DATA
+    assert kinds["Motors"] is NodeKind.BUS and kinds["IR_0"] is NodeKind.BUS
+    assert kinds["MovementModel"] is NodeKind.ABILITY and kinds["SensorModel_1"] is NodeKind.ABILITY
+    assert {kinds[n] for n in ("SensorFusion", "CollisionAvoidance", "NavigationGoal")} == {
+        NodeKind.CLASSIFICATION
+    }
+    path = bn.write(net, tmp_path / "rover.xmlbif")
+    back = bn.read(path)
+    assert set(back.variables) == set(net.variables)
+    assert all(back.kind(n) is net.kind(n) for n in net.variables)
+    assert back.parents("ProbabilityMap") == ("CollisionAvoidance", "SensorFusion")
+
+
+def test_the_data_node_reads_the_map_once_per_query() -> None:
+    network = DecisionNetwork(PARAMS)
+    theta = np.asarray(PARAMS.headings)
+    p_o = np.linspace(0.0, 0.9, theta.size)
+    calls = []
+
+    def read_map() -> np.ndarray:
+        calls.append(1)
+        return p_o
+
+    p_t = navigation_goal(theta, 0.0)
+    index, distribution = network.decide(p_t, read_map, [False] * 3, [7.0] * 3)
+    assert len(calls) == 1
+    np.testing.assert_allclose(distribution, movement_distribution(p_t, p_o), atol=1e-12)
+    np.testing.assert_allclose(network.collision(), p_o)

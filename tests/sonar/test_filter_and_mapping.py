@@ -1,0 +1,155 @@
+"""Tests of the stateful filter, the mappers and the pipeline."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bayesmap.errors import ConfigError, InputError
+from bayesmap.grid import OccupancyGrid
+from bayesmap.sim.polygons import path_poses, world
+from bayesmap.sim.sonar import SonarRing, observe
+from bayesmap.sonar.filter import SpecularFilter, Stage
+from bayesmap.sonar.geometry import SonarGeometry, cone_cells
+from bayesmap.sonar.mapping import ElfesMapper, RosRangeLayerMapper, ThrunMapper
+from bayesmap.sonar.pipeline import build_map, grid_for_poses, map_log
+
+
+@pytest.fixture(scope="module")
+def corridor() -> tuple[np.ndarray, object, SonarGeometry]:
+    w = world("sonar-corridor-v1")
+    ring = SonarRing()
+    poses = path_poses(w.waypoints, 0.15)
+    scan = observe(poses, w, ring, rng=11)
+    geometry = SonarGeometry(
+        angles=ring.angles,
+        beam_width=ring.beam_width,
+        max_range=ring.max_range,
+        sigma=ring.sigma,
+        radius=ring.radius,
+    )
+    return poses, scan, geometry
+
+
+def test_all_stages_off_accepts_everything(corridor) -> None:
+    poses, scan, geometry = corridor
+    filt = SpecularFilter(
+        geometry, acceptability=False, agreeability=False, trait_verification=False
+    )
+    accepted = np.array(
+        [filt.process(p, r).accepted for p, r in zip(poses, scan.ranges, strict=True)]
+    )
+    assert accepted.all() and filt.rejections_ == []
+
+
+def test_rejections_are_recorded_with_stage_and_reason_and_beat_chance(corridor) -> None:
+    poses, scan, geometry = corridor
+    filt = SpecularFilter(geometry)
+    verdicts = [filt.process(p, r) for p, r in zip(poses, scan.ranges, strict=True)]
+    stage = np.array([v.stage for v in verdicts])
+    rejected = stage != Stage.ACCEPTED
+    assert len(filt.rejections_) == rejected.sum()
+    assert sum(filt.counts_.values()) == rejected.sum()
+    for rej in filt.rejections_:
+        assert stage[rej.ring, rej.sensor] == rej.stage and rej.reason
+    precision = scan.specular[rejected].mean()
+    recall = rejected[scan.specular].mean()
+    assert precision > scan.specular.mean() + 0.2  # rejects specular readings far above chance
+    assert recall > 0.5
+    assert filt.enough_state  # the corridor path is longer than four perceptual lengths
+
+
+def test_filter_is_deterministic(corridor) -> None:
+    poses, scan, geometry = corridor
+    runs = []
+    for _ in range(2):
+        filt = SpecularFilter(geometry)
+        runs.append(
+            np.array([filt.process(p, r).stage for p, r in zip(poses, scan.ranges, strict=True)])
+        )
+    assert np.array_equal(runs[0], runs[1])
+
+
+def test_filter_rejects_bad_parameters_and_input() -> None:
+    geometry = SonarGeometry(angles=(0.0, 1.0, 2.0))
+    with pytest.raises(ConfigError):
+        SpecularFilter(geometry, certainty_threshold=2.0)
+    with pytest.raises(InputError):
+        SpecularFilter(geometry).process(np.zeros(3), np.array([1.0, np.nan, 2.0]))
+
+
+def test_cone_cells_are_inside_the_cone() -> None:
+    grid = OccupancyGrid(10, 10, 0.1, origin=(-5, -5))
+    centres = np.array([[0.0, 0.0], [1.0, 1.0]])
+    axis = np.array([0.3, -2.0])
+    cells = cone_cells(grid, centres, axis, np.array([3.0, 2.0]), 0.2)
+    x, y = grid.cell_centers(cells.rows, cells.cols)
+    c = centres[cells.reading]
+    rho = np.hypot(x - c[:, 0], y - c[:, 1])
+    assert np.allclose(rho, cells.rho) and np.all(rho <= np.array([3.0, 2.0])[cells.reading])
+    bearing = (np.arctan2(y - c[:, 1], x - c[:, 0]) - axis[cells.reading] + math.pi) % (
+        2 * math.pi
+    ) - math.pi
+    assert np.all(np.abs(bearing) <= 0.2)
+    # Brute force: every grid cell inside cone 0 is found.
+    rows, cols = np.mgrid[0:100, 0:100]
+    gx, gy = grid.cell_centers(rows, cols)
+    inside = (np.hypot(gx, gy) <= 3.0) & (
+        np.abs((np.arctan2(gy, gx) - 0.3 + math.pi) % (2 * math.pi) - math.pi) <= 0.2
+    )
+    assert inside.sum() == (cells.reading == 0).sum()
+
+
+def test_elfes_mapper_marks_the_echo_and_frees_the_cone() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), sigma=0.05, max_range=5.0)
+    grid = OccupancyGrid(10, 10, 0.1, origin=(-5, -5))
+    mapper = ElfesMapper(grid, geometry)
+    mapper.integrate([0.05, 0.05, 0.0], [2.0, 5.0], use=[True, True])
+    p = mapper.probability()
+    r, c = grid.world_to_cell([2.05, 1.0, -2.0, 3.0], [0.05, 0.05, 0.05, 0.05])
+    assert (
+        p[r[0], c[0]] > 0.6 and p[r[1], c[1]] < 0.4 and p[r[2], c[2]] < 0.4 and p[r[3], c[3]] == 0.5
+    )
+    before = mapper.log_odds_.copy()
+    mapper.integrate([0.05, 0.05, 0.0], [2.0, 5.0], use=[False, False])
+    assert np.array_equal(before, mapper.log_odds_)
+    mapper.sync()
+    assert np.allclose(grid.probability, mapper.probability())
+
+
+def test_thrun_mapper_adds_exactly_plus_minus_0_4() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+    grid = OccupancyGrid(10, 10, 0.1, origin=(-5, -5))
+    mapper = ThrunMapper(grid, geometry)
+    mapper.integrate([0.05, 0.05, 0.0], [2.0, 5.0])
+    values = set(np.round(np.unique(mapper.log_odds_), 9).tolist())
+    assert values <= {-0.4, 0.0, 0.4} and {-0.4, 0.4} <= values
+
+
+def test_ros_mapper_stays_quantised_and_marks_near_echoes() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+    grid = OccupancyGrid(6, 6, 0.05, origin=(-3, -3))
+    mapper = RosRangeLayerMapper(grid, geometry)
+    for _ in range(3):
+        mapper.integrate([0.0, 0.0, 0.0], [1.0, 0.8])
+    p = mapper.probability()
+    assert np.allclose(p * 254, np.round(p * 254))
+    r, c = grid.world_to_cell([1.0, 0.5], [0.01, 0.01])
+    assert p[r[0], c[0]] > 0.8 and p[r[1], c[1]] < 0.2
+
+
+def test_pipeline_filtered_map_is_deterministic_and_covers_the_path(corridor) -> None:
+    poses, scan, geometry = corridor
+    a = build_map(poses, scan.ranges, geometry, 0.2)
+    b = build_map(poses, scan.ranges, geometry, 0.2)
+    assert np.array_equal(a.mapper.probability(), b.mapper.probability())
+    assert np.array_equal(a.run.stage, b.run.stage)
+    grid = a.mapper.grid
+    rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
+    assert grid.in_bounds(rows, cols).all()
+    unfiltered = build_map(poses, scan.ranges, geometry, 0.2, use_filter=False)
+    assert unfiltered.run.accepted.all() and unfiltered.filt is None
+    with pytest.raises(InputError):
+        map_log(poses, scan.ranges[:-1], ElfesMapper(grid_for_poses(poses, 5, 0.2), geometry))

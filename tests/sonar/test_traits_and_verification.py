@@ -1,0 +1,149 @@
+"""Tests of split-and-merge traits and of Trait Verification's pieces."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bayesmap.sim.sonar import cast_rays
+from bayesmap.sonar.traits import fit_line, fit_traits, point_segment_distance
+from bayesmap.sonar.verification import (
+    TVReason,
+    axis_crossings,
+    certainty,
+    equivalent,
+    extend_segments,
+    reconcile,
+)
+
+
+def test_fit_line_recovers_direction_of_noisy_points() -> None:
+    rng = np.random.default_rng(1)
+    t = np.linspace(0, 3, 40)
+    angle = 0.7
+    pts = np.column_stack([t * math.cos(angle), t * math.sin(angle)]) + rng.normal(0, 0.01, (40, 2))
+    _, direction = fit_line(pts)
+    assert abs(abs(direction @ [math.cos(angle), math.sin(angle)]) - 1) < 1e-3
+
+
+def test_split_and_merge_finds_two_walls_of_a_corner_and_leaves_outliers() -> None:
+    rng = np.random.default_rng(2)
+    a = np.column_stack([np.linspace(0, 2, 15), np.full(15, 2.0)])
+    b = np.column_stack([np.full(15, 2.0), np.linspace(1.9, 0, 15)])
+    pts = np.vstack([a, b]) + rng.normal(0, 0.005, (30, 2))
+    traits = fit_traits(pts, tolerance=0.05, min_points=4, max_gap=0.5)
+    assert len(traits.segments) == 2
+    assert set(traits.labels[:14].tolist()) == {0} and set(traits.labels[16:].tolist()) == {1}
+    assert np.nanmax(traits.residuals) <= 0.05
+    lone = fit_traits(np.array([[0.0, 0.0], [5.0, 5.0], [10.0, 0.0]]), max_gap=1.0)
+    assert len(lone.segments) == 0 and np.all(lone.labels == -1)
+
+
+def test_merge_joins_collinear_pieces_around_an_outlier() -> None:
+    wall = np.column_stack([np.linspace(0, 3, 13), np.zeros(13)])
+    pts = np.vstack([wall[:6], [[1.4, 0.4]], wall[6:]])
+    traits = fit_traits(pts, tolerance=0.05, min_points=3, max_gap=1.0)
+    assert len(traits.segments) == 1
+    assert traits.labels[6] == -1 and np.all(np.delete(traits.labels, 6) == 0)
+
+
+def test_point_segment_distance_against_hand_values() -> None:
+    seg = np.array([[0.0, 0.0, 2.0, 0.0]])
+    d = point_segment_distance(np.array([[1.0, 1.0], [3.0, 0.0], [-1.0, -1.0]]), seg)[:, 0]
+    assert d.tolist() == pytest.approx([1.0, 1.0, math.sqrt(2)])
+
+
+def test_axis_crossings_agree_with_the_simulators_ray_caster() -> None:
+    rng = np.random.default_rng(3)
+    segments = rng.uniform(-5, 5, (12, 4))
+    centres = rng.uniform(-5, 5, (50, 2))
+    axis = rng.uniform(-math.pi, math.pi, 50)
+    mine = axis_crossings(centres, axis, segments)
+    theirs, _ = cast_rays(centres, np.column_stack([np.cos(axis), np.sin(axis)]), segments)
+    assert np.allclose(mine, theirs)
+
+
+def test_equivalence_needs_angle_offset_and_overlap() -> None:
+    ell = np.array([[0.0, 0.0, 4.0, 0.0]])
+    v = np.array(
+        [
+            [1.0, 0.05, 2.0, 0.08],  # same wall
+            [1.0, 0.5, 2.0, 0.5],  # parallel, too far
+            [1.0, 0.0, 2.0, 1.0],  # 45°
+            [6.0, 0.0, 7.0, 0.0],  # collinear, no overlap
+        ]
+    )
+    match = equivalent(v, ell, match_angle=math.radians(10), match_offset=0.2)[:, 0]
+    assert match.tolist() == [True, False, False, False]
+    assert equivalent(v[3:], extend_segments(ell, 2.5), match_angle=0.2, match_offset=0.2)[0, 0]
+
+
+def test_certainty_is_one_on_the_line_and_falls_with_residual() -> None:
+    c = certainty(
+        np.array([0.0, 0.02, 0.2, np.nan]),
+        np.array([1.0, 1.0, 1.0, 1.0]),
+        sigma=0.02,
+        half_width=math.radians(12.5),
+    )
+    assert c[0] == 1.0 and 0.5 < c[1] < 1.0 and c[2] < 0.01 and np.isnan(c[3])
+
+
+def _reconcile(enough: bool, **over: object) -> np.ndarray:
+    # Four readings facing +y at a wall y = 2 known to L: 0 on a V trait that matches L,
+    # 1 an echo far beyond the wall (contradicts L), 2 a no-echo reading, 3 a loose echo on L.
+    base = {
+        "candidate": np.ones(4, bool),
+        "echo": np.array([True, True, False, True]),
+        "flagged": np.zeros(4, bool),
+        "ranges": np.array([2.0, 4.0, 5.0, 2.0]),
+        "centres": np.column_stack([np.arange(4.0), np.zeros(4)]),
+        "axis": np.full(4, math.pi / 2),
+        "labels": np.array([0, -1, -1, -1]),
+        "certainties": np.array([0.9, np.nan, np.nan, np.nan]),
+        "v_segments": np.array([[-0.5, 2.0, 0.5, 2.0]]),
+        "l_segments": np.array([[-1.0, 2.0, 5.0, 2.0]]),
+        "enough_state": enough,
+        "max_range": 5.0,
+        "certainty_threshold": 0.5,
+        "match_angle": math.radians(10),
+        "match_offset": 0.2,
+        "margin": 0.3,
+    }
+    base.update(over)
+    return reconcile(**base)  # type: ignore[arg-type]
+
+
+def test_case_a_discards_only_flagged_or_uncertain_readings_without_support() -> None:
+    assert _reconcile(False).tolist() == [TVReason.KEPT] * 4
+    flagged = np.array([True, True, True, True])
+    reason = _reconcile(False, flagged=flagged)
+    assert reason.tolist() == [
+        TVReason.KEPT,
+        TVReason.UNSUPPORTED_FLAGGED,
+        TVReason.UNSUPPORTED_FLAGGED,
+        TVReason.KEPT,
+    ]
+    lonely = _reconcile(
+        False, certainties=np.array([0.1, np.nan, np.nan, np.nan]), l_segments=np.zeros((0, 4))
+    )
+    assert lonely[0] == TVReason.UNSUPPORTED_UNCERTAIN
+
+
+def test_case_b_discards_contradictions_and_flagged_uncertain_matches() -> None:
+    reason = _reconcile(True)
+    assert reason.tolist() == [
+        TVReason.KEPT,
+        TVReason.CONTRADICTS_L,
+        TVReason.CONTRADICTS_L,
+        TVReason.KEPT,
+    ]
+    reason = _reconcile(
+        True,
+        flagged=np.array([True, False, False, False]),
+        certainties=np.array([0.2, np.nan, np.nan, np.nan]),
+    )
+    assert reason[0] == TVReason.FLAGGED_UNCERTAIN
+    reason = _reconcile(True, candidate=np.array([True, False, False, True]))
+    assert reason.tolist() == [TVReason.KEPT] * 4
