@@ -1,4 +1,6 @@
 import json
+import os
+import stat
 
 import numpy as np
 import pytest
@@ -41,3 +43,17 @@ def test_spawn_gives_independent_reproducible_streams():
     again = [g.random() for g in spawn(11, 3)]
     assert first == again
     assert len(set(first)) == 3
+
+
+def test_new_files_get_the_umask_permissions_and_existing_files_keep_theirs(tmp_path):
+    old = os.umask(0o022)
+    try:
+        fresh = write_text(tmp_path / "fresh.txt", "x")
+        assert stat.S_IMODE(fresh.stat().st_mode) == 0o644
+        kept = tmp_path / "kept.txt"
+        kept.write_text("old")
+        kept.chmod(0o600)
+        write_text(kept, "new")
+        assert stat.S_IMODE(kept.stat().st_mode) == 0o600
+    finally:
+        os.umask(old)

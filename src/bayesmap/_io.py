@@ -2,7 +2,9 @@
 
 Everything bayesmap writes (networks, maps, metrics, figures) goes through these
 helpers: the bytes are written to a temporary file in the destination folder and moved
-into place with :func:`os.replace`, which is atomic on POSIX and Windows.
+into place with :func:`os.replace`, which is atomic on POSIX and Windows. The file gets
+the permissions a plain ``open`` would give it: an existing file's mode is kept, a new file
+gets ``0o666`` minus the process umask.
 """
 
 from __future__ import annotations
@@ -35,11 +37,22 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO
             yield handle
             handle.flush()
             os.fsync(handle.fileno())
+        os.chmod(tmp_name, _permissions_for(target))
         os.replace(tmp_name, target)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp_name)
         raise
+
+
+def _permissions_for(target: Path) -> int:
+    """Mode bits for ``target``: its current mode if it exists, else ``0o666 & ~umask``."""
+    try:
+        return target.stat().st_mode & 0o7777
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
 
 
 def write_text(path: str | Path, text: str) -> Path:

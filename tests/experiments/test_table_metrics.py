@@ -15,6 +15,7 @@ from bayesmap.experiments.table_metrics import (
     match_tables,
     near_wall,
     pose_distance,
+    recall_by_support,
     score_run,
 )
 
@@ -110,3 +111,20 @@ def test_score_run_by_hand():
     first = math.sqrt(0.05**2 + (0.6 * 0.02) ** 2 + C**2 / 2)
     expected = (first + C / math.sqrt(2) + C / math.sqrt(2)) / 3
     assert s["gospa_mean"] == pytest.approx(expected)
+
+
+def test_recall_by_support_splits_pairs_by_legs_in_memory():
+    truth = np.array([[2.0, 2.0, 0.0], [4.0, 4.0, 1.0]])
+    maps = [
+        np.array([[2.05, 2.0, 0.02]]),  # finds table 0 (3 legs seen), misses table 1 (1 leg)
+        np.zeros((0, 3)),  # misses table 1 (2 legs seen)
+        np.array([[4.0, 4.0, 1.0], [2.0, 2.0, 0.0]]),  # finds both (2 and 3 legs seen)
+    ]
+    touched = [np.array([0, 1]), np.array([1]), np.array([1, 0])]
+    support = [np.array([3, 1]), np.array([2]), np.array([2, 3])]
+    r = recall_by_support(maps, touched, support, truth)
+    assert (r["1"], r["2"], r["3"]) == (0.0, 0.5, 1.0)
+    assert (r["pairs_1"], r["pairs_2"], r["pairs_3"], r["pairs_4"]) == (1, 2, 2, 0)
+    assert math.isnan(r["4"])
+    with pytest.raises(ValueError, match="align"):
+        recall_by_support(maps[:1], touched[:1], [np.array([3])], truth)

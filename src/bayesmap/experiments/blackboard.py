@@ -33,7 +33,7 @@ from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap.blackboard import BlackboardParams, Snapshot, TableMapper
 from bayesmap.errors import ConfigError
 from bayesmap.experiments._common import ExperimentResult, ProgressHook, no_progress
-from bayesmap.experiments.table_metrics import MatchTolerance, score_run
+from bayesmap.experiments.table_metrics import MatchTolerance, recall_by_support, score_run
 from bayesmap.sim.tables_world import TablesWorld, initial, pose_sequence, scenario
 from bayesmap.sim.whiskers import CONDITIONS, WhiskerParams, h, observe
 from bayesmap.viz.tables import (
@@ -167,7 +167,8 @@ def _run_condition(
     sigma_r, sigma_theta, sigma_tau = config.sigmas.get(name, tuple(CONDITIONS[name].values()))
     sensor = WhiskerParams(sigma_r=sigma_r, sigma_theta=sigma_theta, sigma_tau=sigma_tau)
     mapper = TableMapper(_mapper_params(config, world, sensor))
-    maps, touched, contacts, step_s = [], [], [], []
+    maps, touched, support, contacts, step_s = [], [], [], [], []
+    memory = np.zeros((0, 2), dtype=np.int64)
     snapshots: list[Snapshot] = []
     whisker_points = np.zeros((0, 2))
     start = time.perf_counter()
@@ -178,7 +179,11 @@ def _run_condition(
         result = mapper.step(reading.shapelets, rng=chain_rng, callback=callback)
         step_s.append(time.perf_counter() - tic)
         maps.append(result.tables)
-        touched.append(np.unique(reading.table[reading.table >= 0]))
+        hit = np.unique(reading.table[reading.table >= 0])
+        touched.append(hit)
+        memory = np.vstack([memory, np.column_stack([reading.table, reading.leg])])
+        memory = memory[-mapper.params.memory_size :]
+        support.append(np.array([len(np.unique(memory[memory[:, 0] == t, 1])) for t in hit]))
         contacts.append(int((reading.table >= 0).sum()))
         if index == snapshot_at:
             whisker_points = reading.contacts.point
@@ -186,6 +191,7 @@ def _run_condition(
     return {
         "maps": maps,
         "touched": touched,
+        "support": support,
         "contacts": np.asarray(contacts),
         "step_ms": 1e3 * np.asarray(step_s),
         "wall_s": time.perf_counter() - start,
@@ -209,6 +215,7 @@ def _metrics(run: dict[str, Any], config: Config, world: TablesWorld) -> dict[st
     rough = score_run(
         run["maps"], run["touched"], world.tables, world.bounds, world.params.table_length, loose
     )
+    by_legs = recall_by_support(run["maps"], run["touched"], run["support"], world.tables, tol)
     contacts = run["contacts"][run["contacts"] > 0]
     sensor: WhiskerParams = run["sensor"]
     return {
@@ -227,6 +234,7 @@ def _metrics(run: dict[str, Any], config: Config, world: TablesWorld) -> dict[st
         "gospa_p": tol.p,
         "gospa_alpha": 2.0,
         "gospa_angle_scale": tol.angle_scale,
+        "recall_by_legs_in_memory": by_legs,
         "precision_loose": rough["precision"],
         "recall_loose": rough["recall"],
         "loose_position_tol": loose.position_tol,
@@ -249,6 +257,12 @@ def _summary(metrics: dict[str, dict[str, Any]], world: TablesWorld, config: Con
         (
             "precision / recall, loose match",
             lambda m: f"{m['precision_loose']:.3f} / {m['recall_loose']:.3f}",
+        ),
+        (
+            "recall with 1 / 2 / 3 / 4 legs in memory",
+            lambda m: " / ".join(
+                f"{m['recall_by_legs_in_memory'][str(k)]:.2f}" for k in range(1, 5)
+            ),
         ),
         ("position error mean [m]", lambda m: f"{m['position_error_mean']:.3f}"),
         ("angle error mean [°]", lambda m: f"{np.degrees(m['angle_error_mean']):.1f}"),

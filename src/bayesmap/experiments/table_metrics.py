@@ -206,3 +206,49 @@ def score_run(
         "phantoms": n_phantom,
         "phantom_near_walls": n_wall,
     }
+
+
+def recall_by_support(
+    maps: Sequence[FloatArray],
+    touched: Sequence[IntArray],
+    support: Sequence[IntArray],
+    truth: FloatArray,
+    tol: MatchTolerance = MatchTolerance(),
+) -> dict[str, float]:
+    """Recall split by how many distinct legs of the touched table the mapper could see.
+
+    One leg fits eight tables and two legs on one side fit two (Fox & Prescott 2011,
+    Fig. 3), so recall can only be high where three or more legs are in working memory;
+    this breakdown separates that inherent ambiguity from search failures.
+
+    Parameters
+    ----------
+    maps, touched, truth, tol
+        As in :func:`score_run`.
+    support
+        Per pose, aligned with ``touched``: the number of distinct legs of each touched
+        table among the shapelets in the mapper's working memory.
+
+    Returns
+    -------
+    dict
+        ``{"1": recall, "2": …, "3": …, "4": …}`` over (pose, touched table) pairs with
+        that many legs in memory (NaN where there are none), plus ``"pairs_<k>"`` counts.
+    """
+    found = np.zeros(5)
+    pairs = np.zeros(5)
+    tru = _poses(truth, "truth")
+    for tables, hit, legs in zip(maps, touched, support, strict=True):
+        hit = np.asarray(hit, dtype=np.int64)
+        legs = np.asarray(legs, dtype=np.int64)
+        if hit.shape != legs.shape:
+            raise InputError(f"support {legs.shape} must align with the touched tables {hit.shape}")
+        _, j = match_tables(_poses(tables, "map tables"), tru, tol)
+        k = np.clip(legs, 0, 4)
+        np.add.at(pairs, k, 1)
+        np.add.at(found, k, np.isin(hit, j))
+    result: dict[str, float] = {}
+    for k in range(1, 5):
+        result[str(k)] = float(found[k] / pairs[k]) if pairs[k] else float("nan")
+        result[f"pairs_{k}"] = int(pairs[k])
+    return result
