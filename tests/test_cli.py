@@ -15,7 +15,9 @@ def _all_command_paths(command, prefix=()):
             yield from _all_command_paths(sub, prefix + (name,))
 
 
-@pytest.mark.parametrize("path", list(_all_command_paths(get_command(app))), ids=lambda p: " ".join(p) or "root")
+@pytest.mark.parametrize(
+    "path", list(_all_command_paths(get_command(app))), ids=lambda p: " ".join(p) or "root"
+)
 def test_every_command_has_help(path):
     result = runner.invoke(app, [*path, "--help"])
     assert result.exit_code == 0, result.output

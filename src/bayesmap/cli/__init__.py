@@ -12,7 +12,14 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TaskID,
+    TextColumn,
+    TimeElapsedColumn,
+)
 from rich.table import Table
 
 from bayesmap import __version__
@@ -57,11 +64,13 @@ def _root(
 def reproduce(
     experiments: Annotated[
         list[str] | None,
-        typer.Argument(help="Experiments to run (default: all). Known: see 'bayesmap reproduce --list'."),
+        typer.Argument(
+            help="Experiments to run (default: all). Known: see 'bayesmap reproduce --list'."
+        ),
     ] = None,
-    out: Annotated[Path, typer.Option("--out", help="Output folder; each experiment writes DIR/<name>/.")] = Path(
-        "results"
-    ),
+    out: Annotated[
+        Path, typer.Option("--out", help="Output folder; each experiment writes DIR/<name>/.")
+    ] = Path("results"),
     list_: Annotated[bool, typer.Option("--list", help="List the experiments and exit.")] = False,
 ) -> None:
     """Run the paper experiments at their default size; write figures, maps and metrics."""
@@ -92,7 +101,7 @@ def reproduce(
             module = load(name)
             task = progress.add_task("starting", total=None, experiment=name)
 
-            def hook(description: str, completed: int, total: int, _task: int = task) -> None:
+            def hook(description: str, completed: int, total: int, _task: TaskID = task) -> None:
                 progress.update(_task, description=description, completed=completed, total=total)
 
             started = time.perf_counter()

@@ -244,9 +244,9 @@ def recall_by_support(
         if hit.shape != legs.shape:
             raise InputError(f"support {legs.shape} must align with the touched tables {hit.shape}")
         _, j = match_tables(_poses(tables, "map tables"), tru, tol)
-        k = np.clip(legs, 0, 4)
-        np.add.at(pairs, k, 1)
-        np.add.at(found, k, np.isin(hit, j))
+        bins = np.clip(legs, 0, 4)
+        np.add.at(pairs, bins, 1)
+        np.add.at(found, bins, np.isin(hit, j))
     result: dict[str, float] = {}
     for k in range(1, 5):
         result[str(k)] = float(found[k] / pairs[k]) if pairs[k] else float("nan")
