@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from bayesmap.errors import ConfigError, InputError
+from bayesmap.errors import ConfigError, InputError, ModelError
 from bayesmap.sim.tables_world import (
     WALL,
     WorldParams,
@@ -77,6 +78,19 @@ def test_world_is_deterministic_and_keeps_its_gaps(world):
     positions = pose_sequence(PARAMS)[:, :2]
     assert np.linalg.norm(positions[:, None] - legs.reshape(-1, 2)[None], axis=-1).min() > 0.2
     assert not np.array_equal(world.tables, initial(np.random.default_rng(8), PARAMS).tables)
+
+
+def test_a_layout_that_dead_ends_is_started_again():
+    # SeedSequence(2014)'s world stream places five tables that leave no room for a sixth
+    stream = np.random.default_rng(np.random.SeedSequence(2014).spawn(1)[0])
+    world = initial(stream, PARAMS)
+    assert world.tables.shape == (6, 3)
+    centres = world.tables[:, :2]
+    gaps = np.linalg.norm(centres[:, None] - centres[None], axis=-1) + 99 * np.eye(6)
+    assert gaps.min() >= math.hypot(PARAMS.table_length, PARAMS.table_width)
+    crowded = replace(PARAMS, n_tables=12)
+    with pytest.raises(ModelError, match="could not place 12 tables"):
+        initial(np.random.default_rng(0), crowded)
 
 
 def test_segments_have_outward_normals_and_labels(world):

@@ -239,6 +239,12 @@ def _segments(
     return segments, normal, texture, table, leg
 
 
+_DRAWS_PER_TABLE = 2_000
+"""Rejected draws in a row after which :func:`initial` starts its layout again."""
+_MAX_DRAWS = 100_000
+"""Draws :func:`initial` makes before giving up."""
+
+
 def initial(
     rng: np.random.Generator, params: WorldParams, *, name: str = "whisker-tables-v1"
 ) -> TablesWorld:
@@ -246,16 +252,19 @@ def initial(
 
     Tables are drawn uniformly (centre in the arena, angle in [0, π)) and rejected until
     each keeps ``wall_clearance`` from the walls, ``table_gap`` from the others and
-    ``pose_clearance`` from every robot position.
+    ``pose_clearance`` from every robot position. Tables placed early can leave no room
+    for the rest; after :data:`_DRAWS_PER_TABLE` rejected draws in a row the layout is
+    started again (from the same stream, so a seed always gives the same world).
 
     Raises
     ------
     ModelError
-        If ``n_tables`` tables cannot be placed in 10 000 draws (arena too small).
+        If ``n_tables`` tables cannot be placed in :data:`_MAX_DRAWS` draws (arena too small).
     """
     positions = pose_sequence(params)[::4, :2]
     placed: list[FloatArray] = []
-    for _ in range(10_000):
+    rejected = 0
+    for _ in range(_MAX_DRAWS):
         if len(placed) == params.n_tables:
             break
         candidate = np.array(
@@ -267,11 +276,16 @@ def initial(
         )
         if _fits(candidate, placed, positions, params):
             placed.append(candidate)
+            rejected = 0
+        else:
+            rejected += 1
+            if rejected == _DRAWS_PER_TABLE:
+                placed, rejected = [], 0
     if len(placed) < params.n_tables:
         raise ModelError(
             f"could not place {params.n_tables} tables of {params.table_length} m × "
-            f"{params.table_width} m in a {params.arena_size} m arena; enlarge the arena "
-            "or reduce n_tables"
+            f"{params.table_width} m in a {params.arena_size} m arena in {_MAX_DRAWS} draws; "
+            "enlarge the arena or reduce n_tables"
         )
     return build(np.asarray(placed, dtype=np.float64).reshape(-1, 3), params, name=name)
 
