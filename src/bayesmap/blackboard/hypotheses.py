@@ -71,7 +71,9 @@ def make_table(
     """A :class:`Table` with its angle reduced to ``[0, π)`` and its corners computed.
 
     The corners are the leg centres at ``(±a, ±b)`` in the table frame, with
-    ``(a, b) = params.corner_offset``; corner ``i`` has the signs ``CORNER_SIGNS[i]``.
+    ``a = (table_length − w)/2`` and ``b = (table_width − w)/2`` (legs flush with the
+    corners, as :attr:`BlackboardParams.corner_offset` for ``w = leg_width``); corner ``i``
+    has the signs ``CORNER_SIGNS[i]``.
     """
     theta = theta % math.pi
     a = 0.5 * (params.table_length - w)
@@ -112,7 +114,8 @@ class Blackboard:
         self.leg_hash_ = SpatialHash(cell)
         self._log_box = params.log_box
         self._log_c_L = params.log_box + math.log(params.c_L)
-        self._table_reach = 2.0 * math.hypot(params.table_length, params.table_width) * 0.5
+        # two rectangles overlap only if their centres are closer than a full diagonal
+        self._table_reach = math.hypot(params.table_length, params.table_width)
         self._leg_reach = math.sqrt(2.0) * params.leg_width
 
     # ------------------------------------------------------------------ size

@@ -13,17 +13,15 @@ import io
 from collections.abc import Sequence
 from typing import NamedTuple, Protocol
 
-import matplotlib
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.collections import PolyCollection
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+from PIL import Image
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.collections import PolyCollection  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from PIL import Image  # noqa: E402
-
-from bayesmap._typing import FloatArray  # noqa: E402
+from bayesmap._typing import FloatArray
 
 __all__ = [
     "BoardView",
@@ -135,10 +133,13 @@ def _arena(ax: Axes, bounds: tuple[float, float, float, float], pad: float = 0.3
 
 
 def figure_png(fig: Figure, dpi: int = 110, *, tight: bool = True) -> bytes:
-    """Render a figure to PNG bytes and close it (``tight``: crop to its content)."""
+    """Render a figure to PNG bytes (``tight``: crop to its content).
+
+    Figures here are plain :class:`~matplotlib.figure.Figure` objects, never registered
+    with pyplot, so drawing them neither changes the caller's backend nor leaks memory.
+    """
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight" if tight else None)
-    plt.close(fig)
     return buffer.getvalue()
 
 
@@ -149,7 +150,8 @@ def ground_truth_figure(
     poses: FloatArray,
 ) -> Figure:
     """Fig. 4: the true tables and the robot's positions, with the order they are visited."""
-    fig, ax = plt.subplots(figsize=(5.2, 5.2))
+    fig = Figure(figsize=(5.2, 5.2))
+    ax = fig.subplots()
     draw_tables(ax, truth, shape, color=TRUTH_COLOR, alpha=0.55)
     xy = np.asarray(poses)[:, :2]
     _, first = np.unique(xy, axis=0, return_index=True)
@@ -176,7 +178,8 @@ def montage_figure(
     The fill's opacity falls with the number of tables drawn, so that where many poses
     agree on a table the map is dark and a lone table stays faint.
     """
-    fig, ax = plt.subplots(figsize=(5.2, 5.2))
+    fig = Figure(figsize=(5.2, 5.2))
+    ax = fig.subplots()
     stacked = [np.asarray(m)[:, :3] for m in maps if np.size(m)]
     if stacked:
         every = np.concatenate(stacked)
@@ -204,7 +207,8 @@ def snapshot_figure(
     small yellow bars along the touched surface with a tick along their normal; the robot
     as a cone and its whiskers as lines to their contacts (or protracted tips).
     """
-    fig, ax = plt.subplots(figsize=(4.6, 4.6))
+    fig = Figure(figsize=(4.6, 4.6))
+    ax = fig.subplots()
     draw_tables(ax, truth, shape, color=TRUTH_COLOR, alpha=0.45)
     draw_tables(ax, board.tables, shape, color="tab:blue", alpha=0.9, filled=False, linewidth=0.8)
     legs = np.asarray(board.legs, dtype=np.float64).reshape(-1, 6)
@@ -232,6 +236,17 @@ def snapshot_figure(
         )
         for (sx, sy), (tx, ty) in zip(shapelets[:, :2], tips, strict=True):
             ax.plot([sx, tx], [sy, ty], color="darkgoldenrod", lw=0.8, zorder=5)
+    ax.legend(
+        handles=[
+            Patch(facecolor=TRUTH_COLOR, alpha=0.45, label="true table"),
+            Patch(facecolor="none", edgecolor="tab:blue", label="table hypothesis"),
+            Patch(facecolor="none", edgecolor="tab:green", label="leg hypothesis"),
+            Line2D([], [], color="gold", lw=3, label="shapelet (tick: normal)"),
+        ],
+        loc="upper left",
+        fontsize=6,
+        framealpha=0.85,
+    )
     _arena(ax, bounds, pad=0.3)
     ax.set_xlim(max(bounds[0] - 0.3, x - radius), min(bounds[2] + 0.3, x + radius))
     ax.set_ylim(max(bounds[1] - 0.3, y - radius), min(bounds[3] + 0.3, y + radius))

@@ -1,0 +1,55 @@
+"""Figures of the table-mapping experiment: they render, and leave pyplot alone."""
+
+from __future__ import annotations
+
+import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+
+from bayesmap.blackboard.annealing import Snapshot
+from bayesmap.viz.tables import (
+    TableShape,
+    annealing_gif,
+    figure_png,
+    ground_truth_figure,
+    montage_figure,
+    snapshot_figure,
+)
+
+SHAPE = TableShape(1.2, 0.8, 0.1)
+BOUNDS = (0.0, 0.0, 6.0, 6.0)
+TRUTH = np.array([[2.0, 2.0, 0.3], [4.0, 4.5, 1.2]])
+
+
+def _snapshot(index: int) -> Snapshot:
+    return Snapshot(
+        beta=0.1 * (index + 1),
+        index=index,
+        n_temperatures=3,
+        tables=np.array([[2.0, 2.0, 0.3, 0.1, 0.3]]),
+        legs=np.array([[1.5, 1.6, 0.3, 0.1, 0.1, 0.3]]),
+        leg_parent=np.array([0]),
+        shapelets=np.array([[1.45, 1.6, np.pi, 0.3]]),
+        shapelet_parent=np.array([0]),
+        log_joint=0.0,
+    )
+
+
+def test_figures_render_without_touching_the_pyplot_backend():
+    backend = matplotlib.get_backend()
+    pose = np.array([1.0, 1.0, 0.5])
+    figures = [
+        ground_truth_figure(TRUTH, SHAPE, BOUNDS, np.array([[0.5, 0.5, 0.0], [1.0, 0.5, 0.0]])),
+        montage_figure(TRUTH, [TRUTH, np.zeros((0, 5))], SHAPE, BOUNDS, "montage"),
+        montage_figure(TRUTH, [np.zeros((0, 5))], SHAPE, BOUNDS, "nothing mapped"),
+        snapshot_figure(_snapshot(0), SHAPE, TRUTH, pose, np.array([[1.45, 1.6]]), BOUNDS),
+    ]
+    for fig in figures:
+        assert figure_png(fig)[:8] == b"\x89PNG\r\n\x1a\n"
+    gif = annealing_gif(
+        [_snapshot(i) for i in range(3)], SHAPE, TRUTH, pose, np.zeros((0, 2)), BOUNDS
+    )
+    assert gif[:6] == b"GIF89a"
+    assert annealing_gif([], SHAPE, TRUTH, pose, np.zeros((0, 2)), BOUNDS) == b""
+    assert matplotlib.get_backend() == backend
+    assert plt.get_fignums() == []
