@@ -73,7 +73,7 @@ def main() -> None:
             rates[size].append(replay(size, log))
     small, large = statistics.median(rates[20.0]), statistics.median(rates[200.0])
     rows = [
-        "| map | cells | cycles/s (median of 5) | ms per cycle |",
+        f"| map | cells | cycles/s (median of {REPEATS}) | ms per cycle |",
         "|---|---|---|---|",
         f"| 20 m x 20 m | {40 * 40:,} | {small:.0f} | {1000 / small:.2f} |",
         f"| 200 m x 200 m | {400 * 400:,} | {large:.0f} | {1000 / large:.2f} |",

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -139,6 +141,72 @@ def test_npz_bad_files_raise_format_error(tmp_path) -> None:  # type: ignore[no-
     np.savez(partial, probability=np.zeros((2, 2)))
     with pytest.raises(FormatError, match="missing"):
         OccupancyGrid.load_npz(partial)
+
+
+def _saved_grid_bytes() -> bytes:
+    grid = OccupancyGrid(3.0, 2.0, 0.5, origin=(1.0, -1.0), prior=0.2)
+    grid.probability[1, 2] = 0.9
+    buffer = io.BytesIO()
+    np.savez_compressed(
+        buffer,
+        probability=grid.probability,
+        entropy=grid.entropy,
+        resolution=np.float64(grid.resolution),
+        origin=np.asarray(grid.origin),
+        prior=np.float64(grid.prior),
+    )
+    return buffer.getvalue()
+
+
+_GRID_BYTES = _saved_grid_bytes()
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    st.integers(0, len(_GRID_BYTES)),
+    st.lists(st.tuples(st.integers(0, len(_GRID_BYTES) - 1), st.integers(0, 255)), max_size=4),
+)
+def test_npz_corrupt_bytes_raise_only_format_error(
+    tmp_path_factory: pytest.TempPathFactory, cut: int, flips: list[tuple[int, int]]
+) -> None:
+    data = bytearray(_GRID_BYTES[:cut] if cut < len(_GRID_BYTES) else _GRID_BYTES)
+    for where, value in flips:
+        if where < len(data):
+            data[where] = value
+    path = tmp_path_factory.mktemp("npz") / "map.npz"
+    path.write_bytes(bytes(data))
+    try:
+        grid = OccupancyGrid.load_npz(path)
+    except FormatError:
+        return
+    assert np.all((grid.probability >= 0) & (grid.probability <= 1))
+
+
+@pytest.mark.parametrize(
+    "arrays",
+    [
+        {"resolution": np.array([0.5, 0.5])},
+        {"probability": np.full((2, 2), 1.5)},
+        {"entropy": np.full((2, 2), np.nan)},
+        {"prior": np.array("high")},
+    ],
+)
+def test_npz_bad_arrays_raise_format_error(tmp_path, arrays) -> None:  # type: ignore[no-untyped-def]
+    good = {
+        "probability": np.full((2, 2), 0.2),
+        "entropy": np.ones((2, 2)),
+        "resolution": np.float64(0.5),
+        "origin": np.zeros(2),
+        "prior": np.float64(0.2),
+    }
+    path = tmp_path / "bad.npz"
+    np.savez(path, **{**good, **arrays})
+    with pytest.raises(FormatError):
+        OccupancyGrid.load_npz(path)
+    npy = tmp_path / "plain.npy"
+    np.save(npy, np.zeros(3))
+    with pytest.raises(FormatError):
+        OccupancyGrid.load_npz(npy)
 
 
 def test_set_probability_with_mask_touches_only_marked_cells() -> None:

@@ -8,7 +8,8 @@ from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.mapping import IRMapper, local_patch
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.targets import EntropyTarget, FrontierTarget, clear_of_obstacles
-from bayesmap.sensing.ir import raw_from_range
+from bayesmap.sensing.ir import ranger_poses, raw_from_range
+from bayesmap.sim.ir import IRRangers
 
 PARAMS = RoverParams()
 
@@ -84,3 +85,19 @@ def test_targets_keep_clear_of_likely_obstacles() -> None:
     clear = clear_of_obstacles(grid.probability, PARAMS, grid.resolution)
     assert not clear[grid.world_to_cell(5.2, 5.2)] and clear[grid.world_to_cell(8.2, 5.2)]
     assert EntropyTarget(PARAMS).select(grid, (3.0, 5.2, 0.0)) == (8.25, 5.25)
+
+
+def test_default_ranger_geometry_matches_the_simulated_rover() -> None:
+    rangers = IRRangers()
+    pose = np.array([3.0, -2.0, 2.5])
+    assert (PARAMS.sensor_angles, PARAMS.sensor_offset, PARAMS.w_r) == (
+        rangers.angles,
+        rangers.offset,
+        rangers.w_r,
+    )
+    np.testing.assert_array_equal(
+        rangers.poses(pose), ranger_poses(pose, PARAMS.sensor_angles, PARAMS.sensor_offset)
+    )
+    expected = pose[:2] + 0.15 * np.array([np.cos(2.5), np.sin(2.5)])
+    np.testing.assert_allclose(rangers.poses(pose)[:, :2], np.tile(expected, (3, 1)))
+    np.testing.assert_allclose(rangers.poses(pose)[:, 2], 2.5 + np.radians([30.0, 0.0, -30.0]))

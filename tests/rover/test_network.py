@@ -11,8 +11,9 @@ from hypothesis import strategies as st
 
 from bayesmap import bn
 from bayesmap.bn.model import NodeKind
+from bayesmap.errors import ConfigError
 from bayesmap.rover.decisions import movement_distribution, navigation_goal
-from bayesmap.rover.network import DecisionNetwork
+from bayesmap.rover.network import DecisionNetwork, heading_states
 from bayesmap.rover.params import RoverParams
 from bayesmap.sensing.fusion import opinion_pool
 from bayesmap.sensing.ir import angular_weight, beta_r, sensor_posterior
@@ -78,3 +79,14 @@ def test_the_data_node_reads_the_map_once_per_query() -> None:
     assert len(calls) == 1
     np.testing.assert_allclose(distribution, movement_distribution(p_t, p_o), atol=1e-12)
     np.testing.assert_allclose(network.collision(), p_o)
+
+
+@pytest.mark.parametrize("n", [3, 361, 720])
+def test_heading_count_outside_4_to_360_is_a_config_error(n: int) -> None:
+    with pytest.raises(ConfigError, match="n_headings"):
+        RoverParams(n_headings=n)
+
+
+def test_heading_states_are_distinct_up_to_360() -> None:
+    for n in (4, 7, 36, 359, 360):
+        assert len(set(heading_states(n))) == n

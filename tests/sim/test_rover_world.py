@@ -94,3 +94,16 @@ def test_same_seed_same_readings() -> None:
     np.testing.assert_array_equal(runs[0], runs[1])
     clean = sim_rover.h(state, world, params)
     assert clean.pose.tolist() == state.pose.tolist()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"speed": 0.0}, "speed"),
+        ({"gps_sigma": -0.1}, "gps_sigma"),
+        ({"compass_sigma": math.nan}, "compass_sigma"),
+    ],
+)
+def test_bad_rover_params_name_the_field(kwargs: dict[str, float], field: str) -> None:
+    with pytest.raises(ConfigError, match=field):
+        sim_rover.RoverParams(**kwargs)

@@ -64,7 +64,7 @@ class Config(BaseModel):
     delta_h: float = Field(0.1, ge=0, lt=1)
     target_margin: float = Field(0.05, ge=0)
     h_desired: float = Field(0.3, gt=0, le=1)
-    n_headings: int = Field(36, ge=4)
+    n_headings: int = Field(36, ge=4, le=360)
     max_steps: int = Field(5000, ge=1)
     start: tuple[float, float, float] = (1.0, 1.0, math.pi / 4)
     gps_sigma: float = Field(0.1, ge=0)
@@ -358,8 +358,7 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
     )
     bn.write(DecisionNetwork(config.rover_params()).net, out / "decision_network.xmlbif")
     summary = write_text(out / "summary.md", _summary(config, results))
-    all_metrics = {name: by for name, by in results.items()}
-    metric_files.append(write_json(out / "metrics.json", all_metrics))
+    metric_files.append(write_json(out / "metrics.json", results))
     paper = [by["entropy"] for by in results.values()]
     headline: dict[str, float | int | str] = {
         "collisions": int(sum(m["collisions"] for m in paper)),

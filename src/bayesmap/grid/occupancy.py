@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import io
 import math
+import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -254,27 +256,37 @@ class OccupancyGrid:
                 arrays = {key: np.asarray(data[key]) for key in _NPZ_KEYS}
         except FormatError:
             raise
-        except (OSError, ValueError, EOFError) as error:
+        except (OSError, ValueError, TypeError, EOFError, zipfile.BadZipFile, zlib.error) as error:
             raise FormatError(f"cannot read .npz occupancy grid ({error})", path=path) from None
-        probability = arrays["probability"].astype(np.float64)
-        entropy = arrays["entropy"].astype(np.float64)
+        try:
+            probability, entropy, origin = (
+                arrays[key].astype(np.float64) for key in ("probability", "entropy", "origin")
+            )
+            resolution, prior = (float(arrays[key].item()) for key in ("resolution", "prior"))
+        except (TypeError, ValueError) as error:
+            raise FormatError(
+                f"occupancy grid arrays of the wrong type or size ({error})", path=path
+            ) from None
         if probability.ndim != 2 or probability.shape != entropy.shape or probability.size == 0:
             raise FormatError(
                 f"layers must be equal 2-D arrays, got {probability.shape}, {entropy.shape}",
                 path=path,
             )
-        origin = arrays["origin"].astype(np.float64)
+        if not np.all((probability >= 0) & (probability <= 1) & (entropy >= 0) & (entropy <= 1)):
+            raise FormatError(
+                "probabilities and entropies [bits] must lie in [0, 1] (no NaN)",
+                path=path,
+            )
         if origin.shape != (2,):
             raise FormatError(f"origin must hold 2 numbers, got shape {origin.shape}", path=path)
         ny, nx = probability.shape
-        resolution = float(arrays["resolution"])
         try:
             grid = cls(
                 nx * resolution,
                 ny * resolution,
                 resolution,
                 (origin[0], origin[1]),
-                prior=float(arrays["prior"]),
+                prior=prior,
             )
         except ConfigError as error:
             raise FormatError(str(error), path=path) from None

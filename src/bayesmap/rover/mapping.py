@@ -18,19 +18,10 @@ from bayesmap.errors import InputError
 from bayesmap.grid import OccupancyGrid, Window
 from bayesmap.rover.params import RoverParams
 from bayesmap.sensing.fusion import bayes_map_update, ir_cell_evidence
-from bayesmap.sensing.ir import contact, range_from_raw
+from bayesmap.sensing.ir import contact, range_from_raw, ranger_poses
 
 _TOUCHED = 1e-3
 """Cells whose evidence strength is below this are left alone."""
-
-
-def sensor_poses(pose: npt.ArrayLike, params: RoverParams) -> FloatArray:
-    """``(n, 3)`` ranger poses ``(x, y, theta)`` for a rover pose ``(x, y, heading)``."""
-    x, y, heading = np.asarray(pose, dtype=np.float64).reshape(3)
-    theta = heading + np.asarray(params.sensor_angles)
-    sx = x + params.sensor_offset * math.cos(heading)
-    sy = y + params.sensor_offset * math.sin(heading)
-    return np.stack([np.full_like(theta, sx), np.full_like(theta, sy), theta], axis=1)
 
 
 def local_patch(
@@ -99,7 +90,7 @@ class IRMapper:
         ranges = range_from_raw(readings)
         self.previous_raw_ = readings
         self.last_contacts_, self.last_ranges_ = contacts, ranges
-        sensors = sensor_poses(pose, p)
+        sensors = ranger_poses(pose, p.sensor_angles, p.sensor_offset)
         reach = p.r_max + p.sensor_offset + 3.0 * p.sigma_xy
         window = self.grid_.window(float(sensors[0, 0]), float(sensors[0, 1]), reach)
         if window.size == 0:

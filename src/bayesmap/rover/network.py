@@ -103,7 +103,7 @@ class DecisionNetwork:
                 ["free", "obstacle"],
                 parents=[f"IR_{k}"],
                 kind=NodeKind.ABILITY,
-                cpt=self._sensor_table(k, p.r_max),
+                cpt=self._sensor_table(p.r_max),
                 source=self._sensor_source(k),
             )
             sensor_names.append(name)
@@ -146,16 +146,17 @@ class DecisionNetwork:
         return net
 
     # ------------------------------------------------------------ node tables
-    def _sensor_table(self, k: int, read_range: float) -> FloatArray:
+    def _sensor_table(self, read_range: float) -> FloatArray:
+        """``P(SensorModel | IR)``: eq. 32 at ``read_range`` [m], rows ``free``, ``obstacle``."""
         p = self.params
-        beta = max(float(beta_r(read_range, r_max=p.r_max, beta_b=p.beta_b)), p.reliability_floor)
+        beta = beta_r(read_range, r_max=p.r_max, beta_b=p.beta_b, floor=p.reliability_floor)
         s = sensor_posterior(beta, p.prior, np.array([0, 1]))
         return np.stack([1.0 - s, s])
 
     def _sensor_source(self, k: int) -> DataSource:
         def source(evidence: Mapping[str, str]) -> FloatArray:
             del evidence
-            return self._sensor_table(k, float(self.inputs_.ranges[k]))
+            return self._sensor_table(float(self.inputs_.ranges[k]))
 
         return source
 
@@ -165,8 +166,7 @@ class DecisionNetwork:
         alpha = angular_weight(np.asarray(self.params.sensor_angles), self.params.w_r)
         states = np.indices((2,) * n).reshape(n, -1).T
         obstacle = opinion_pool(states.T.astype(float), alpha[:, None], axis=0)
-        table = np.stack([1.0 - obstacle, obstacle]).reshape((2,) + (2,) * n)
-        return table
+        return np.stack([1.0 - obstacle, obstacle]).reshape((2,) + (2,) * n)
 
     def collision(self) -> FloatArray:
         """This cycle's ``P(O | theta_m)``, read off the map on first use (capped below 1)."""

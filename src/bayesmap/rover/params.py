@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 
 from bayesmap.errors import ConfigError
+from bayesmap.sensing.ir import R_MAX, RANGER_ANGLES, RANGER_OFFSET, SIGMA_R, W_R
 
 
 @dataclass(frozen=True)
@@ -40,7 +41,8 @@ class RoverParams:
         ``delta_h`` margin of eq. 39 [bits]: among cells this close to the largest entropy,
         the nearest is chosen.
     n_headings
-        ``M``, number of discrete headings (eqs. 41–43).
+        ``M``, number of discrete headings (eqs. 41–43), 4 to 360: the decision network
+        names its heading states in whole degrees.
     clearance
         Half-width of the corridor swept along each heading (eqs. 41–42) [m].
     distance_weighted
@@ -56,13 +58,13 @@ class RoverParams:
 
     prior: float = 0.2
     beta_b: float = 0.2
-    r_max: float = 2.0
+    r_max: float = R_MAX
     reliability_floor: float = 0.5
-    sigma_r: float = 2.777
-    w_r: float = 0.3
+    sigma_r: float = SIGMA_R
+    w_r: float = W_R
     sigma_xy: float = 0.25
-    sensor_angles: tuple[float, ...] = (math.radians(30.0), 0.0, -math.radians(30.0))
-    sensor_offset: float = 0.15
+    sensor_angles: tuple[float, ...] = RANGER_ANGLES
+    sensor_offset: float = RANGER_OFFSET
     d_max: float = 8.0
     d_min: float = 1.0
     target_margin: float = 0.05
@@ -87,7 +89,9 @@ class RoverParams:
             "sigma_r >= 0": self.sigma_r >= 0,
             "0 <= d_min < d_max": 0.0 <= self.d_min < self.d_max,
             "target_margin >= 0": self.target_margin >= 0,
-            "n_headings >= 4": self.n_headings >= 4,
+            "4 <= n_headings <= 360 (heading states are whole degrees)": (
+                4 <= self.n_headings <= 360
+            ),
             "clearance > 0": self.clearance > 0,
             "p_block in (0, 1]": 0.0 < self.p_block <= 1.0,
             "h_desired in (0, 1]": 0.0 < self.h_desired <= 1.0,

@@ -3,12 +3,13 @@
 Each reading of ranger ``n`` gives, for every cell ``c`` near the rover, an opinion
 ``s[n, c]`` about an obstacle in ``c`` (eq. 32) and a weight ``w[n, c]`` in [0, 1]:
 
-- cells along the beam, closer than the reading (or than ``r_max`` without contact), get the
-  no-contact opinion ``eq. 32 (o = 0)`` at their own distance ``R``, weighted by the beam's
-  angular sensitivity ``exp(-(theta / w_r)^2)`` (the shape of eq. 34);
-- with contact, cells around the sensed point get the contact opinion ``eq. 32 (o = 1)`` at
-  the read range, weighted by a 2-D Gaussian of the positional uncertainty ``sigma_xy``
-  (the spread of §4.3).
+- cells along the beam closer than ``r - sigma_xy`` when the ranger has contact within
+  ``r_max`` (closer than ``r_max`` otherwise) get the no-contact opinion ``eq. 32 (o = 0)``
+  at their own distance ``R``, weighted by the beam's angular sensitivity
+  ``exp(-(theta / w_r)^2)`` (the shape of eq. 34);
+- with contact within ``r_max``, cells around the sensed point get the contact opinion
+  ``eq. 32 (o = 1)`` at the read range, weighted by a 2-D Gaussian of the positional
+  uncertainty ``sigma_xy`` (the spread of §4.3).
 
 The rangers' opinions are pooled linearly (eq. 35) and the pooled evidence updates the map
 by Bayes' rule (eq. 36). These choices fill gaps of the paper; docs/rover.md lists them.
@@ -97,7 +98,8 @@ def ir_cell_evidence(
     sigma_xy
         Standard deviation of the 2-D Gaussian spread of a contact [m].
     reliability_floor
-        ``beta_r`` below this is raised to it. The paper's ``beta_b = 0.2`` makes ``beta_r``
+        ``beta_r`` below this is raised to it (the ``floor`` of
+        :func:`~bayesmap.sensing.ir.beta_r`). The paper's ``beta_b = 0.2`` makes ``beta_r``
         fall below 1/2 beyond ~1.27 m, where eq. 32 would turn a contact into evidence of
         free space; the default floor of 1/2 makes such readings uninformative instead.
         Use 0 for the literal paper.
@@ -118,17 +120,17 @@ def ir_cell_evidence(
     dx, dy = x - sx, y - sy
     distance = np.hypot(dx, dy)
     off_axis = np.angle(np.exp(1j * (np.arctan2(dy, dx) - st)))
-
-    def beta(value: npt.ArrayLike) -> FloatArray:
-        return np.maximum(beta_r(value, r_max=r_max, beta_b=beta_b), reliability_floor)
-
     hit = o & (r <= r_max)
     free_limit = np.where(hit, r - sigma_xy, r_max)
     w_free = np.exp(-((off_axis / w_r) ** 2)) * (distance < free_limit)
-    s_free = sensor_posterior(beta(distance), prior, 0)
+    s_free = sensor_posterior(
+        beta_r(distance, r_max=r_max, beta_b=beta_b, floor=reliability_floor), prior, 0
+    )
     hx, hy = sx + r * np.cos(st), sy + r * np.sin(st)
     w_hit = np.exp(-((x - hx) ** 2 + (y - hy) ** 2) / (2.0 * sigma_xy**2)) * hit
-    s_hit = sensor_posterior(beta(r), prior, 1)
+    s_hit = sensor_posterior(
+        beta_r(r, r_max=r_max, beta_b=beta_b, floor=reliability_floor), prior, 1
+    )
     weight = np.maximum(w_free, w_hit)
     with np.errstate(invalid="ignore", divide="ignore"):
         opinion = np.where(weight > 0, (w_free * s_free + w_hit * s_hit) / (w_free + w_hit), prior)

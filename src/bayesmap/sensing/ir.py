@@ -8,6 +8,8 @@ probability that the range sensor state is correct (eq. 31); ``o`` the contact f
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 
@@ -22,22 +24,37 @@ SIGMA_R = 2.777
 RAW_FIT = (-7.933, 56.61, 0.07544)
 """First-order rational fit ``r_raw = (a r + b) / (r + c)`` of §5.1: ``(a, b, c)``."""
 
+RANGER_ANGLES = (math.radians(30.0), 0.0, -math.radians(30.0))
+"""Mounting angles of the three rangers relative to the rover's heading [rad] (§4.2)."""
 
-def beta_r(R: npt.ArrayLike, *, r_max: float = R_MAX, beta_b: float = 0.2) -> FloatArray:
+RANGER_OFFSET = 0.15
+"""Distance of the rangers ahead of the rover's centre [m] (ours; the paper gives none)."""
+
+W_R = 0.3
+"""Angle of view ``w_r`` of a ranger [rad] (eq. 34; ours, the paper gives no value)."""
+
+
+def beta_r(
+    R: npt.ArrayLike, *, r_max: float = R_MAX, beta_b: float = 0.2, floor: float = 0.0
+) -> FloatArray:
     """Probability that the range sensor state is correct at distance ``R`` [m].
 
     Inverse IR sensor model, Post et al. 2016 eq. 31:
     ``beta_b + (1 - beta_b) (r_max^2 - R^2)^2 / r_max^4`` for ``R <= r_max``, else ``beta_b``.
-    It is 1 at the sensor and falls to ``beta_b`` at ``r_max``.
+    It is 1 at the sensor and falls to ``beta_b`` at ``r_max``. Values below ``floor`` are
+    raised to it (``floor = 1/2`` keeps eq. 32 from reversing evidence when ``beta_b < 1/2``;
+    the default 0 is the literal paper).
 
     Examples
     --------
     >>> beta_r([0.0, 2.0, 5.0], beta_b=0.2).tolist()
     [1.0, 0.2, 0.2]
+    >>> beta_r([0.0, 2.0], beta_b=0.2, floor=0.5).tolist()
+    [1.0, 0.5]
     """
     distance = np.asarray(R, dtype=np.float64)
     inside = beta_b + (1.0 - beta_b) * (r_max**2 - distance**2) ** 2 / r_max**4
-    return np.asarray(np.where(distance <= r_max, inside, beta_b))
+    return np.asarray(np.maximum(np.where(distance <= r_max, inside, beta_b), floor))
 
 
 def sensor_posterior(beta: npt.ArrayLike, prior: npt.ArrayLike, o: npt.ArrayLike) -> FloatArray:
@@ -49,8 +66,8 @@ def sensor_posterior(beta: npt.ArrayLike, prior: npt.ArrayLike, o: npt.ArrayLike
 
     Examples
     --------
-    >>> float(sensor_posterior(1.0, 0.2, 1)), float(sensor_posterior(1.0, 0.2, 0))
-    (1.0, 0.0)
+    >>> sensor_posterior(1.0, 0.2, [1, 0]).round(12).tolist()
+    [1.0, 0.0]
     >>> round(float(sensor_posterior(0.5, 0.2, 1)), 12)
     0.2
     """
@@ -113,3 +130,21 @@ def range_from_raw(raw: npt.ArrayLike) -> FloatArray:
     """
     value = np.asarray(raw, dtype=np.float64)
     return np.asarray(-0.08 * (943.0 * value - 707625.0) / (1000.0 * value + 7933.0))
+
+
+def ranger_poses(pose: npt.ArrayLike, angles: npt.ArrayLike, offset: float) -> FloatArray:
+    """``(n, 3)`` ranger poses ``(x [m], y [m], theta [rad])`` for a rover pose ``(x, y, heading)``.
+
+    The rangers sit ``offset`` [m] ahead of the rover's centre, turned by ``angles`` [rad]
+    from its heading.
+
+    Examples
+    --------
+    >>> ranger_poses([1.0, 2.0, 0.0], [0.5, 0.0], 0.15).tolist()
+    [[1.15, 2.0, 0.5], [1.15, 2.0, 0.0]]
+    """
+    x, y, heading = np.asarray(pose, dtype=np.float64).reshape(3)
+    sx = x + offset * np.cos(heading)
+    sy = y + offset * np.sin(heading)
+    theta = heading + np.asarray(angles, dtype=np.float64)
+    return np.stack([np.full_like(theta, sx), np.full_like(theta, sy), theta], axis=1)

@@ -15,7 +15,14 @@ import numpy.typing as npt
 
 from bayesmap._typing import FloatArray
 from bayesmap.errors import ConfigError
-from bayesmap.sensing.ir import SIGMA_R, raw_from_range
+from bayesmap.sensing.ir import (
+    RANGER_ANGLES,
+    RANGER_OFFSET,
+    SIGMA_R,
+    W_R,
+    ranger_poses,
+    raw_from_range,
+)
 from bayesmap.sim.world2d import ray_cast
 
 
@@ -37,9 +44,9 @@ class IRRangers:
         Rays per ranger, spread over ``±w_r`` (sensitivity above e^-1 of the peak).
     """
 
-    angles: tuple[float, ...] = (np.deg2rad(30.0), 0.0, -np.deg2rad(30.0))
-    offset: float = 0.15
-    w_r: float = 0.3
+    angles: tuple[float, ...] = RANGER_ANGLES
+    offset: float = RANGER_OFFSET
+    w_r: float = W_R
     sigma_r: float = SIGMA_R
     n_rays: int = 7
 
@@ -55,11 +62,7 @@ class IRRangers:
 
     def poses(self, pose: npt.ArrayLike) -> FloatArray:
         """``(n, 3)`` ranger poses ``(x, y, theta)`` for a rover pose ``(x, y, heading)``."""
-        x, y, heading = np.asarray(pose, dtype=np.float64)
-        sx = x + self.offset * np.cos(heading)
-        sy = y + self.offset * np.sin(heading)
-        theta = heading + np.asarray(self.angles)
-        return np.stack([np.full_like(theta, sx), np.full_like(theta, sy), theta], axis=1)
+        return ranger_poses(pose, self.angles, self.offset)
 
 
 def true_ranges(boxes: npt.ArrayLike, pose: npt.ArrayLike, rangers: IRRangers) -> FloatArray:

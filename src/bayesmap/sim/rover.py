@@ -70,16 +70,11 @@ class RoverParams:
             "radius": self.radius,
             "gps_tau": self.gps_tau,
         }
-        bad = {k: v for k, v in positive.items() if not v > 0}
-        if bad or self.gps_sigma < 0 or self.compass_sigma < 0:
-            raise ConfigError(
-                f"RoverParams: these must be positive (noise non-negative): {bad or positive}"
-            )
-
-    @property
-    def max_yaw_rate(self) -> float:
-        """Largest yaw rate while driving at full speed [rad/s]: ``speed / min_turn_radius``."""
-        return self.speed / self.min_turn_radius
+        bad = [f"{k}={v!r} (need > 0)" for k, v in positive.items() if not v > 0]
+        noise = {"gps_sigma": self.gps_sigma, "compass_sigma": self.compass_sigma}
+        bad += [f"{k}={v!r} (need >= 0)" for k, v in noise.items() if not v >= 0]
+        if bad:
+            raise ConfigError(f"simulated RoverParams: fix {', '.join(bad)}")
 
 
 class RoverState(NamedTuple):

@@ -84,7 +84,7 @@ def ray_cast(boxes: npt.ArrayLike, origins: npt.ArrayLike, angles: npt.ArrayLike
     if b.shape[0] == 0:
         return np.full(a.shape, np.inf)
     dx, dy = np.cos(a)[:, None], np.sin(a)[:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         tx1 = (b[None, :, 0] - o[:, 0:1]) / dx
         tx2 = (b[None, :, 2] - o[:, 0:1]) / dx
         ty1 = (b[None, :, 1] - o[:, 1:2]) / dy
@@ -98,8 +98,8 @@ def ray_cast(boxes: npt.ArrayLike, origins: npt.ArrayLike, angles: npt.ArrayLike
     t_far_y = np.where(dy == 0, np.where(inside_y, np.inf, -np.inf), np.maximum(ty1, ty2))
     t_near = np.maximum(t_near_x, t_near_y)
     t_far = np.minimum(t_far_x, t_far_y)
-    hit = (t_far >= np.maximum(t_near, 0.0)) & (t_far >= 0)
-    t = np.where(hit, np.maximum(t_near, 0.0), np.inf)
+    entry = np.maximum(t_near, 0.0)
+    t = np.where(t_far >= entry, entry, np.inf)
     return np.asarray(t.min(axis=1))
 
 

@@ -1,6 +1,8 @@
 """Figures of the micro-rover experiments: maps with the path (Post et al. 2016 Figs. 11–14).
 
-Every function takes arrays and returns PNG bytes; the caller writes them atomically.
+Every function takes arrays and returns PNG bytes; the caller writes them atomically. The
+figures are plain :class:`~matplotlib.figure.Figure` objects that pyplot never sees, so
+drawing them leaves the caller's backend and figure list alone.
 """
 
 from __future__ import annotations
@@ -8,15 +10,11 @@ from __future__ import annotations
 import io
 from collections.abc import Mapping, Sequence
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import numpy.typing as npt  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.patches import Rectangle  # noqa: E402
+import numpy as np
+import numpy.typing as npt
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 
 _DPI = 90
 
@@ -24,7 +22,6 @@ _DPI = 90
 def _png(fig: Figure) -> bytes:
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=_DPI)
-    plt.close(fig)
     return buffer.getvalue()
 
 
@@ -51,28 +48,26 @@ def _draw_extras(
             ax.plot(xy[0, 0], xy[0, 1], marker="o", color=colour, markersize=4)
 
 
-def map_figure(
+def _layer_panel(
+    fig: Figure,
+    ax: Axes,
     layer: npt.ArrayLike,
     extent: tuple[float, float, float, float],
     *,
-    title: str,
+    cmap: str,
     label: str,
-    cmap: str = "viridis",
-    vmin: float = 0.0,
-    vmax: float = 1.0,
-    path: npt.ArrayLike | None = None,
-    boxes: npt.ArrayLike | None = None,
-    path_colour: str = "black",
-) -> bytes:
-    """One map layer (row 0 at the bottom) with an optional path and obstacle outlines."""
-    fig, ax = plt.subplots(figsize=(4.8, 4.0), layout="constrained")
+    path: npt.ArrayLike | None,
+    boxes: npt.ArrayLike | None,
+    path_colour: str,
+) -> None:
+    """Draw one map layer in [0, 1] (row 0 at the bottom) with its colour bar and extras."""
     image = ax.imshow(
         np.asarray(layer),
         origin="lower",
         extent=extent,
         cmap=cmap,
-        vmin=vmin,
-        vmax=vmax,
+        vmin=0.0,
+        vmax=1.0,
         interpolation="nearest",
     )
     fig.colorbar(image, ax=ax, label=label, fraction=0.046, pad=0.04)
@@ -80,6 +75,33 @@ def map_figure(
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
     ax.set_xlabel("x [m]")
+
+
+def map_figure(
+    layer: npt.ArrayLike,
+    extent: tuple[float, float, float, float],
+    *,
+    title: str,
+    label: str,
+    cmap: str = "viridis",
+    path: npt.ArrayLike | None = None,
+    boxes: npt.ArrayLike | None = None,
+    path_colour: str = "black",
+) -> bytes:
+    """One map layer in [0, 1] (row 0 at the bottom) with an optional path and obstacle outlines."""
+    fig = Figure(figsize=(4.8, 4.0), layout="constrained")
+    ax = fig.subplots()
+    _layer_panel(
+        fig,
+        ax,
+        layer,
+        extent,
+        cmap=cmap,
+        label=label,
+        path=path,
+        boxes=boxes,
+        path_colour=path_colour,
+    )
     ax.set_ylabel("y [m]")
     ax.set_title(title, fontsize=10)
     return _png(fig)
@@ -95,27 +117,25 @@ def maps_pair_figure(
     boxes: npt.ArrayLike | None = None,
 ) -> bytes:
     """Probability and entropy maps side by side with the path, as in Figs. 11–14."""
-    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.2), layout="constrained")
+    fig = Figure(figsize=(10.0, 4.2), layout="constrained")
+    axes = fig.subplots(1, 2)
     panels = [
-        (probability, "(a) P(O | R, r, x)", "viridis", "probability"),
-        (entropy, "(b) H(O | R, r, x) [bits]", "magma", "entropy [bits]"),
+        (probability, "(a) P(O | R, r, x)", "viridis", "probability", "white"),
+        (entropy, "(b) H(O | R, r, x) [bits]", "magma", "entropy [bits]", "cyan"),
     ]
-    for ax, (layer, sub, cmap, label) in zip(axes, panels, strict=True):
-        image = ax.imshow(
-            np.asarray(layer),
-            origin="lower",
-            extent=extent,
+    for ax, (layer, sub, cmap, label, colour) in zip(axes, panels, strict=True):
+        _layer_panel(
+            fig,
+            ax,
+            layer,
+            extent,
             cmap=cmap,
-            vmin=0.0,
-            vmax=1.0,
-            interpolation="nearest",
+            label=label,
+            path=path,
+            boxes=boxes,
+            path_colour=colour,
         )
-        fig.colorbar(image, ax=ax, label=label, fraction=0.046, pad=0.04)
-        _draw_extras(ax, path, boxes, "white" if cmap == "viridis" else "cyan")
-        ax.set_xlim(extent[0], extent[1])
-        ax.set_ylim(extent[2], extent[3])
         ax.set_title(sub, fontsize=10)
-        ax.set_xlabel("x [m]")
     axes[0].set_ylabel("y [m]")
     fig.suptitle(title, fontsize=11)
     return _png(fig)
@@ -123,7 +143,8 @@ def maps_pair_figure(
 
 def coverage_figure(curves: Mapping[str, Sequence[tuple[float, float]]], *, title: str) -> bytes:
     """Coverage (fraction of cells below ``H_desired``) against distance driven, per run."""
-    fig, ax = plt.subplots(figsize=(6.0, 4.0))
+    fig = Figure(figsize=(6.0, 4.0))
+    ax = fig.subplots()
     for name, curve in curves.items():
         xy = np.asarray(curve, dtype=float).reshape(-1, 2)
         ax.plot(xy[:, 0], xy[:, 1], label=name, linestyle="--" if "frontier" in name else "-")
