@@ -20,12 +20,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import numpy as np  # noqa: E402
 from benchmarks._report import machine, update_section  # noqa: E402
 
+from bayesmap.experiments.sonar import ring_geometry  # noqa: E402
 from bayesmap.grid import OccupancyGrid  # noqa: E402
 from bayesmap.sim.polygons import path_poses, world  # noqa: E402
 from bayesmap.sim.sonar import SonarRing, observe  # noqa: E402
 from bayesmap.sonar.filter import SpecularFilter  # noqa: E402
 from bayesmap.sonar.geometry import SonarGeometry  # noqa: E402
 from bayesmap.sonar.mapping import ElfesMapper, RosRangeLayerMapper, ThrunMapper  # noqa: E402
+from bayesmap.sonar.pipeline import RingMapper  # noqa: E402
 
 RINGS = 10_000
 PEER_RINGS = 2_000
@@ -40,14 +42,7 @@ def _log() -> tuple[np.ndarray, np.ndarray, SonarGeometry, tuple[float, float, f
     laps = -(-RINGS // len(one_lap))
     poses = path_poses(w.waypoints, 0.1, laps=laps)[:RINGS]
     scan = observe(poses, w, ring, rng=0)
-    geometry = SonarGeometry(
-        angles=ring.angles,
-        beam_width=ring.beam_width,
-        max_range=ring.max_range,
-        sigma=ring.sigma,
-        radius=ring.radius,
-    )
-    return poses, scan.ranges, geometry, w.bounds
+    return poses, scan.ranges, ring_geometry(ring), w.bounds
 
 
 def _time(job: Callable[[], None]) -> float:
@@ -82,12 +77,12 @@ def main() -> None:
         return job
 
     def map_only(
-        factory: Callable[[OccupancyGrid, SonarGeometry], object], n: int
+        factory: Callable[[OccupancyGrid, SonarGeometry], RingMapper], n: int
     ) -> Callable[[], None]:
         def job() -> None:
             mapper = factory(grid(), geometry)
             for p, r in zip(poses[:n], ranges[:n], strict=True):
-                mapper.integrate(p, r)  # type: ignore[attr-defined]
+                mapper.integrate(p, r)
 
         return job
 

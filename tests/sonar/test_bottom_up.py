@@ -9,7 +9,7 @@ from shapely.geometry import box
 
 from bayesmap.sim.polygons import _make
 from bayesmap.sim.sonar import EchoKind, SonarRing, h
-from bayesmap.sonar.bottom_up import acceptability, agreeability, neighbour_bounds
+from bayesmap.sonar.bottom_up import Verdict, acceptability, agreeability, neighbour_bounds
 from bayesmap.sonar.geometry import SonarGeometry
 
 HALF = math.radians(12.5)
@@ -47,26 +47,16 @@ def test_bounds_contain_the_neighbours_true_reading_of_a_flat_wall() -> None:
     assert checked > 20
 
 
-def _ring(n: int = 8) -> tuple[SonarGeometry, np.ndarray, np.ndarray]:
-    geometry = SonarGeometry(angles=tuple(2 * math.pi * k / n for k in range(n)), sigma=0.02)
-    centres, axis = geometry.sensors(np.zeros(3))
-    return geometry, centres, axis
+RING8 = SonarGeometry(angles=tuple(2 * math.pi * k / 8 for k in range(8)), sigma=0.02)
 
 
-def test_acceptability_discards_a_phantom_only_when_both_neighbours_refute_it() -> None:
-    geometry, centres, axis = _ring()
-    left, right = geometry.neighbours()
-    ranges = np.full(8, 2.0)
-    ranges[3] = 4.0  # a far phantom between two neighbours that see a wall at 2 m
-    echo = geometry.echo(ranges)
-    verdict = acceptability(
-        ranges, echo, centres, axis, left, right, sigma=0.02, half_width=HALF, critical_angle=CRIT
-    )
-    assert verdict.discard.tolist() == [k == 3 for k in range(8)]
-    ranges[4] = 4.0  # now neighbour 4 supports 3: both kept, each flagged by its other neighbour
-    verdict = acceptability(
+def _acceptability(ranges: np.ndarray) -> Verdict:
+    """Acceptability on the 8-transducer ring at the origin."""
+    centres, axis = RING8.sensors(np.zeros(3))
+    left, right = RING8.neighbours()
+    return acceptability(
         ranges,
-        geometry.echo(ranges),
+        RING8.echo(ranges),
         centres,
         axis,
         left,
@@ -75,32 +65,28 @@ def test_acceptability_discards_a_phantom_only_when_both_neighbours_refute_it() 
         half_width=HALF,
         critical_angle=CRIT,
     )
+
+
+def test_acceptability_discards_a_phantom_only_when_both_neighbours_refute_it() -> None:
+    ranges = np.full(8, 2.0)
+    ranges[3] = 4.0  # a far phantom between two neighbours that see a wall at 2 m
+    verdict = _acceptability(ranges)
+    assert verdict.discard.tolist() == [k == 3 for k in range(8)]
+    ranges[4] = 4.0  # now neighbour 4 supports 3: both kept, each flagged by its other neighbour
+    verdict = _acceptability(ranges)
     assert not verdict.discard.any()
     assert verdict.flag[3] and verdict.flag[4]
 
 
 def test_acceptability_never_judges_no_echo_readings() -> None:
-    geometry, centres, axis = _ring()
-    left, right = geometry.neighbours()
     ranges = np.full(8, 5.0)
     ranges[::2] = 1.0
-    verdict = acceptability(
-        ranges,
-        geometry.echo(ranges),
-        centres,
-        axis,
-        left,
-        right,
-        sigma=0.02,
-        half_width=HALF,
-        critical_angle=CRIT,
-    )
+    verdict = _acceptability(ranges)
     assert not verdict.discard[1::2].any() and not verdict.flag[1::2].any()
 
 
 def test_agreeability_rules() -> None:
-    geometry, _, _ = _ring()
-    left, right = geometry.neighbours()
+    left, right = RING8.neighbours()
     echo = np.array([True, False, True, False, False, True, True, True])
     verdict = agreeability(echo, left, right)
     # 1: both neighbours echo -> discard; 3: neighbour 2 echoes -> flag; 4: 5 echoes -> flag

@@ -8,32 +8,28 @@ import numpy as np
 import pytest
 
 from bayesmap.errors import ConfigError, InputError
+from bayesmap.experiments.sonar import ring_geometry
 from bayesmap.grid import OccupancyGrid
 from bayesmap.sim.polygons import path_poses, world
-from bayesmap.sim.sonar import SonarRing, observe
+from bayesmap.sim.sonar import SonarRing, SonarScan, observe
 from bayesmap.sonar.filter import SpecularFilter, Stage
 from bayesmap.sonar.geometry import SonarGeometry, cone_cells
 from bayesmap.sonar.mapping import ElfesMapper, RosRangeLayerMapper, ThrunMapper
 from bayesmap.sonar.pipeline import build_map, grid_for_poses, map_log
 
+Corridor = tuple[np.ndarray, SonarScan, SonarGeometry]
+
 
 @pytest.fixture(scope="module")
-def corridor() -> tuple[np.ndarray, object, SonarGeometry]:
+def corridor() -> Corridor:
     w = world("sonar-corridor-v1")
     ring = SonarRing()
     poses = path_poses(w.waypoints, 0.15)
     scan = observe(poses, w, ring, rng=11)
-    geometry = SonarGeometry(
-        angles=ring.angles,
-        beam_width=ring.beam_width,
-        max_range=ring.max_range,
-        sigma=ring.sigma,
-        radius=ring.radius,
-    )
-    return poses, scan, geometry
+    return poses, scan, ring_geometry(ring)
 
 
-def test_all_stages_off_accepts_everything(corridor) -> None:
+def test_all_stages_off_accepts_everything(corridor: Corridor) -> None:
     poses, scan, geometry = corridor
     filt = SpecularFilter(
         geometry, acceptability=False, agreeability=False, trait_verification=False
@@ -44,7 +40,7 @@ def test_all_stages_off_accepts_everything(corridor) -> None:
     assert accepted.all() and filt.rejections_ == []
 
 
-def test_rejections_are_recorded_with_stage_and_reason_and_beat_chance(corridor) -> None:
+def test_rejections_are_recorded_with_stage_and_reason_and_beat_chance(corridor: Corridor) -> None:
     poses, scan, geometry = corridor
     filt = SpecularFilter(geometry)
     verdicts = [filt.process(p, r) for p, r in zip(poses, scan.ranges, strict=True)]
@@ -61,7 +57,7 @@ def test_rejections_are_recorded_with_stage_and_reason_and_beat_chance(corridor)
     assert filt.enough_state  # the corridor path is longer than four perceptual lengths
 
 
-def test_filter_is_deterministic(corridor) -> None:
+def test_filter_is_deterministic(corridor: Corridor) -> None:
     poses, scan, geometry = corridor
     runs = []
     for _ in range(2):
@@ -76,8 +72,15 @@ def test_filter_rejects_bad_parameters_and_input() -> None:
     geometry = SonarGeometry(angles=(0.0, 1.0, 2.0))
     with pytest.raises(ConfigError):
         SpecularFilter(geometry, certainty_threshold=2.0)
+    with pytest.raises(ConfigError, match="max_gap"):
+        SpecularFilter(geometry, max_gap=0.0)
+    with pytest.raises(ConfigError, match="tilts"):
+        SpecularFilter(geometry, tilts=1)
+    SpecularFilter(geometry, extension=0.0, margin=0.0)  # zero is allowed for these two
     with pytest.raises(InputError):
         SpecularFilter(geometry).process(np.zeros(3), np.array([1.0, np.nan, 2.0]))
+    with pytest.raises(InputError, match="non-negative"):
+        SpecularFilter(geometry).process(np.zeros(3), np.array([1.0, -0.5, 2.0]))
 
 
 def test_cone_cells_are_inside_the_cone() -> None:
@@ -100,6 +103,27 @@ def test_cone_cells_are_inside_the_cone() -> None:
         np.abs((np.arctan2(gy, gx) - 0.3 + math.pi) % (2 * math.pi) - math.pi) <= 0.2
     )
     assert inside.sum() == (cells.reading == 0).sum()
+
+
+@pytest.mark.parametrize("half_width", [0.8, 1.2, 1.55])
+def test_wide_cones_on_a_fine_grid_miss_no_cell(half_width: float) -> None:
+    """The search box must hold the whole arc, also where it bulges between the edges."""
+    grid = OccupancyGrid(12, 12, 0.02, origin=(-6, -6))
+    rng = np.random.default_rng(5)
+    centres = rng.uniform(-1, 1, (6, 2))
+    axis = rng.uniform(-math.pi, math.pi, 6)
+    reach = rng.uniform(1, 5, 6)
+    cells = cone_cells(grid, centres, axis, reach, half_width)
+    rows, cols = np.mgrid[0 : grid.shape[0], 0 : grid.shape[1]]
+    gx, gy = grid.cell_centers(rows, cols)
+    for k in range(6):
+        dx, dy = gx - centres[k, 0], gy - centres[k, 1]
+        along = dx * math.cos(axis[k]) + dy * math.sin(axis[k])
+        across = dy * math.cos(axis[k]) - dx * math.sin(axis[k])
+        inside = (np.abs(across) <= along * math.tan(half_width)) & (
+            along**2 + across**2 <= reach[k] ** 2
+        )
+        assert inside.sum() == (cells.reading == k).sum()
 
 
 def test_elfes_mapper_marks_the_echo_and_frees_the_cone() -> None:
@@ -140,7 +164,7 @@ def test_ros_mapper_stays_quantised_and_marks_near_echoes() -> None:
     assert p[r[0], c[0]] > 0.8 and p[r[1], c[1]] < 0.2
 
 
-def test_pipeline_filtered_map_is_deterministic_and_covers_the_path(corridor) -> None:
+def test_pipeline_filtered_map_is_deterministic_and_covers_the_path(corridor: Corridor) -> None:
     poses, scan, geometry = corridor
     a = build_map(poses, scan.ranges, geometry, 0.2)
     b = build_map(poses, scan.ranges, geometry, 0.2)

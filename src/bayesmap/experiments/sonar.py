@@ -31,7 +31,7 @@ from bayesmap.sonar.mapping import ElfesMapper, RosRangeLayerMapper, ThrunMapper
 from bayesmap.sonar.pipeline import RingMapper, map_log
 from bayesmap.viz.sonar import maps_side_by_side
 
-__all__ = ["VARIANTS", "Config", "map_metrics", "run"]
+__all__ = ["VARIANTS", "Config", "map_metrics", "ring_geometry", "run"]
 
 VARIANTS: tuple[str, ...] = (
     "no filter",
@@ -72,6 +72,17 @@ class Config(BaseModel):
     critical_angle_deg: float = Field(15.0, gt=0, lt=90)
     path_jitter: float = Field(
         0.3, ge=0, description="Each run moves every waypoint by up to this much [m] (seeded)."
+    )
+
+
+def ring_geometry(ring: SonarRing) -> SonarGeometry:
+    """What the mapping code knows of a simulated ring: its layout, cone, range and noise."""
+    return SonarGeometry(
+        angles=ring.angles,
+        beam_width=ring.beam_width,
+        max_range=ring.max_range,
+        sigma=ring.sigma,
+        radius=ring.radius,
     )
 
 
@@ -168,13 +179,7 @@ def _one_run(
 ) -> tuple[dict[str, dict[str, float]], dict[str, np.ndarray], OccupancyGrid, dict[str, Any]]:
     poses = path_poses(_jitter(w, config.path_jitter, rng), config.step, laps=config.laps)
     scan = observe(poses, w, ring, rng=rng)
-    geometry = SonarGeometry(
-        angles=ring.angles,
-        beam_width=ring.beam_width,
-        max_range=ring.max_range,
-        sigma=ring.sigma,
-        radius=ring.radius,
-    )
+    geometry = ring_geometry(ring)
     xmin, ymin, xmax, ymax = w.bounds
     pad = 0.5
 
@@ -254,15 +259,15 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
     records: list[dict[str, Any]] = []
     by_world: dict[tuple[str, str], dict[str, dict[str, list[float]]]] = {}
     figures: list[Path] = []
+    kwargs = {
+        "beam_width": math.radians(config.beam_width_deg),
+        "sigma": config.sigma,
+        "max_range": config.max_range,
+        "critical_angle": math.radians(config.critical_angle_deg),
+    }
     for index, ((world_name, ring_name, k), rng) in enumerate(zip(jobs, streams, strict=True)):
         hook(f"{world_name} {ring_name} run {k}", index, len(jobs))
         w = world(world_name)
-        kwargs = {
-            "beam_width": math.radians(config.beam_width_deg),
-            "sigma": config.sigma,
-            "max_range": config.max_range,
-            "critical_angle": math.radians(config.critical_angle_deg),
-        }
         ring = (
             SonarRing.ring(16, **kwargs) if ring_name == "ring16" else SonarRing.front_arc(**kwargs)
         )

@@ -69,7 +69,7 @@ class SonarRing:
     max_range
         Maximum range [m]; a reading at or above it means no echo.
     min_range
-        Minimum range [m]; echoes are clipped up to it.
+        Minimum range [m]; noisy echoes (:func:`observe`) are clipped up to it.
     critical_angle
         Largest incidence angle from a wall's normal that still returns an echo [rad].
     fan

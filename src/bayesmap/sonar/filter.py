@@ -151,22 +151,25 @@ class SpecularFilter:
     ) -> None:
         if not 0.0 < critical_angle < math.pi / 2:
             raise ConfigError(f"critical_angle must be in (0, pi/2) rad, got {critical_angle}")
-        if not (k_sigma > 0 and tilts >= 2 and window >= 1 and min_points >= 2):
-            raise ConfigError("need k_sigma > 0, tilts >= 2, window >= 1 and min_points >= 2")
         if not 0.0 <= certainty_threshold <= 1.0:
             raise ConfigError(f"certainty_threshold must be in [0, 1], got {certainty_threshold}")
-        positive = (
-            split_tolerance,
-            max_gap,
-            match_angle,
-            match_offset,
-            extension + 1e-12,
-            margin + 1e-12,
-        )
-        if not all(value > 0 for value in positive):
-            raise ConfigError(
-                "tolerances, gaps and lengths must be positive (extension, margin >= 0)"
-            )
+        limits = {  # name: (value, smallest allowed, whether the smallest is allowed)
+            "k_sigma": (k_sigma, 0.0, False),
+            "tilts": (tilts, 2, True),
+            "window": (window, 1, True),
+            "min_points": (min_points, 2, True),
+            "split_tolerance": (split_tolerance, 0.0, False),
+            "max_gap": (max_gap, 0.0, False),
+            "match_angle": (match_angle, 0.0, False),
+            "match_offset": (match_offset, 0.0, False),
+            "extension": (extension, 0.0, True),
+            "margin": (margin, 0.0, True),
+        }
+        for name, (value, low, closed) in limits.items():
+            if not (value >= low if closed else value > low):
+                raise ConfigError(
+                    f"SpecularFilter {name} must be {'>=' if closed else '>'} {low}, got {value!r}"
+                )
         self.geometry = geometry
         self.stages = {
             Stage.ACCEPTABILITY: acceptability,
@@ -218,8 +221,10 @@ class SpecularFilter:
         p = np.asarray(pose, dtype=np.float64)
         centres, axis = geometry.sensors(p)
         r = np.asarray(ranges, dtype=np.float64)
-        if r.shape != (geometry.n,) or np.any(np.isnan(r)):
-            raise InputError(f"a ring has {geometry.n} non-NaN readings, got shape {r.shape}")
+        if r.shape != (geometry.n,):
+            raise InputError(f"a ring has {geometry.n} readings, got shape {r.shape}")
+        if np.any(np.isnan(r)) or np.any(r < 0):
+            raise InputError(f"sonar ranges must be non-negative metres (inf = no echo), got {r}")
         r = np.minimum(r, geometry.max_range)
         echo = geometry.echo(r)
         if self.last_pose_ is not None:

@@ -144,7 +144,12 @@ def cone_cells(
     if len(ks) == 0:
         return ConeCells(empty_i, empty_i, np.zeros(0), np.zeros(0), empty_i)
     cx, cy, ax, rk = centres[ks, 0], centres[ks, 1], axis[ks], np.asarray(reach)[ks]
-    ang = ax[:, None] + np.linspace(-half_width, half_width, 5)[None, :]
+    # The bounding box of each sector: its apex, the two edge ends and the arc's extreme
+    # points, i.e. the compass directions (clipped into the cone when they fall outside).
+    offsets = (np.arange(4) * (math.pi / 2))[None, :] - ax[:, None]
+    offsets = np.clip((offsets + math.pi) % (2 * math.pi) - math.pi, -half_width, half_width)
+    offsets = np.column_stack([offsets, np.full((len(ks), 2), [-half_width, half_width])])
+    ang = ax[:, None] + offsets
     xs = np.column_stack([cx, cx[:, None] + rk[:, None] * np.cos(ang)])
     ys = np.column_stack([cy, cy[:, None] + rk[:, None] * np.sin(ang)])
     c0 = np.clip(np.floor((xs.min(axis=1) - x0) / res).astype(np.int64) - 1, 0, nx)

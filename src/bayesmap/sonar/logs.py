@@ -114,8 +114,12 @@ class _Table(NamedTuple):
 _SPLIT = re.compile(r"\s*,\s*|\s+")
 
 
-def _fields(text: str) -> list[str]:
-    return _SPLIT.split(text)
+def _skip(path: Path, number: int, reason: str, strict: bool, skipped: list[SkippedRow]) -> None:
+    """Record a bad row (and log it), or with ``strict`` raise :class:`FormatError` for it."""
+    if strict:
+        raise FormatError(reason + " (drop --strict to skip bad rows)", path=path, line=number)
+    skipped.append(SkippedRow(str(path), number, reason))
+    logger.warning("%s, line %d: %s; row skipped", path, number, reason)
 
 
 def _parse(
@@ -133,10 +137,7 @@ def _parse(
     last_line = 0
 
     def bad(number: int, reason: str) -> None:
-        if strict:
-            raise FormatError(reason + " (drop --strict to skip bad rows)", path=path, line=number)
-        skipped.append(SkippedRow(str(path), number, reason))
-        logger.warning("%s, line %d: %s; row skipped", path, number, reason)
+        _skip(path, number, reason, strict, skipped)
 
     for number, line in enumerate(text.split("\n"), start=1):
         body = line.strip().lstrip("\ufeff")
@@ -146,7 +147,7 @@ def _parse(
         if not body:
             continue
         rows += 1
-        fields = _fields(body)
+        fields = _SPLIT.split(body)
         if len(fields) != columns:
             bad(number, f"expected {columns} columns, found {len(fields)}")
             continue
@@ -242,12 +243,7 @@ def read_sonar_log(
         keep = match >= 0
         for number, t in zip(np.asarray(table.lines)[~keep], times[~keep], strict=True):
             reason = f"no pose for timestamp {float(t)!r} within {time_tolerance} s"
-            if strict:
-                raise FormatError(
-                    reason + " (drop --strict to skip bad rows)", path=main, line=int(number)
-                )
-            skipped.append(SkippedRow(str(main), int(number), reason))
-            logger.warning("%s, line %d: %s; row skipped", main, number, reason)
+            _skip(main, int(number), reason, strict, skipped)
         times, range_raw = times[keep], range_raw[keep]
         pose_raw = pose_data[match[keep], 1:4]
     if len(times) == 0:

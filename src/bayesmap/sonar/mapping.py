@@ -71,8 +71,9 @@ class _LogOddsMapper(_ConeMapper):
         self.log_odds_: Grid = np.full(grid.shape, self.prior_log_odds)
 
     def _add(self, cells: ConeCells, increment: FloatArray) -> None:
-        np.add.at(self.log_odds_, (cells.rows, cells.cols), increment)
-        np.clip(self.log_odds_, -self.clamp, self.clamp, out=self.log_odds_)
+        index = (cells.rows, cells.cols)
+        np.add.at(self.log_odds_, index, increment)
+        self.log_odds_[index] = np.clip(self.log_odds_[index], -self.clamp, self.clamp)
 
     def probability(self) -> Grid:
         """``(ny, nx)`` occupancy probability of each cell."""
@@ -124,6 +125,7 @@ class ElfesMapper(_LogOddsMapper):
         self.p_occ = p_occ
         self.p_free = p_free
         self.sigma_map = max(geometry.sigma, grid.resolution)
+        # Check p_occ and p_free here, not at the first ring: the model raises ConfigError.
         elfes_inverse_model(
             1.0,
             1.0,

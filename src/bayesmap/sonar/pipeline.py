@@ -12,7 +12,7 @@ import numpy.typing as npt
 from bayesmap._typing import BoolArray, Grid, IntArray, Poses, Ranges
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
-from bayesmap.sonar.filter import SpecularFilter, Stage
+from bayesmap.sonar.filter import SpecularFilter
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.mapping import ElfesMapper
 
@@ -106,7 +106,7 @@ def map_log(
         if progress is not None and (i % 100 == 99 or i == len(p) - 1):
             progress(i + 1, len(p))
     mapper.sync()
-    return MapRun(accepted=accepted, stage=np.where(accepted, Stage.ACCEPTED, stage))
+    return MapRun(accepted=accepted, stage=stage)
 
 
 class BuiltMap(NamedTuple):

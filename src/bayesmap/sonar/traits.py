@@ -102,10 +102,12 @@ def fit_traits(
 
     Examples
     --------
-    >>> pts = np.array([[0.0, 1.0], [1.0, 1.0], [2.0, 1.0], [2.0, 2.0], [2.0, 3.0], [2.0, 4.0]])
+    A corner: the point where a split falls (here the corner) starts the second piece.
+
+    >>> pts = np.array([[0, 1], [1, 1], [2, 1], [3, 1], [3, 2], [3, 3], [3, 4]], dtype=float)
     >>> traits = fit_traits(pts, tolerance=0.05, max_gap=1.5)
     >>> len(traits.segments), traits.labels.tolist()
-    (2, [0, 0, 0, 1, 1, 1])
+    (2, [0, 0, 0, 1, 1, 1, 1])
     """
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     n = len(pts)

@@ -18,15 +18,11 @@ def _draw(
     ax: Axes,
     probability: Grid,
     extent: tuple[float, float, float, float],
-    observed: np.ndarray | None,
     walls: FloatArray | None,
     path: FloatArray | None,
 ) -> None:
-    shown = np.array(probability, dtype=np.float64)
-    if observed is not None:
-        shown = np.where(observed, shown, 0.5)
     ax.imshow(
-        shown,
+        np.asarray(probability, dtype=np.float64),
         origin="lower",
         extent=extent,
         cmap="gray_r",
@@ -79,12 +75,11 @@ def maps_side_by_side(
     rows = (n + cols - 1) // cols
     width = extent[1] - extent[0]
     height = extent[3] - extent[2]
-    panel_w = panel_width
-    panel_h = panel_w * height / max(width, 1e-9) + 0.35
-    fig = Figure(figsize=(panel_w * cols, panel_h * rows + 0.4))
+    panel_height = panel_width * height / max(width, 1e-9) + 0.35
+    fig = Figure(figsize=(panel_width * cols, panel_height * rows + 0.4))
     axes = fig.subplots(rows, cols, squeeze=False)
     for ax, (name, probability) in zip(axes.ravel(), panels, strict=False):
-        _draw(ax, probability, extent, None, walls, path)
+        _draw(ax, probability, extent, walls, path)
         ax.set_title(name, fontsize=8)
     for ax in axes.ravel()[n:]:
         ax.axis("off")

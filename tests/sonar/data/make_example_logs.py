@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bayesmap._io import write_text
 from bayesmap.sim.polygons import path_poses, world
 from bayesmap.sim.sonar import SonarRing, observe
 from bayesmap.sonar.logs import LogUnits, write_sonar_log
@@ -47,7 +48,7 @@ def main() -> None:
     body.insert(40, body[38])  # a repeated row: timestamp not after the previous one
     body[50] = body[50] + "\r"
     body[60] = body[60].replace(" ", ", ", 3) + "  # inline note"
-    (HERE / "example_log.txt").write_text("\n".join(body))  # no newline at the end
+    write_text(HERE / "example_log.txt", "\n".join(body))  # no newline at the end
     cm = LogUnits(range_unit="cm", position_unit="cm", heading_unit="rad")
     write_sonar_log(HERE / "example_ranges.csv", t, ranges, units=cm, delimiter=",")
     keep = np.ones(len(t), dtype=bool)
