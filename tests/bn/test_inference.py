@@ -189,7 +189,7 @@ def test_ancestral_recursion_is_only_approximate_on_a_loop() -> None:
     assert not chain.ancestral_is_exact("A", {"B": "0"})
 
 
-def test_large_batches_use_the_lookup_table_and_still_catch_impossible_cases() -> None:
+def test_large_batches_use_the_answer_memo_and_still_catch_impossible_cases() -> None:
     net = sprinkler()
     cases = [{"Sprinkler": s, "Wet": w} for s in ("off", "on") for w in ("no", "yes")] * 5
     got = net.posterior_batch("Rain", cases)
@@ -202,3 +202,27 @@ def test_large_batches_use_the_lookup_table_and_still_catch_impossible_cases() -
     full[7] = {"Rain": "no", "Sprinkler": "off", "Wet": "yes"}
     with pytest.raises(InputError, match="case 7: .*probability zero"):
         net.posterior_batch("Slip", full)
+
+
+def test_a_variable_with_many_observed_children():
+    """120 observed children give one contraction step of 121 operands: more than np.einsum
+    takes at once, so the compiled program must split it; the answer is a closed form."""
+    net = BayesNet("many sensors")
+    prior = np.array([0.7, 0.3])
+    net.add_variable("Obstacle", ["no", "yes"], cpt=prior)
+    rng = np.random.default_rng(4)
+    evidence, log_joint = {}, np.log(prior)
+    for i in range(120):
+        hit = float(rng.uniform(0.2, 0.3))
+        cpt = np.array([[1 - hit, 0.8], [hit, 0.2]])
+        net.add_variable(f"S{i}", ["quiet", "echo"], parents=["Obstacle"], cpt=cpt)
+        evidence[f"S{i}"] = "echo" if i % 3 else "quiet"
+        log_joint += np.log(cpt[int(i % 3 != 0)])
+    log_evidence = np.logaddexp.reduce(log_joint)
+    exact = np.exp(log_joint - log_evidence)
+    np.testing.assert_allclose(list(net.posterior("Obstacle", evidence).values()), exact)
+    assert net.probability_of_evidence(evidence) == pytest.approx(np.exp(log_evidence))
+    assert net.map(evidence) == ({"Obstacle": "no"}, pytest.approx(exact[0]))
+    cases = np.array([[net.states(v).index(s) for v, s in evidence.items()]] * 3)
+    batch = net.posterior_batch("Obstacle", cases, columns=list(evidence))
+    np.testing.assert_allclose(batch, np.tile(exact, (3, 1)))

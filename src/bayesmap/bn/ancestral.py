@@ -26,14 +26,14 @@ from collections.abc import Callable, Iterable, Mapping, MutableMapping, Sequenc
 import numpy as np
 
 from bayesmap._typing import FloatArray
-from bayesmap.bn.compiled import Compiled
+from bayesmap.bn.compiled import Compiled, bits
 from bayesmap.errors import InputError
 
 
 def visited(compiled: Compiled, target: int) -> list[int]:
     """Ids the recursion visits for ``target``: it and all its ancestors, parents first."""
-    seen = compiled.ancestors([target]) | {target}
-    return [v for v in compiled.topo if v in seen]
+    seen = compiled.ancestor_masks[target] | 1 << target
+    return [v for v in compiled.topo if (seen >> v) & 1]
 
 
 def is_exact(
@@ -47,11 +47,17 @@ def is_exact(
     if len(targets) != 1:
         return None
     target = targets[0]
-    order = visited(compiled, target)
-    if not set(evidence) <= set(order) - {target}:
+    above = compiled.ancestor_masks[target]
+    if any(not (above >> v) & 1 for v in evidence):
         return None
-    edges = sum(len(compiled.parents[v]) for v in order)
-    return order if edges == len(order) - 1 else None
+    inside = above | 1 << target
+    nodes = inside.bit_count()
+    edges = 0
+    for v in bits(inside):
+        edges += len(compiled.parents[v])
+        if edges >= nodes:
+            return None
+    return visited(compiled, target) if edges == nodes - 1 else None
 
 
 def marginal(

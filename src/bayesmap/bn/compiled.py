@@ -9,10 +9,11 @@ variable), rebuilt only when the network's version counter changes.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
+import opt_einsum
 
 from bayesmap._typing import FloatArray
 from bayesmap.bn.tables import DataSource, checked_cpt
@@ -91,6 +92,60 @@ class Compiled:
                 masks[v] |= masks[parent] | (1 << parent)
         self.ancestor_masks = tuple(masks)
         """Ancestors of each variable as a bit mask (bit ``i`` = variable id ``i``)."""
+        self.topo_pos = {v: k for k, v in enumerate(self.topo)}
+        """Position of each variable in :attr:`topo`."""
+        self.parent_masks = tuple(sum(1 << p for p in ps) for ps in self.parents)
+        """Parents of each variable as a bit mask."""
+        self.child_masks = tuple(sum(1 << c for c in kids) for kids in self.children)
+        """Children of each variable as a bit mask."""
+        self.source_mask = sum(1 << v for v in self.sources)
+        """Data nodes as a bit mask."""
+        self._transposed: dict[tuple[int, tuple[int, ...]], FloatArray] = {}
+        self.factors: dict[int, Any] = {}
+        """Evidence-free plan factors, shared by every plan of this version (``plans.build``)."""
+        self._rank: tuple[int, ...] | None = None
+
+    @property
+    def rank(self) -> tuple[int, ...]:
+        """Position of each variable in a network-wide elimination order chosen by opt_einsum.
+
+        :func:`opt_einsum.paths.ssa_greedy_optimize` orders the contraction of every CPT of
+        the network (the sum of the joint) once per network version; a variable's rank is
+        the step at which its index is summed out. A question's contraction order is this
+        order restricted to its pruned factors (see :func:`bayesmap.bn.plans.order`), so
+        a new pattern of observed variables needs no path search of its own.
+        """
+        if self._rank is None:
+            inputs = [frozenset((v, *self.parents[v])) for v in range(len(self.names))]
+            sizes = dict(enumerate(self.card))
+            rank = [0] * len(self.names)
+            live = list(inputs)
+            count = [0] * len(self.names)
+            for scope in inputs:
+                for u in scope:
+                    count[u] += 1
+            path = opt_einsum.paths.ssa_greedy_optimize(inputs, frozenset(), sizes)
+            for step, positions in enumerate(path):
+                union = frozenset().union(*(live[k] for k in positions))
+                for k in positions:
+                    for u in live[k]:
+                        count[u] -= 1
+                kept = frozenset(u for u in union if count[u] > 0)
+                for u in union - kept:
+                    rank[u] = step
+                for u in kept:
+                    count[u] += 1
+                live.append(kept)
+            self._rank = tuple(rank)
+        return self._rank
+
+    def transposed(self, var: int, perm: tuple[int, ...]) -> FloatArray:
+        """CPT of ``var`` with axes permuted by ``perm``, C-contiguous (cached)."""
+        key = (var, perm)
+        array = self._transposed.get(key)
+        if array is None:
+            array = self._transposed[key] = np.ascontiguousarray(self.cpts[var].transpose(perm))
+        return array
 
     def id(self, name: str) -> int:
         """Id of variable ``name``; :class:`ModelError` if it is not in the network."""
@@ -137,3 +192,13 @@ class Compiled:
     def evidence_names(self, evidence: Mapping[int, int]) -> dict[str, str]:
         """Evidence as ``{variable name: state name}`` (what data sources receive)."""
         return {self.names[v]: self.states[v][s] for v, s in evidence.items()}
+
+
+def bits(mask: int) -> list[int]:
+    """Ids of the set bits of ``mask`` (a variable set as a bit mask), ascending."""
+    out = []
+    while mask:
+        low = mask & -mask
+        out.append(low.bit_length() - 1)
+        mask ^= low
+    return out

@@ -13,7 +13,7 @@ a true joint maximisation, never per-variable arg-maxes of marginals.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
 
@@ -21,6 +21,7 @@ import numpy as np
 import opt_einsum
 
 from bayesmap._typing import FloatArray, IntArray
+from bayesmap.errors import ModelError
 
 T = TypeVar("T")
 
@@ -60,13 +61,68 @@ class Path:
     steps: tuple[tuple[int, ...], ...]
 
 
+MAX_STEP_ENTRIES = 1 << 27
+"""Largest table (entries) one step of :func:`run` may build: 1 GiB of float64."""
+_SEARCH_ABOVE = 1e8
+"""Greedy orders costing more multiply-adds than this are improved by a random-greedy search."""
+_SEARCH_REPEATS = 16
+"""Trials of that search (each seeded by its number, so the order is reproducible)."""
+
+
 def find_path(terms: Sequence[str], output: str, shapes: Sequence[Sequence[int]]) -> Path:
-    """Ask opt_einsum for a contraction order of ``terms -> output``."""
+    """Ask opt_einsum for a contraction order of ``terms -> output``.
+
+    opt_einsum's greedy order comes first (milliseconds even on a thousand factors); only
+    where it would cost over ``_SEARCH_ABOVE`` multiply-adds is a reproducible random-greedy
+    search run too, and the cheaper order kept.
+
+    Raises
+    ------
+    ModelError
+        If some step would build a table of more than :data:`MAX_STEP_ENTRIES` entries:
+        the network is too densely connected for exact elimination of these variables.
+    """
     if not terms:
         return Path((), output, ())
     equation = ",".join(terms) + "->" + output
-    steps, _ = opt_einsum.contract_path(equation, *shapes, shapes=True, optimize="auto-hq")
-    return Path(tuple(terms), output, tuple(tuple(s) for s in steps))
+    steps, info = opt_einsum.contract_path(equation, *shapes, shapes=True, optimize="greedy")
+    if float(info.opt_cost) > _SEARCH_ABOVE:
+        search = opt_einsum.RandomGreedy(max_repeats=_SEARCH_REPEATS)
+        better, better_info = opt_einsum.contract_path(
+            equation, *shapes, shapes=True, optimize=search
+        )
+        if better_info.opt_cost < info.opt_cost:
+            steps = better
+    path = Path(tuple(terms), output, tuple(tuple(s) for s in steps))
+    widest = _widest_step(path, shapes)
+    if widest > MAX_STEP_ENTRIES:
+        raise ModelError(
+            f"exact elimination here needs a table of {widest:.3g} entries "
+            f"({widest * 8 / 2**30:.3g} GiB of float64) at one step, above the limit of "
+            f"{MAX_STEP_ENTRIES:.3g}: the network is too densely connected for this question; "
+            "observe more variables, or ask about fewer (marginal MAP over a subset)"
+        )
+    return path
+
+
+def _widest_step(path: Path, shapes: Sequence[Sequence[int]]) -> int:
+    """Entries of the largest product :func:`run` forms along ``path``."""
+    sizes = {
+        ch: n
+        for term, shape in zip(path.terms, shapes, strict=True)
+        for ch, n in zip(term, shape, strict=True)
+    }
+    live = list(path.terms)
+    widest = 0
+    for step in path.steps:
+        chosen = [live[i] for i in step]
+        for i in sorted(step, reverse=True):
+            del live[i]
+        union = "".join(dict.fromkeys("".join(chosen)))
+        widest = max(widest, math.prod(sizes[ch] for ch in union))
+        needed = set(path.output).union(*live)
+        live.append("".join(ch for ch in union if ch in needed))
+    return widest
 
 
 def run(path: Path, operands: Sequence[T], algebra: Algebra[T]) -> tuple[T, str, list[Record]]:
@@ -148,117 +204,136 @@ def _align(algebra: Algebra[T], value: T, term: str, order: str, sizes: dict[str
     return algebra.rearrange(value, axes, shape)
 
 
-_LETTERS = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-_SMALL = 1 << 14
-"""Pairwise products up to this many entries go to ``np.einsum`` directly (no BLAS set-up)."""
-
-
-@dataclass(frozen=True)
-class _Step:
-    inputs: tuple[tuple[bool, Any], ...]  # (is constant, array or register)
-    subscripts: str
-    output: int
-    large: bool
+_SMALL = 1 << 12
+_PAIR = 1 << 16
+_MAX_OPERANDS = 24
+"""A step of three or more operands over more than ``_SMALL`` entries is split into pairwise
+contractions (``np.einsum`` loops naively over the union of all its operands' indices), and
+one of more than ``_MAX_OPERANDS`` into groups (``np.einsum`` takes at most 32 operands); a
+pairwise step over more than ``_PAIR`` entries goes to :func:`opt_einsum.contract` (BLAS)."""
 
 
 class SumProgram:
-    """A sum-product contraction compiled once: opt_einsum's order, constants pre-contracted.
+    """A sum-product contraction compiled once: a given order, constants pre-contracted.
 
     opt_einsum's :class:`~opt_einsum.contract.ContractExpression` re-parses and dispatches
     every step at each call; for the many small contractions of a Bayesian network that
-    overhead dominates. This replays :func:`opt_einsum.contract_path`'s order as a fixed list
-    of ``np.einsum`` calls (BLAS-backed :func:`opt_einsum.contract` for large steps), with
-    every step whose inputs are all evidence-independent evaluated once, here.
+    overhead dominates. This replays an opt_einsum SSA path (from
+    :func:`bayesmap.bn.plans.order`) as a fixed list of ``np.einsum`` calls in sub-list form
+    (BLAS-backed :func:`opt_einsum.contract` for large steps), with every step whose inputs
+    are all evidence-independent evaluated once, here.
 
     Parameters
     ----------
-    terms
-        Einsum indices of each operand.
+    scopes
+        Labels (any hashable, e.g. variable ids) of each operand's axes.
     output
-        Indices of the result, in order.
+        Labels of the result, in order.
     operands
         For each operand: its constant array, or its shape if it is supplied per call.
+    path
+        SSA contraction path: step ``k`` contracts the operands it lists (inputs are
+        numbered first, each step's result takes the next number); the last step gives
+        ``output``.
     """
 
     def __init__(
-        self, terms: Sequence[str], output: str, operands: Sequence[FloatArray | tuple[int, ...]]
+        self,
+        scopes: Sequence[Sequence[Hashable]],
+        output: Sequence[Hashable],
+        operands: Sequence[FloatArray | tuple[int, ...]],
+        path: Sequence[Sequence[int]],
     ) -> None:
-        shapes = [op if isinstance(op, tuple) else op.shape for op in operands]
-        sizes: dict[str, int] = {}
-        for term, shape in zip(terms, shapes, strict=True):
-            sizes.update(zip(term, shape, strict=True))
-        live: list[tuple[bool, Any, str]] = []
+        sizes: dict[Hashable, int] = {}
+        count: dict[Hashable, int] = dict.fromkeys(output, 1)
+        # live operands: (constant value or None, register or -1, labels)
+        live: list[tuple[Any, int, Sequence[Hashable]]] = []
         n_inputs = 0
-        for term, op in zip(terms, operands, strict=True):
+        for scope, op in zip(scopes, operands, strict=True):
+            shape = op if isinstance(op, tuple) else op.shape
+            for label, size in zip(scope, shape, strict=True):
+                sizes[label] = size
+                count[label] = count.get(label, 0) + 1
             if isinstance(op, tuple):
-                live.append((False, n_inputs, term))
+                live.append((None, n_inputs, scope))
                 n_inputs += 1
             else:
-                live.append((True, op, term))
+                live.append((op, -1, scope))
         self.n_inputs = n_inputs
-        steps: list[_Step] = []
-        register = n_inputs
-        if len(live) > 1:
-            index_sets = [frozenset(term) for term in terms]
-            order = opt_einsum.paths.optimal if len(live) <= 4 else opt_einsum.paths.greedy
-            path = order(index_sets, frozenset(output), sizes)
-        else:
-            path = [(0,)]
-        count: dict[str, int] = {}
-        for term in terms:
-            for ch in term:
-                count[ch] = count.get(ch, 0) + 1
-        for ch in output:
-            count[ch] = count.get(ch, 0) + 1
-        for position in path:
+        self._sizes = sizes
+        # each step: (argument template, [(argument slot, register)], result register, large)
+        self._steps: list[tuple[list[Any], list[tuple[int, int]], int, bool]] = []
+        self._register = n_inputs
+        last = len(path) - 1
+        for k, position in enumerate(path):
             chosen = [live[i] for i in position]
-            for i in sorted(position, reverse=True):
-                del live[i]
-            union = "".join(dict.fromkeys("".join(term for _, _, term in chosen)))
-            for _, _, term in chosen:
-                for ch in term:
-                    count[ch] -= 1
-            if live:
-                kept = "".join(ch for ch in union if count[ch] > 0)
-                for ch in kept:
-                    count[ch] += 1
+            union: dict[Hashable, None] = {}
+            for _, _, scope in chosen:
+                for label in scope:
+                    union[label] = None
+                    count[label] -= 1
+            if k == last:
+                kept: Sequence[Hashable] = output
             else:
-                kept = output
-            letters = {ch: _LETTERS[k] for k, ch in enumerate(dict.fromkeys(union + kept))}
-            subscripts = (
-                ",".join("".join(letters[ch] for ch in term) for _, _, term in chosen)
-                + "->"
-                + "".join(letters[ch] for ch in kept)
-            )
-            large = math.prod(sizes[ch] for ch in union) > _SMALL
-            if all(constant for constant, _, _ in chosen):
-                value = _einsum(subscripts, [v for _, v, _ in chosen], large)
-                live.append((True, value, kept))
-                continue
-            inputs = tuple((constant, value) for constant, value, _ in chosen)
-            steps.append(_Step(inputs, subscripts, register, large))
-            live.append((False, register, kept))
-            register += 1
-        self.steps = tuple(steps)
-        self.n_registers = register
-        constant, value, _ = live[0]
-        self.result: tuple[bool, Any] = (constant, value)
+                kept = [label for label in union if count[label] > 0]
+                for label in kept:
+                    count[label] += 1
+            large = math.prod(sizes[label] for label in union) > _SMALL
+            if len(chosen) > 2 and large or len(chosen) > _MAX_OPERANDS:
+                # np.einsum would loop over the whole union (or refuse so many operands):
+                # contract in groups instead — pairwise if large — smallest operands first,
+                # summing each label once no later operand holds it
+                chosen.sort(key=lambda op: math.prod(sizes[label] for label in op[2]))
+                group = 1 if large else _MAX_OPERANDS - 1
+                acc = chosen[0]
+                for j in range(1, len(chosen), group):
+                    rest = chosen[j + group :]
+                    later = {label for _, _, scope in rest for label in scope}
+                    later.update(kept)
+                    joined = [acc, *chosen[j : j + group]]
+                    labels = dict.fromkeys(label for _, _, scope in joined for label in scope)
+                    keep = kept if not rest else [x for x in labels if x in later]
+                    acc = self._emit(joined, keep)
+                live.append(acc)
+            else:
+                live.append(self._emit(chosen, kept))
+        self.steps = tuple(self._steps)
+        self.n_registers = self._register
+        value, source, _ = live[-1]
+        self.result: tuple[Any, int] = (value, source)
+
+    def _emit(
+        self, chosen: Sequence[tuple[Any, int, Sequence[Hashable]]], kept: Sequence[Hashable]
+    ) -> tuple[Any, int, Sequence[Hashable]]:
+        """Add the step contracting ``chosen`` into ``kept`` (run now if all are constant)."""
+        index: dict[Hashable, int] = {}
+        args: list[Any] = []
+        fills: list[tuple[int, int]] = []
+        for value, source, scope in chosen:
+            if source >= 0:
+                fills.append((len(args), source))
+            args.append(value)
+            args.append([index.setdefault(label, len(index)) for label in scope])
+        args.append([index[label] for label in kept])
+        entries = math.prod(self._sizes[label] for label in index)
+        large = len(chosen) == 2 and entries > _PAIR
+        if not fills:
+            return _call(args, large), -1, kept
+        self._steps.append((args, fills, self._register, large))
+        self._register += 1
+        return None, self._register - 1, kept
 
     def __call__(self, *inputs: FloatArray) -> FloatArray:
         """Contract, given the per-call operands in their order among ``operands``."""
         registers: list[Any] = [*inputs, *([None] * (self.n_registers - len(inputs)))]
-        for step in self.steps:
-            args = [value if constant else registers[value] for constant, value in step.inputs]
-            registers[step.output] = (
-                opt_einsum.contract(step.subscripts, *args)
-                if step.large
-                else np.einsum(step.subscripts, *args)
-            )
-        constant, value = self.result
-        return np.asarray(value if constant else registers[value])
+        for template, fills, out, large in self.steps:
+            args = template.copy()
+            for slot, source in fills:
+                args[slot] = registers[source]
+            registers[out] = opt_einsum.contract(*args) if large else np.einsum(*args)
+        value, source = self.result
+        return np.asarray(value if source < 0 else registers[source])
 
 
-def _einsum(subscripts: str, arrays: Sequence[FloatArray], large: bool) -> FloatArray:
-    if large:
-        return np.asarray(opt_einsum.contract(subscripts, *arrays))
-    return np.asarray(np.einsum(subscripts, *arrays))
+def _call(args: list[Any], large: bool) -> FloatArray:
+    return np.asarray(opt_einsum.contract(*args) if large else np.einsum(*args))

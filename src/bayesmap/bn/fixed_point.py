@@ -1,30 +1,46 @@
 """Fixed-point (Q-format) inference, as on the rover's embedded computer (Post et al. 2016 §3.2).
 
 A Q\\ *I*.\\ *F* number is a signed integer of ``I + F`` bits read as ``raw / 2**F``
-(Q16.16: 32 bits, resolution 2⁻¹⁶ ≈ 1.5e-5, range ±32768). The queries run on integer
-numpy arrays exactly as a C implementation on a 32-bit core with a 64-bit multiply would:
+(Q16.16: 32 bits, resolution 2⁻¹⁶ ≈ 1.5e-5, range ±32768). CPT entries are stored in that
+format (rounded to the nearest ``raw``; 1.0 saturates to the largest value when ``I = 1``) and
+every answer is returned in it. In between, the queries run on integer numpy arrays as an
+embedded C implementation with a 64-bit accumulator would, in **block floating point**:
 
-- CPT entries are rounded to the nearest ``raw`` (1.0 saturates to the largest value);
-- a product is ``(a·b + 2^(F−1)) >> F`` in int64 (round half up; all values are ≥ 0);
-- sums and maxima of raw values are exact; any value beyond the word raises
-  :class:`~bayesmap.errors.ConfigError` (use more integer bits);
-- the normalisation is the integer division ``((u << F) + S/2) // S``.
+- each intermediate factor is a block of integer mantissas sharing one integer exponent
+  (``value = raw · 2**exp``; a batch keeps one exponent per case);
+- a product multiplies the mantissas exactly in int64 and adds the exponents; a sum or
+  maximum of mantissas in one block is exact;
+- after every product and every elimination the block is renormalised by a power-of-two
+  shift so that its largest entry fills the ``I + F − 1`` mantissa bits of the word: a
+  right shift rounds half up (``(m + 2^(s−1)) >> s``, saturating at the word's largest
+  value), a left shift is exact, and the shift is added to the exponent. Nothing
+  underflows the format's resolution and nothing overflows its range, however many factors
+  a question multiplies;
+- the exponent cancels in the final normalisation, the integer division
+  ``((u << F) + S/2) // S`` of mantissas of one block (or, for MAP, of two scalars, with
+  the exponent difference applied as a shift).
 
 Each result carries a rigorous bound on its error against exact real arithmetic,
-propagated entry by entry through the same contraction (a running error analysis):
+propagated entry by entry through the same contraction (a running error analysis, kept in
+units of each block's exponent so that it never underflows either):
 
 - quantisation: ``|x̂ − x|`` of each CPT entry, exactly;
-- product: ``|âb̂ − ab| ≤ (|â|+α)β + (|b̂|+β)α + αβ``, plus the exact rounding of the shift;
-- sum: errors add; max: the largest error of the reduced entries;
-- normalisation: ``|û_i/Ŝ − u_i/S| ≤ (δ_i + δ_S)/Ŝ`` with ``δ_S = Σ_i δ_i``, plus the
-  rounding of the division.
+- product: ``|âb̂ − ab| ≤ âβ + b̂α + αβ`` (``α, β`` the operands' bounds), plus the exact
+  rounding of the renormalising shift;
+- sum: bounds add; max: the largest bound of the reduced entries;
+- normalisation ``p̂_i = û_i/Ŝ``: ``|p̂_i − p_i| ≤ ((1 − p̂_i)δ_i + p̂_i(δ_S − δ_i)) / (Ŝ − δ_S)``
+  with ``δ_S = Σ_j δ_j``, plus the rounding of the division; a ratio ``n̂/d̂`` of two
+  scalars: ``(α_n + r̂·α_d) / (d̂ − α_d)`` plus rounding. A bound is never above
+  ``max(p̂, 1 − p̂)`` (the answer is a probability), and gets ``2⁻⁵⁰`` added for the
+  float64 evaluation of the bound itself.
 
-The bound grows with the number of factors and shrinks with the probability of the
-evidence Ŝ: evidence far in the tails makes fixed point useless, and the bound says so.
+The derivation is in ``docs/bn.md``. The bound grows with the number of factors and with
+``1/P(e)``: evidence far in the tails makes fixed point useless, and the bound says so.
 """
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -37,6 +53,8 @@ from bayesmap._typing import FloatArray, IntArray
 from bayesmap.errors import ConfigError, InputError
 
 _PATTERN = re.compile(r"^\s*[Qq](\d+)\.(\d+)\s*$")
+_SLACK = 2.0**-50
+"""Added to every bound: the bound itself is evaluated in float64."""
 
 
 @dataclass(frozen=True)
@@ -98,13 +116,26 @@ class QFormat:
         """Largest raw value ``2**(I+F-1) - 1``."""
         return (1 << (self.int_bits + self.frac_bits - 1)) - 1
 
-    def quantise(self, values: npt.ArrayLike) -> Fixed:
-        """Round non-negative reals to raw values, with the exact rounding error."""
+    @property
+    def mantissa_bits(self) -> int:
+        """Bits of an intermediate mantissa: the word without its sign, ``I + F − 1``."""
+        return self.int_bits + self.frac_bits - 1
+
+    def quantise(self, values: npt.ArrayLike, *, case_axis: bool = False) -> Fixed:
+        """Round non-negative reals to raw values, with the exact rounding error.
+
+        With ``case_axis``, axis 0 indexes evidence cases, each its own block.
+        """
         x = np.asarray(values, dtype=np.float64)
-        raw = np.minimum(np.rint(x * self.scale), self.max_raw).astype(np.int64)
-        if np.any(x * self.scale > self.max_raw + 1):
+        scaled = x * self.scale
+        if np.any(scaled > self.max_raw + 1):
             raise ConfigError(f"value {float(x.max())} does not fit in {self}")
-        return Fixed(raw, np.abs(raw / self.scale - x))
+        raw = np.minimum(np.rint(scaled), self.max_raw).astype(np.int64)
+        shape = [1] * x.ndim
+        if case_axis:
+            shape[0] = x.shape[0]
+        exp = np.full(shape, -self.frac_bits, dtype=np.int64)
+        return Fixed(raw, exp, np.abs(raw - scaled))
 
     def to_float(self, raw: IntArray) -> FloatArray:
         """Real values of raw integers."""
@@ -112,15 +143,25 @@ class QFormat:
 
 
 class Fixed(NamedTuple):
-    """Raw fixed-point values and a bound on each one's absolute error (in real units)."""
+    """A block-floating-point factor: ``raw · 2**exp``, with an error bound per entry.
+
+    ``exp`` has the dimensions of ``raw``, each of size 1 (shared along that axis) or of
+    ``raw``'s size (a batch's case axis); ``error`` bounds ``|raw·2**exp − exact|`` in units
+    of ``2**exp``.
+    """
 
     raw: IntArray
+    exp: IntArray
     error: FloatArray
+
+    def transpose(self, axes: Sequence[int]) -> Fixed:
+        """Permute the axes of all three arrays."""
+        return Fixed(self.raw.transpose(axes), self.exp.transpose(axes), self.error.transpose(axes))
 
 
 @dataclass(frozen=True)
 class FixedAlgebra:
-    """Sum- or max-product on :class:`Fixed` operands (for :mod:`~bayesmap.bn.elimination`)."""
+    """Sum- or max-product on :class:`Fixed` blocks (for :mod:`~bayesmap.bn.elimination`)."""
 
     q: QFormat
     reduce: str = "sum"
@@ -130,41 +171,51 @@ class FixedAlgebra:
         return tuple(operand.raw.shape)
 
     def rearrange(self, operand: Fixed, axes: Sequence[int], shape: Sequence[int]) -> Fixed:
-        """Transpose and reshape both arrays."""
-        return Fixed(
-            operand.raw.transpose(axes).reshape(shape), operand.error.transpose(axes).reshape(shape)
-        )
+        """Transpose, then reshape to ``shape`` (which only inserts unit axes)."""
+        moved = operand.transpose(axes)
+        sizes, exp = moved.raw.shape, moved.exp
+        exp_shape, j = [], 0
+        for size in shape:
+            if j < len(sizes) and size == sizes[j]:
+                exp_shape.append(exp.shape[j])
+                j += 1
+            else:
+                exp_shape.append(1)
+        return Fixed(moved.raw.reshape(shape), exp.reshape(exp_shape), moved.error.reshape(shape))
 
     def multiply(self, a: Fixed, b: Fixed) -> Fixed:
-        """Rounded product ``(a·b + 2^(F−1)) >> F`` with its propagated error bound."""
-        f = self.q.frac_bits
-        exact = a.raw * b.raw
-        raw = (exact + (1 << (f - 1))) >> f
-        self._check(raw)
-        rounding = np.abs(exact - (raw << f)) / float(1 << (2 * f))
-        av, bv = self.q.to_float(a.raw), self.q.to_float(b.raw)
-        error = (av + a.error) * b.error + (bv + b.error) * a.error + a.error * b.error + rounding
-        return Fixed(raw, error)
+        """Exact product of the mantissas, exponents added, then renormalised."""
+        error = a.raw * b.error + b.raw * a.error + a.error * b.error
+        return renormalise(self.q, Fixed(a.raw * b.raw, a.exp + b.exp, error))
 
     def eliminate(self, operand: Fixed, n_keep: int) -> tuple[Fixed, IntArray | None]:
-        """Sum (exact) or max of the trailing axes."""
+        """Sum (exact) or max of the trailing axes, then renormalised."""
         raw = operand.raw.reshape(*operand.raw.shape[:n_keep], -1)
         error = operand.error.reshape(raw.shape)
+        exp = operand.exp.reshape(operand.exp.shape[:n_keep])
         if self.reduce == "sum":
-            total = raw.sum(axis=-1)
-            self._check(total)
-            return Fixed(total, error.sum(axis=-1)), None
+            return renormalise(self.q, Fixed(raw.sum(axis=-1), exp, error.sum(axis=-1))), None
         argmax = np.argmax(raw, axis=-1)
         best = np.take_along_axis(raw, argmax[..., np.newaxis], axis=-1)[..., 0]
-        return Fixed(best, error.max(axis=-1)), argmax
+        return renormalise(self.q, Fixed(best, exp, error.max(axis=-1))), argmax
 
-    def _check(self, raw: IntArray) -> None:
-        if raw.size and int(raw.max()) > self.q.max_raw:
-            raise ConfigError(
-                f"fixed-point overflow: an intermediate value reached "
-                f"{int(raw.max()) / self.q.scale:.6g}, beyond the range of {self.q}; "
-                "use a format with more integer bits"
-            )
+
+def renormalise(q: QFormat, block: Fixed) -> Fixed:
+    """Shift each block so its largest entry (or error) fills ``q.mantissa_bits`` bits.
+
+    A right shift by ``s`` rounds half up, ``(m + 2^(s−1)) >> s``, and its exact rounding
+    error is added to the bound; a left shift is exact.
+    """
+    raw, exp, error = block
+    shared = tuple(k for k in range(raw.ndim) if exp.shape[k] == 1)
+    size = np.maximum(raw.max(axis=shared, keepdims=True), error.max(axis=shared, keepdims=True))
+    _, bits = np.frexp(size.astype(np.float64))  # ≥ the bit length of the integer part
+    shift = np.where(size > 0, bits - q.mantissa_bits, 0).astype(np.int64)
+    down = np.maximum(shift, 0)
+    shifted = raw << np.minimum(np.maximum(-shift, 0), 62)  # only an all-zero block goes past 31
+    rounded = np.minimum((shifted + ((np.int64(1) << down) >> 1)) >> down, q.max_raw)
+    rounding = np.abs(shifted - (rounded << down)) / np.ldexp(1.0, down)
+    return Fixed(rounded, exp + shift, np.ldexp(error, -shift) + rounding)
 
 
 @dataclass(frozen=True)
@@ -190,33 +241,62 @@ class FixedResult:
 
 
 def normalise(q: QFormat, result: Fixed, axes: tuple[int, ...], what: str) -> FixedResult:
-    """Divide by the sum over ``axes`` in integer arithmetic, with the error bound."""
+    """Divide by the sum over ``axes`` (one block) in integer arithmetic, with the bound."""
     total = result.raw.sum(axis=axes, keepdims=True)
     if np.any(total <= 0):
         raise InputError(
             f"{what}: the probability of the evidence is zero or underflows {q} "
             f"(resolution {q.resolution:.3g}); use more fractional bits or float arithmetic"
         )
-    raw = ((result.raw << q.frac_bits) + total // 2) // total
-    s_hat = q.to_float(total)
-    delta_s = result.error.sum(axis=axes, keepdims=True)
-    exact_ratio = result.raw / total
-    rounding = np.abs(q.to_float(raw) - exact_ratio)
-    bound = (result.error + delta_s) / s_hat + rounding
-    return FixedResult(q, raw, q.to_float(raw), np.asarray(bound))
+    raw = np.minimum(((result.raw << q.frac_bits) + total // 2) // total, q.max_raw)
+    p_hat = result.raw / total
+    delta = result.error
+    delta_s = delta.sum(axis=axes, keepdims=True)
+    spread = (1.0 - p_hat) * delta + p_hat * (delta_s - delta)
+    with np.errstate(divide="ignore"):
+        carried = np.where(total > delta_s, spread / np.maximum(total - delta_s, 1e-300), np.inf)
+    values = q.to_float(raw)
+    bound = _finish(values, carried + np.abs(values - p_hat))
+    return FixedResult(q, raw, values, bound)
 
 
 def ratio(q: QFormat, numerator: Fixed, denominator: Fixed, what: str) -> FixedResult:
-    """``numerator / denominator`` (with ``0 ≤ numerator ≤ denominator`` in exact arithmetic).
+    """``numerator / denominator`` of two scalars (``0 ≤ n ≤ d`` in exact arithmetic).
 
-    Bound: ``|n̂/d̂ − n/d| ≤ (δ_n + δ_d)/d̂`` plus the rounding of the integer division.
+    The exponent difference becomes a shift of the integer division (Python integers, so
+    it cannot overflow). Bound: ``|n̂/d̂ − n/d| ≤ (α_n + r̂·α_d)/(d̂ − α_d)``, ``r̂ = n̂/d̂``,
+    plus the rounding of the division.
     """
-    if np.any(denominator.raw <= 0):
+    n, d = int(numerator.raw), int(denominator.raw)
+    if d <= 0:
         raise InputError(
             f"{what}: the probability of the evidence is zero or underflows {q} "
             f"(resolution {q.resolution:.3g}); use more fractional bits or float arithmetic"
         )
-    raw = ((numerator.raw << q.frac_bits) + denominator.raw // 2) // denominator.raw
-    rounding = np.abs(q.to_float(raw) - numerator.raw / denominator.raw)
-    bound = (numerator.error + denominator.error) / q.to_float(denominator.raw) + rounding
-    return FixedResult(q, raw, q.to_float(raw), np.asarray(bound))
+    k = q.frac_bits + int(numerator.exp) - int(denominator.exp)
+    if k >= 0:
+        raw = ((n << k) + d // 2) // d
+    else:
+        raw = (n + ((d << -k) >> 1)) // (d << -k)
+    raw = min(raw, q.max_raw)
+    gap = int(numerator.exp) - int(denominator.exp)
+    r_hat = math.ldexp(n / d, gap)
+    rel_n = math.ldexp(float(numerator.error) / d, gap)
+    rel_d = float(denominator.error) / d
+    carried = (rel_n + r_hat * rel_d) / (1.0 - rel_d) if rel_d < 1.0 else math.inf
+    value = raw / q.scale
+    bound = _finish(np.asarray(value), np.asarray(carried + abs(value - r_hat)))
+    return FixedResult(q, np.asarray(raw, dtype=np.int64), np.asarray(value), bound)
+
+
+def _finish(values: FloatArray, bound: FloatArray) -> FloatArray:
+    """Cap a probability's bound at ``max(v, 1 − v)`` and add the float64 slack."""
+    return np.asarray(np.minimum(bound, np.maximum(values, 1.0 - values)) + _SLACK)
+
+
+def constant(q: QFormat, values: npt.ArrayLike) -> FixedResult:
+    """Known probabilities (e.g. of observed variables) in ``q``; the bound is the rounding."""
+    x = np.asarray(values, dtype=np.float64)
+    raw = np.minimum(np.rint(x * q.scale), q.max_raw).astype(np.int64)
+    got = q.to_float(raw)
+    return FixedResult(q, raw, got, np.abs(got - x) + _SLACK)

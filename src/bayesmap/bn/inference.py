@@ -27,7 +27,15 @@ import opt_einsum
 from bayesmap._typing import FloatArray, IntArray
 from bayesmap.bn import ancestral, elimination, plans
 from bayesmap.bn.compiled import Compiled, NetworkLike
-from bayesmap.bn.fixed_point import Fixed, FixedAlgebra, FixedResult, QFormat, normalise, ratio
+from bayesmap.bn.fixed_point import (
+    Fixed,
+    FixedAlgebra,
+    FixedResult,
+    QFormat,
+    constant,
+    normalise,
+    ratio,
+)
 from bayesmap.bn.plans import BATCH, Factor, Plan, symbol
 from bayesmap.bn.propositions import Proposition, parse
 from bayesmap.errors import InputError
@@ -38,9 +46,14 @@ Evidence = Mapping[str, str | int]
 BatchEvidence = npt.ArrayLike | Sequence[Evidence]
 """Many evidence cases: an ``(n_cases, n_columns)`` int array (−1 = unobserved) or mappings."""
 
-_MAX_BATCH_EXPRESSIONS = 8
+_CASE = -1
+"""Label of the case axis in batched contractions (variable ids are >= 0)."""
 _MAX_LOOKUP = 1 << 16
-"""Largest ``P(target | observed)`` table a batch may build instead of contracting per case."""
+_JOINT_ABOVE = 1 << 20
+_BATCH_CLASS = 256
+"""Batches up to ``2 * _BATCH_CLASS - 1`` cases share one contraction order."""
+"""Multiply-adds of a batch's per-case contraction above which the joint is considered."""
+"""Largest memo of batch answers (combinations of observed states × target states)."""
 
 
 class Engine:
@@ -57,6 +70,7 @@ class Engine:
         self._compiled: Compiled | None = None
         self._plans: dict[Any, Plan] = {}
         self._priors: dict[int, FloatArray] = {}
+        self._all_priors = False
         self._tables: dict[Any, FloatArray] = {}
 
     # ----------------------------------------------------------------- plumbing
@@ -68,6 +82,7 @@ class Engine:
             compiled = self._compiled = Compiled(self._net)
             self._plans.clear()
             self._priors.clear()
+            self._all_priors = False
             self._tables.clear()
         return compiled
 
@@ -79,6 +94,7 @@ class Engine:
             compiled = self.compiled
             ev = tuple(sorted(evidence))
             if kind == "sum":
+                self._compute_priors()
                 plan = plans.build(compiled, targets, ev, prior=self.prior)
                 plan.cache["ancestral"] = ancestral.is_exact(compiled, targets, evidence)
             elif kind == "evidence":
@@ -98,10 +114,48 @@ class Engine:
             if var in compiled.sources:
                 raise AssertionError("data nodes have no evidence-independent prior")
             plan = plans.build(compiled, (var,), (), prior=self.prior)
-            equation = ",".join(f.term for f in plan.factors) + "->" + plan.output
-            table = opt_einsum.contract(equation, *[f.array for f in plan.factors])
+            table, _ = _single_program(plan, compiled)
             cached = self._priors[var] = np.asarray(table / table.sum())
         return cached
+
+    def _compute_priors(self) -> None:
+        """Compute the prior marginal of every variable once per network version.
+
+        The first new pattern of a network pays for it (1–250 ms on the bnlearn networks);
+        every later plan then replaces evidence-free ancestral sub-networks by cached priors
+        and checks dropped evidence without contracting anything new. Variables at or below
+        a data node have no evidence-independent prior and are skipped.
+        """
+        if self._all_priors:
+            return
+        compiled = self.compiled
+        for v in compiled.topo:
+            if not compiled.source_mask & (compiled.ancestor_masks[v] | 1 << v):
+                self.prior(v)
+        self._all_priors = True
+
+    def _check_dropped(
+        self, plan: Plan, values: Callable[[int], Any], case: Callable[[], str]
+    ) -> None:
+        """Raise if an observed state left out of the contraction has prior probability 0.
+
+        Evidence in a component d-separated from the targets does not change the answer and
+        is not contracted; each such observed state (``values(v)``: an index or an index
+        array) must still have a nonzero prior marginal. Variables below a data node have no
+        cached prior and are not checked; nor are zero-probability *combinations* of states
+        that are each possible.
+        """
+        compiled = self.compiled
+        checkable = plan.cache.get("dropped")
+        if checkable is None:
+            checkable = plan.cache["dropped"] = tuple(
+                v
+                for v in plan.dropped
+                if not compiled.source_mask & (compiled.ancestor_masks[v] | 1 << v)
+            )
+        for v in checkable:
+            if not np.all(self.prior(v)[values(v)] > 0.0):
+                raise InputError(case())
 
     def _evidence_ids(self, evidence: Evidence) -> dict[int, int]:
         compiled = self.compiled
@@ -119,6 +173,8 @@ class Engine:
             self.probability_of_evidence(evidence)  # raises on impossible evidence
             return _one_hot(compiled.card[t], ev[t])
         plan = self.plan("sum", (t,), frozenset(ev))
+        if plan.dropped:
+            self._check_dropped(plan, ev.__getitem__, lambda: _impossible(evidence))
         order = plan.cache["ancestral"]
         if order is not None:
             names = self._source_evidence(ev)
@@ -135,6 +191,8 @@ class Engine:
         free = tuple(t for t in ids if t not in ev)
         if free:
             plan = self.plan("sum", free, frozenset(ev))
+            if plan.dropped:
+                self._check_dropped(plan, ev.__getitem__, lambda: _impossible(evidence))
             table = _normalised(self._contract(plan, ev), evidence)
         else:
             self.probability_of_evidence(evidence)
@@ -207,49 +265,94 @@ class Engine:
                 )
                 out[rows] = np.eye(compiled.card[t])[values[:, col]]
                 continue
-            lookup = self._lookup_table(t, ev_vars, rows.size)
-            if lookup is not None:
-                answers = (
-                    lookup[tuple(values.T)]
-                    if ev_vars
-                    else np.broadcast_to(lookup, (rows.size, lookup.shape[-1]))
-                )
-                bad = np.flatnonzero(np.isnan(answers[:, 0]))
-                if bad.size:
-                    case = {
-                        compiled.names[v]: compiled.states[v][values[bad[0], j]]
-                        for j, v in enumerate(ev_vars)
-                    }
-                    raise InputError(f"batched evidence case {rows[bad[0]]}: " + _impossible(case))
-                out[rows] = answers
-                continue
-            plan = self.plan("sum", (t,), frozenset(ev_vars))
-            unnormalised = self._batch_contract(plan, ev_vars, values, rows)
-            out[rows] = unnormalised / unnormalised.sum(axis=1, keepdims=True)
+            out[rows] = self._batch_answers(t, ev_vars, values, rows)
         return out
 
-    def _lookup_table(self, t: int, ev_vars: Sequence[int], n_cases: int) -> FloatArray | None:
-        """``P(t | e)`` for every combination of the observed values, if that is cheaper.
+    def _batch_answers(
+        self, t: int, ev_vars: Sequence[int], values: IntArray, rows: IntArray
+    ) -> FloatArray:
+        """``P(t | case)`` for the cases of one pattern, each distinct case contracted once.
 
-        When a batch has at least as many cases as there are combinations of the observed
-        variables' states, one contraction of the joint ``P(t, E)`` (evidence-independent,
-        so cached per network version) answers every case by a table lookup. Axes: the
-        observed variables in ``ev_vars`` order, then ``t``; NaN rows are impossible evidence.
+        Cases are deduplicated (a robot's observations repeat), and the answers of each
+        combination of observed states are memoised per network version (up to
+        ``_MAX_LOOKUP`` entries per target and pattern), so a later batch contracts only
+        the combinations it has not met before. Networks with data nodes skip both (a data
+        node's table may change between calls).
         """
         compiled = self.compiled
-        combos = math.prod(compiled.card[v] for v in ev_vars)
-        if compiled.sources or combos > n_cases or combos * compiled.card[t] > _MAX_LOOKUP:
-            return None
-        key = ("lookup", t, tuple(ev_vars))
-        cached = self._tables.get(key)
-        if cached is None:
-            plan = self.plan("sum", (*ev_vars, t), frozenset())
-            joint = np.asarray(self._contract(plan, {}))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                cached = joint / joint.sum(axis=-1, keepdims=True)
-            cached[~(joint.sum(axis=-1) > 0)] = np.nan
-            self._tables[key] = cached
-        return cached
+        plan = self.plan("sum", (t,), frozenset(ev_vars))
+        cards = [compiled.card[v] for v in ev_vars]
+        combos = math.prod(cards)
+        if compiled.sources or not ev_vars or combos >= 1 << 62:
+            unnormalised = self._batch_contract(plan, ev_vars, values, rows)
+            return np.asarray(unnormalised / unnormalised.sum(axis=1, keepdims=True))
+        codes = np.ravel_multi_index(tuple(values.T), cards)
+        n_states = compiled.card[t]
+        memo: FloatArray | None = None
+        if combos * n_states <= _MAX_LOOKUP:
+            key = ("answers", t, tuple(ev_vars))
+            memo = self._tables.get(key)
+            if memo is None:
+                memo = self._tables[key] = np.full((combos, n_states), np.nan)
+        if memo is None:
+            unique, first, inverse = np.unique(codes, return_index=True, return_inverse=True)
+            need = np.argsort(first)  # so an error names the earliest case
+            unnormalised = self._batch_contract(
+                plan, ev_vars, values[first[need]], rows[first[need]]
+            ).reshape(unique.size, n_states)
+            table = np.empty((unique.size, n_states))
+            table[need] = unnormalised / unnormalised.sum(axis=1, keepdims=True)
+            return table[inverse.reshape(-1)]
+        result = memo[codes]
+        missing = np.flatnonzero(np.isnan(result[:, 0]))
+        if missing.size:
+            unique, first = np.unique(codes[missing], return_index=True)
+            first = missing[first]
+            need = np.argsort(first)
+            unique, first = unique[need], first[need]
+            if unique.size < 2 or not self._fill_from_joint(plan, ev_vars, t, memo, unique.size):
+                unnormalised = self._batch_contract(plan, ev_vars, values[first], rows[first])
+                answers = unnormalised.reshape(unique.size, n_states)
+                memo[unique] = answers / answers.sum(axis=1, keepdims=True)
+            result[missing] = memo[codes[missing]]
+        bad = np.flatnonzero(result[:, 0] < 0.0)
+        if bad.size:
+            case = {
+                compiled.names[v]: compiled.states[v][values[bad[0], j]]
+                for j, v in enumerate(ev_vars)
+            }
+            raise InputError(f"batched evidence case {int(rows[bad[0]])}: " + _impossible(case))
+        return np.asarray(result)
+
+    def _fill_from_joint(
+        self, plan: Plan, ev_vars: Sequence[int], t: int, memo: FloatArray, n_new: int
+    ) -> bool:
+        """Fill ``memo`` from one contraction of ``P(E, t)`` if that is the cheaper way.
+
+        Contracting ``n_new`` cases with a case axis can cost far more than contracting the
+        evidence-free joint of the observed variables and the target once (when the case
+        axis multiplies a large intermediate). The multiply-adds of both orders are
+        compared; impossible combinations get −1 (reported when a case uses them).
+        """
+        compiled = self.compiled
+        if not any(f.observed for f in plan.factors):
+            return False
+        cost = _batch_order(plan, compiled, n_new)[-1]
+        per_case = cost * n_new / (1 << max(n_new, _BATCH_CLASS).bit_length())
+        if per_case <= _JOINT_ABOVE:
+            return False
+        joint_plan = self.plan("sum", (*ev_vars, t), frozenset())
+        _, joint_cost = plans.order(
+            compiled, [f.free for f in joint_plan.factors], joint_plan.targets
+        )
+        if joint_cost >= per_case:
+            return False
+        joint = np.asarray(self._contract(joint_plan, {})).reshape(memo.shape)
+        totals = joint.sum(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            memo[:] = joint / totals[:, np.newaxis]
+        memo[~(totals > 0.0)] = -1.0
+        return True
 
     def _batch_array(
         self, evidence: BatchEvidence, columns: Sequence[str] | None
@@ -296,6 +399,17 @@ class Engine:
         order = [list(ev_vars).index(v) for v in plan.evidence]
         cols = [values[:, j] for j in order]
         case_names = _case_names(compiled, plan.evidence, cols)
+        if plan.dropped:
+            where = dict(zip(plan.evidence, cols, strict=True))
+
+            def first_bad() -> str:
+                ok = np.logical_and.reduce(
+                    [self.prior(v)[where[v]] > 0.0 for v in plan.cache["dropped"]]
+                )
+                i = int(np.flatnonzero(~ok)[0])
+                return f"batched evidence case {int(rows[i])}: " + _impossible(case_names(i))
+
+            self._check_dropped(plan, where.__getitem__, first_bad)
         scale = np.ones(n)
         for factor in plan.checks:
             scale *= _slice_batch(compiled, factor, cols, case_names)
@@ -423,26 +537,28 @@ class Engine:
     # --------------------------------------------------------------- fixed point
     def fixed_posterior(self, target: str, evidence: Evidence, q: QFormat) -> FixedResult:
         """``P(target | evidence)`` computed in Q-format integers, with its error bound."""
+        return self.fixed_joint_posterior([target], evidence, q)
+
+    def fixed_joint_posterior(
+        self, targets: Sequence[str], evidence: Evidence, q: QFormat
+    ) -> FixedResult:
+        """:meth:`joint_posterior` in Q-format integers: same plan, block floating point."""
         compiled = self.compiled
-        t = compiled.id(target)
+        ids = tuple(compiled.id(t) for t in targets)
+        if len(set(ids)) != len(ids):
+            raise InputError(f"joint posterior: a target is listed twice in {list(targets)}")
         ev = self._evidence_ids(evidence)
-        if t in ev:
+        free = tuple(t for t in ids if t not in ev)
+        if not free:
             self.probability_of_evidence(evidence)
-            one = _one_hot(compiled.card[t], ev[t])
-            return FixedResult(q, (one * q.scale).astype(np.int64), one, np.zeros_like(one))
-        plan = self.plan("sum", (t,), frozenset(ev))
-        ev_idx = [ev[v] for v in plan.evidence]
-        names = self._source_evidence(ev)
-        if any(not float(_slice(compiled, f, ev_idx, names)) > 0.0 for f in plan.checks):
-            raise InputError(_impossible(evidence))
-        operands = [q.quantise(_slice(compiled, f, ev_idx, names)) for f in plan.factors]
-        path = plan.cache.get("fixed_path")
-        if path is None:
-            path = plan.cache["fixed_path"] = elimination.find_path(
-                [f.term for f in plan.factors], plan.output, [op.raw.shape for op in operands]
-            )
-        result, _, _ = elimination.run(path, operands, FixedAlgebra(q))
-        return normalise(q, result, (0,), f"posterior of {target!r}")
+            answer = constant(q, np.ones(()))
+        else:
+            joint = self._fixed_sum(self.plan("sum", free, frozenset(ev)), ev, evidence, q)
+            what = f"posterior of {list(targets)}"
+            answer = normalise(q, joint, tuple(range(len(free))), what)
+        raw = _embed(answer.raw.astype(np.float64), ids, free, ev, compiled.card).astype(np.int64)
+        bound = _embed(answer.bound, ids, free, ev, compiled.card)
+        return FixedResult(q, raw, q.to_float(raw), bound)
 
     def fixed_posterior_batch(
         self,
@@ -452,7 +568,8 @@ class Engine:
         *,
         columns: Sequence[str] | None = None,
     ) -> FixedResult:
-        """:meth:`posterior_batch` in Q-format integers: one contraction per evidence pattern."""
+        """:meth:`posterior_batch` in Q-format integers: one contraction per evidence pattern,
+        one block exponent per case."""
         compiled = self.compiled
         t = compiled.id(target)
         table, cols = self._batch_array(evidence, columns)
@@ -475,15 +592,17 @@ class Engine:
             case_names = _case_names(compiled, plan.evidence, cols_k)
             operands, terms = [], []
             for f in plan.factors:
-                operands.append(q.quantise(_slice_batch(compiled, f, cols_k, case_names)))
+                sliced = _slice_batch(compiled, f, cols_k, case_names)
+                operands.append(q.quantise(sliced, case_axis=f.observed))
                 terms.append(BATCH + f.term if f.observed else f.term)
-            path = elimination.find_path(
-                terms, BATCH + plan.output, [o.raw.shape for o in operands]
-            )
+            path = plan.cache.get("fixed_batch_path")
+            if path is None:
+                path = plan.cache["fixed_batch_path"] = elimination.find_path(
+                    terms, BATCH + plan.output, [o.raw.shape for o in operands]
+                )
             result, term, _ = elimination.run(path, operands, FixedAlgebra(q))
             if term != BATCH + plan.output:
-                axes = [term.index(ch) for ch in BATCH + plan.output]
-                result = Fixed(result.raw.transpose(axes), result.error.transpose(axes))
+                result = result.transpose([term.index(ch) for ch in BATCH + plan.output])
             answer = normalise(q, result, (1,), f"posterior of {target!r}")
             raw[rows], bound[rows] = answer.raw, answer.bound
         return FixedResult(q, raw, q.to_float(raw), bound)
@@ -491,7 +610,9 @@ class Engine:
     def fixed_mpe(self, evidence: Evidence, q: QFormat) -> tuple[dict[str, str], FixedResult]:
         """:meth:`mpe` by max-product in Q-format integers.
 
-        The probability returned is ``P(x | evidence)`` as a 0-d :class:`FixedResult`.
+        The probability returned is ``P(x | evidence)`` as a 0-d :class:`FixedResult`; its
+        bound covers both the exact probability of the returned assignment and the exact
+        maximum.
         """
         compiled = self.compiled
         ev = self._evidence_ids(evidence)
@@ -502,6 +623,107 @@ class Engine:
         choice = elimination.traceback(records)
         assignment = {compiled.names[v]: compiled.states[v][choice[symbol(v)]] for v in free}
         return assignment, ratio(q, best, total, "MAP")
+
+    def fixed_marginal_map(
+        self, variables: Sequence[str], evidence: Evidence, q: QFormat
+    ) -> tuple[dict[str, str], FixedResult]:
+        """:meth:`marginal_map` in Q-format integers: the same sum groups, summed then
+        maximised in block floating point; ``P(x | evidence)`` as a 0-d :class:`FixedResult`."""
+        compiled = self.compiled
+        ids = tuple(compiled.id(v) for v in variables)
+        ev = self._evidence_ids(evidence)
+        query = tuple(v for v in dict.fromkeys(ids) if v not in ev)
+        fixed = {compiled.names[v]: compiled.states[v][ev[v]] for v in ids if v in ev}
+        if not query:
+            self.probability_of_evidence(evidence)
+            return fixed, constant(q, np.ones(()))
+        plan = self.plan("sum", query, frozenset(ev))
+        operands = self._fixed_operands(plan, ev, evidence, q)
+        groups = plan.cache.get("mmap")
+        if groups is None:
+            groups = plan.cache["mmap"] = _sum_groups(plan, set(query))
+        sums = FixedAlgebra(q)
+        parts: list[Fixed] = []
+        terms: list[str] = []
+        for k, (members, boundary) in enumerate(groups):
+            if boundary is None:  # a factor over query variables only
+                parts.append(operands[members[0]])
+                terms.append(plan.factors[members[0]].term)
+                continue
+            group = [operands[m] for m in members]
+            path = plan.cache.get(("fixed_mmap", k))
+            if path is None:
+                path = plan.cache[("fixed_mmap", k)] = elimination.find_path(
+                    [plan.factors[m].term for m in members], boundary, [o.raw.shape for o in group]
+                )
+            part, term, _ = elimination.run(path, group, sums)
+            parts.append(part)
+            terms.append(term)
+        shapes = [p.raw.shape for p in parts]
+        best, _, records = elimination.run(
+            elimination.find_path(terms, "", shapes), parts, FixedAlgebra(q, "max")
+        )
+        total, _, _ = elimination.run(elimination.find_path(terms, "", shapes), parts, sums)
+        choice = elimination.traceback(records)
+        assignment = dict(fixed)
+        for v in query:
+            assignment[compiled.names[v]] = compiled.states[v][choice[symbol(v)]]
+        return assignment, ratio(q, best, total, "marginal MAP")
+
+    def fixed_probability(
+        self, proposition: Proposition | str, evidence: Evidence, q: QFormat
+    ) -> FixedResult:
+        """:meth:`probability` in Q-format integers: the unnormalised joint of the mentioned
+        variables, summed where the proposition holds and where it does not, then divided."""
+        prop = parse(proposition) if isinstance(proposition, str) else proposition
+        compiled = self.compiled
+        ids = tuple(compiled.id(n) for n in prop.variables())
+        ev = self._evidence_ids(evidence)
+        shape = [compiled.card[v] for v in ids]
+        grids = dict(zip(prop.variables(), np.indices(shape), strict=True))
+        mask = prop.holds(grids, lambda var, state: compiled.state(compiled.id(var), state))
+        mask = np.broadcast_to(mask, shape)
+        mask = mask[tuple(ev.get(v, slice(None)) for v in ids)]
+        free = tuple(v for v in ids if v not in ev)
+        if not free:
+            self.probability_of_evidence(evidence)
+            return constant(q, np.asarray(float(mask)))
+        joint = self._fixed_sum(self.plan("sum", free, frozenset(ev)), ev, evidence, q)
+        split = Fixed(
+            np.array([joint.raw[mask].sum(), joint.raw[~mask].sum()]),
+            joint.exp.reshape(1),
+            np.array([joint.error[mask].sum(), joint.error[~mask].sum()]),
+        )
+        answer = normalise(q, split, (0,), f"probability of {prop}")
+        return FixedResult(q, answer.raw[0], answer.values[0], answer.bound[0])
+
+    def _fixed_operands(
+        self, plan: Plan, ev: Mapping[int, int], evidence: Evidence, q: QFormat
+    ) -> list[Fixed]:
+        """The plan's factors sliced by one case and quantised; raises on impossible evidence."""
+        compiled = self.compiled
+        if plan.dropped:
+            self._check_dropped(plan, ev.__getitem__, lambda: _impossible(evidence))
+        ev_idx = [ev[v] for v in plan.evidence]
+        names = self._source_evidence(ev)
+        if any(not float(_slice(compiled, f, ev_idx, names)) > 0.0 for f in plan.checks):
+            raise InputError(_impossible(evidence))
+        return [q.quantise(_slice(compiled, f, ev_idx, names)) for f in plan.factors]
+
+    def _fixed_sum(
+        self, plan: Plan, ev: Mapping[int, int], evidence: Evidence, q: QFormat
+    ) -> Fixed:
+        """Unnormalised sum-product of one case, axes in ``plan.output`` order."""
+        operands = self._fixed_operands(plan, ev, evidence, q)
+        path = plan.cache.get("fixed_path")
+        if path is None:
+            path = plan.cache["fixed_path"] = elimination.find_path(
+                [f.term for f in plan.factors], plan.output, [op.raw.shape for op in operands]
+            )
+        result, term, _ = elimination.run(path, operands, FixedAlgebra(q))
+        if term != plan.output:
+            result = result.transpose([term.index(ch) for ch in plan.output])
+        return result
 
     def _fixed_scalar(
         self, plan: Plan, ev: Mapping[int, int], algebra: FixedAlgebra
@@ -516,7 +738,7 @@ class Engine:
             path = plan.cache[key] = elimination.find_path(
                 [f.term for f in plan.factors], "", [op.raw.shape for op in operands]
             )
-        value = Fixed(np.array(q.scale, dtype=np.int64), np.zeros(()))
+        value = Fixed(np.ones((), dtype=np.int64), np.zeros((), dtype=np.int64), np.zeros(()))
         records: list[elimination.Record] = []
         if operands:
             value, _, records = elimination.run(path, operands, algebra)
@@ -563,42 +785,57 @@ def _case_names(
 
 def _single_program(plan: Plan, compiled: Compiled) -> tuple[Any, list[Factor]]:
     """The compiled contraction of one case, or the constant result if nothing is observed."""
-    equation = ",".join(f.term for f in plan.factors) + "->" + plan.output
-    observed = [f for f in plan.factors if f.observed]
     if not plan.factors:
         return np.ones(()), []
-    if not observed:
-        arrays = [f.array for f in plan.factors]
-        return np.asarray(opt_einsum.contract(equation, *arrays)), []
+    observed = [f for f in plan.factors if f.observed]
+    scopes = [f.free for f in plan.factors]
     specs: list[Any] = [
         tuple(compiled.card[v] for v in f.free) if f.observed else f.array for f in plan.factors
     ]
-    program = elimination.SumProgram([f.term for f in plan.factors], plan.output, specs)
+    path, _ = plans.order(compiled, scopes, plan.targets)
+    program = elimination.SumProgram(scopes, plan.targets, specs, path)
+    if not observed:
+        return program(), []
     return program, observed
 
 
 def _batch_expression(plan: Plan, compiled: Compiled, n: int) -> Any:
-    """A contraction expression for ``n`` cases (cached for a few batch sizes)."""
+    """The compiled contraction of a batch (case axis first), cached per size class."""
     cache: dict[int, Any] = plan.cache.setdefault("batch", {})
-    expression = cache.get(n)
-    if expression is None:
-        terms: list[str] = []
+    size_class = max(n, _BATCH_CLASS).bit_length()
+    program = cache.get(size_class)
+    if program is None:
+        scopes, output, specs, path, _ = _batch_order(plan, compiled, n)
+        program = cache[size_class] = elimination.SumProgram(scopes, output, specs, path)
+    return program
+
+
+def _batch_order(plan: Plan, compiled: Compiled, n: int) -> tuple[Any, ...]:
+    """Scopes, output, operand specs, order and cost of a batch contraction (cached).
+
+    The order depends on the number of cases (a large case axis favours other orders), so
+    one is kept per size class — up to 511 cases, then each power of two — chosen for the
+    largest size of its class (the cost returned is for that size). Ordering for many cases
+    keeps the case axis out of large intermediates, which also suits small batches.
+    """
+    cache: dict[int, Any] = plan.cache.setdefault("batch_order", {})
+    size_class = max(n, _BATCH_CLASS).bit_length()
+    entry = cache.get(size_class)
+    if entry is None:
+        n = 1 << size_class
+        scopes: list[tuple[int, ...]] = []
         specs: list[Any] = []
-        constants: list[int] = []
-        for k, f in enumerate(plan.factors):
+        for f in plan.factors:
             if f.observed:
-                terms.append(BATCH + f.term)
+                scopes.append((_CASE, *f.free))
                 specs.append((n, *(compiled.card[v] for v in f.free)))
             else:
-                terms.append(f.term)
+                scopes.append(f.free)
                 specs.append(f.array)
-                constants.append(k)
-        equation = ",".join(terms) + "->" + BATCH + plan.output
-        expression = opt_einsum.contract_expression(equation, *specs, constants=constants)
-        if len(cache) >= _MAX_BATCH_EXPRESSIONS:
-            cache.pop(next(iter(cache)))
-        cache[n] = expression
-    return expression
+        output = (_CASE, *plan.targets)
+        path, cost = plans.order(compiled, scopes, output, {_CASE: n})
+        entry = cache[size_class] = (scopes, output, specs, path, cost)
+    return entry
 
 
 def _sum_groups(plan: Plan, query: set[int]) -> list[tuple[list[int], str | None]]:

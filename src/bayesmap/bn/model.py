@@ -435,9 +435,18 @@ class BayesNet:
         return self._engine.posterior_batch(target, evidence, columns=columns)
 
     def joint_posterior(
-        self, targets: Sequence[str], evidence: Evidence | None = None
+        self,
+        targets: Sequence[str],
+        evidence: Evidence | None = None,
+        *,
+        fixed_point: QFormat | str | None = None,
     ) -> FloatArray:
-        """Exact joint ``P(targets | evidence)``: one array axis per target, in the given order."""
+        """Exact joint ``P(targets | evidence)``: one array axis per target, in the given order.
+
+        With ``fixed_point``, computed in that Q-format (see :meth:`joint_posterior_fixed`).
+        """
+        if fixed_point is not None:
+            return self.joint_posterior_fixed(targets, evidence, fixed_point).values
         return self._engine.joint_posterior(list(targets), evidence or {})
 
     def probability_of_evidence(self, evidence: Evidence | None = None) -> float:
@@ -453,6 +462,16 @@ class BayesNet:
         the bound on ``|value − exact|`` of each state).
         """
         return self._engine.fixed_posterior(target, evidence or {}, QFormat.parse(fixed_point))
+
+    def joint_posterior_fixed(
+        self,
+        targets: Sequence[str],
+        evidence: Evidence | None = None,
+        fixed_point: QFormat | str = "Q16.16",
+    ) -> FixedResult:
+        """:meth:`joint_posterior` in Q-format integer arithmetic, with a guaranteed bound."""
+        q = QFormat.parse(fixed_point)
+        return self._engine.fixed_joint_posterior(list(targets), evidence or {}, q)
 
     def posterior_batch_fixed(
         self,
@@ -481,28 +500,73 @@ class BayesNet:
             max-product runs in that Q-format (ties broken by the lowest state index).
         """
         if fixed_point is not None:
-            assignment, result = self._engine.fixed_mpe(evidence or {}, QFormat.parse(fixed_point))
+            assignment, result = self.map_fixed(evidence, fixed_point)
             return assignment, float(result.values)
         return self._engine.mpe(evidence or {})
 
+    def map_fixed(
+        self, evidence: Evidence | None = None, fixed_point: QFormat | str = "Q16.16"
+    ) -> tuple[dict[str, str], FixedResult]:
+        """:meth:`map` by max-product in Q-format integers; ``P(x | e)`` as a 0-d
+        :class:`~bayesmap.bn.fixed_point.FixedResult` whose bound covers both the exact
+        probability of the returned assignment and the exact maximum."""
+        return self._engine.fixed_mpe(evidence or {}, QFormat.parse(fixed_point))
+
     def marginal_map(
-        self, variables: Sequence[str], evidence: Evidence | None = None
+        self,
+        variables: Sequence[str],
+        evidence: Evidence | None = None,
+        *,
+        fixed_point: QFormat | str | None = None,
     ) -> tuple[dict[str, str], float]:
         """Marginal MAP over ``variables`` (Post et al. 2016 eq. 14): sum out the rest, then max.
 
-        Returns ``({variable: state}, P(assignment | evidence))``; exact.
+        Returns ``({variable: state}, P(assignment | evidence))``; exact, or with
+        ``fixed_point`` in that Q-format (see :meth:`marginal_map_fixed`).
         """
+        if fixed_point is not None:
+            assignment, result = self.marginal_map_fixed(variables, evidence, fixed_point)
+            return assignment, float(result.values)
         return self._engine.marginal_map(list(variables), evidence or {})
 
+    def marginal_map_fixed(
+        self,
+        variables: Sequence[str],
+        evidence: Evidence | None = None,
+        fixed_point: QFormat | str = "Q16.16",
+    ) -> tuple[dict[str, str], FixedResult]:
+        """:meth:`marginal_map` in Q-format integers; ``P(x | e)`` as a 0-d
+        :class:`~bayesmap.bn.fixed_point.FixedResult` (bound as in :meth:`map_fixed`)."""
+        q = QFormat.parse(fixed_point)
+        return self._engine.fixed_marginal_map(list(variables), evidence or {}, q)
+
     def probability(
-        self, proposition: Proposition | str, evidence: Evidence | None = None
+        self,
+        proposition: Proposition | str,
+        evidence: Evidence | None = None,
+        *,
+        fixed_point: QFormat | str | None = None,
     ) -> float:
         """``P(proposition | evidence)`` of a logical proposition (Post et al. 2016 §2.4).
 
         Build it with :class:`~bayesmap.bn.propositions.V` (``(V("A") == "yes") & ~(V("B")
-        == "no")``) or pass a string such as ``"A=yes & !(B=no)"``.
+        == "no")``) or pass a string such as ``"A=yes & !(B=no)"``. With ``fixed_point``,
+        computed in that Q-format (see :meth:`probability_fixed`).
         """
+        if fixed_point is not None:
+            return float(self.probability_fixed(proposition, evidence, fixed_point).values)
         return self._engine.probability(proposition, evidence or {})
+
+    def probability_fixed(
+        self,
+        proposition: Proposition | str,
+        evidence: Evidence | None = None,
+        fixed_point: QFormat | str = "Q16.16",
+    ) -> FixedResult:
+        """:meth:`probability` in Q-format integers, as a 0-d
+        :class:`~bayesmap.bn.fixed_point.FixedResult` with its guaranteed bound."""
+        q = QFormat.parse(fixed_point)
+        return self._engine.fixed_probability(proposition, evidence or {}, q)
 
     def class_ratio(
         self, variable: str, state_1: str, state_2: str, evidence: Evidence | None = None

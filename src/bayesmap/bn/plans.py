@@ -13,22 +13,29 @@ Building one:
    components that hold no target are independent of the targets given the evidence and
    are dropped (their factors only scale the answer). Factors whose every variable is
    observed become scalar checks (a zero means impossible evidence).
-4. **Contraction**: opt_einsum picks the order; :func:`opt_einsum.contract_expression`
-   pre-contracts every evidence-independent sub-tree once (``constants=``).
+4. **Contraction order** (:func:`order`): opt_einsum's greedy order of the whole network,
+   computed once per network version (:attr:`Compiled.rank`), restricted to the plan's
+   factors — so a new pattern costs no path search; when that order would build a large
+   intermediate, opt_einsum's greedy search on the plan itself is asked too and the cheaper
+   of the two is used. :class:`~bayesmap.bn.elimination.SumProgram` replays it with every
+   evidence-independent sub-tree pre-contracted once.
+
+Variable sets are Python-int bit masks (bit ``i`` = variable id ``i``), so pruning costs a
+few integer operations per relevant variable, not a walk over the network.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from operator import itemgetter
 from typing import Any
 
-import numpy as np
 import opt_einsum
 
 from bayesmap._typing import FloatArray
-from bayesmap.bn.compiled import Compiled
+from bayesmap.bn.compiled import Compiled, bits
 
 BATCH = opt_einsum.get_symbol(0)
 """The einsum index of the case axis of batched queries."""
@@ -65,7 +72,8 @@ class Factor:
     pick: Any = None
 
     def __post_init__(self) -> None:
-        self.pick = itemgetter(*self.ev_pos) if self.ev_pos else None
+        if self.ev_pos:
+            self.pick = itemgetter(*self.ev_pos)
 
     @property
     def term(self) -> str:
@@ -92,12 +100,18 @@ class Plan:
         Factors with at least one free variable (in the kept components).
     checks
         Factors whose every variable is observed: scalar probabilities of the evidence.
+    dropped
+        Observed variables whose own CPT was left out (it lies in a component without a
+        target, d-separated from the targets): the contraction does not see whether their
+        values are possible; :meth:`~bayesmap.bn.inference.Engine.posterior` checks their
+        prior marginals instead.
     """
 
     targets: tuple[int, ...]
     evidence: tuple[int, ...]
     factors: list[Factor]
     checks: list[Factor]
+    dropped: tuple[int, ...] = ()
     cache: dict[Any, Any] = field(default_factory=dict)
 
     @property
@@ -137,109 +151,238 @@ def build(
         replaced by ``P(Y)`` (see :func:`clean_roots`).
     """
     ev = tuple(evidence)
-    ev_set = set(ev)
+    ev_mask = t_mask = 0
+    for v in ev:
+        ev_mask |= 1 << v
+    for v in targets:
+        t_mask |= 1 << v
+    anc = compiled.ancestor_masks
     if prune_barren:
-        relevant = set(targets) | ev_set | compiled.ancestors([*targets, *ev])
+        r_mask = ev_mask | t_mask
+        for v in (*targets, *ev):
+            r_mask |= anc[v]
+        relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
     else:
-        relevant = set(range(len(compiled.names)))
-    replaced = clean_roots(compiled, relevant, ev_set, targets) if prior is not None else {}
-    if replaced:
-        removed = 0
-        for y in replaced:
-            removed |= compiled.ancestor_masks[y]
-        relevant = {v for v in relevant if not (removed >> v) & 1}
-    free_vars = relevant - ev_set
-    parent_of = {v: v for v in free_vars}
-
-    def find(v: int) -> int:
-        while parent_of[v] != v:
-            parent_of[v] = parent_of[parent_of[v]]
-            v = parent_of[v]
-        return v
-
-    scopes = {
-        v: [v] if v in replaced else [u for u in (v, *compiled.parents[v]) if u not in ev_set]
+        relevant = list(compiled.topo)
+        r_mask = (1 << len(relevant)) - 1
+    replaced: list[int] = []
+    if prior is not None:
+        replaced = clean_roots(compiled, relevant, r_mask, ev_mask | t_mask)
+        if replaced:
+            removed = 0
+            for y in replaced:
+                removed |= anc[y]
+            r_mask &= ~removed
+            relevant = [v for v in relevant if (r_mask >> v) & 1]
+    replaced_mask = 0
+    for y in replaced:
+        replaced_mask |= 1 << y
+    parents = compiled.parents
+    parent_masks = compiled.parent_masks
+    free_mask = ~ev_mask
+    scope_masks = [
+        1 << v if (replaced_mask >> v) & 1 else ((1 << v) | parent_masks[v]) & free_mask
         for v in relevant
-    }
-    for scope in scopes.values():
-        for u in scope[1:]:
-            a, b = find(scope[0]), find(u)
-            if a != b:
-                parent_of[a] = b
-    wanted = {find(t) for t in targets}
+    ]
+    keep = -1 if keep_all_components else _component(scope_masks, t_mask)
+    ev_index = {v: k for k, v in enumerate(ev)}
+    shared = compiled.factors  # evidence-free factors, the same in every plan
     factors: list[Factor] = []
     checks: list[Factor] = []
-    for v in compiled.topo:
-        if v not in relevant:
+    dropped = 0
+    for v, mask in zip(relevant, scope_masks, strict=True):
+        if mask and not keep & mask:
+            dropped |= (1 << v) & ev_mask
             continue
-        scope = scopes[v]
-        if scope and not keep_all_components and find(scope[0]) not in wanted:
-            continue
-        if v in replaced:
+        if (replaced_mask >> v) & 1:
             assert prior is not None
-            factors.append(Factor(var=v, array=prior(v), perm=(0,), ev_pos=(), free=(v,)))
+            factor = shared.get(-1 - v)
+            if factor is None:
+                factor = Factor(var=v, array=prior(v), perm=(0,), ev_pos=(), free=(v,))
+                shared[-1 - v] = factor
+            factors.append(factor)
             continue
-        variables = (v, *compiled.parents[v])
-        observed_axes = [k for k, u in enumerate(variables) if u in ev_set]
-        free_axes = [k for k, u in enumerate(variables) if u not in ev_set]
+        variables = (v, *parents[v])
+        if not ev_mask & ((1 << v) | parent_masks[v]):
+            factor = shared.get(v)
+            if factor is None:
+                array = None if v in compiled.sources else compiled.cpts[v]
+                perm = tuple(range(len(variables)))
+                factor = Factor(var=v, array=array, perm=perm, ev_pos=(), free=variables)
+                shared[v] = factor
+            factors.append(factor)
+            continue
+        observed_axes = [k for k, u in enumerate(variables) if (ev_mask >> u) & 1]
+        free_axes = [k for k, u in enumerate(variables) if not (ev_mask >> u) & 1]
         perm = (*observed_axes, *free_axes)
-        array = (
-            None
-            if v in compiled.sources
-            else np.ascontiguousarray(compiled.cpts[v].transpose(perm))
-        )
         factor = Factor(
             var=v,
-            array=array,
+            array=None if v in compiled.sources else compiled.transposed(v, perm),
             perm=perm,
-            ev_pos=tuple(ev.index(variables[k]) for k in observed_axes),
+            ev_pos=tuple(ev_index[variables[k]] for k in observed_axes),
             free=tuple(variables[k] for k in free_axes),
         )
-        (factors if scope else checks).append(factor)
-    return Plan(targets=tuple(targets), evidence=ev, factors=factors, checks=checks)
+        (factors if free_axes else checks).append(factor)
+    return Plan(
+        targets=tuple(targets),
+        evidence=ev,
+        factors=factors,
+        checks=checks,
+        dropped=tuple(bits(dropped)),
+    )
 
 
-def clean_roots(
-    compiled: Compiled, relevant: set[int], evidence: set[int], targets: Sequence[int]
-) -> set[int]:
+def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int) -> list[int]:
     """Variables ``Y`` whose ancestors can be summed out into the prior ``P(Y)``.
 
-    ``Y`` qualifies when no target, evidence or data node is among ``Y`` and its ancestors, and no
-    ancestor of ``Y`` has a child in ``relevant`` outside ``Y`` and its ancestors (the
-    sub-network meets the rest of the question only through ``Y``); then
-    ``Σ_{An(Y)} Π P(· | ·) = P(Y)``. Only maximal ones with at least one ancestor are
-    returned (two such sub-networks are nested or disjoint). Bit masks make
-    this one pass over ``relevant``.
+    ``order`` lists the relevant variables (bit mask ``r_mask``) in topological order;
+    ``skip`` masks the targets and the evidence. ``Y`` qualifies when no target, evidence or
+    data node is among ``Y`` and its ancestors, and no ancestor of ``Y`` has a child in the
+    relevant set outside ``Y`` and its ancestors (the sub-network meets the rest of the
+    question only through ``Y``); then ``Σ_{An(Y)} Π P(· | ·) = P(Y)``. Only maximal ones
+    with at least one ancestor are returned (two such sub-networks are nested or disjoint).
     """
-    r_mask = 0
-    for v in relevant:
-        r_mask |= 1 << v
-    skip = set(targets)
-    tainted: set[int] = set()
+    anc = compiled.ancestor_masks
+    children = compiled.child_masks
+    parents = compiled.parents
+    skip |= compiled.source_mask
     reach: dict[int, int] = {}  # children (in relevant) of the ancestors of each variable
-    order = [v for v in compiled.topo if (r_mask >> v) & 1]
+    candidates: list[int] = []
     for v in order:
-        mask = 0
-        for parent in compiled.parents[v]:
-            child_mask = 0
-            for child in compiled.children[parent]:
-                child_mask |= 1 << child
-            mask |= reach[parent] | (child_mask & r_mask)
-        reach[v] = mask
-        if (
-            v in evidence
-            or v in skip
-            or v in compiled.sources
-            or any(p in tainted for p in compiled.parents[v])
-        ):
-            tainted.add(v)
-    chosen: set[int] = set()
-    covered = 0
-    for v in reversed(order):
-        if v in tainted or (covered >> v) & 1 or not compiled.parents[v]:
+        if (anc[v] | 1 << v) & skip:
             continue
-        inside = compiled.ancestor_masks[v] | (1 << v)
-        if reach[v] & ~inside == 0:
-            chosen.add(v)
-            covered |= compiled.ancestor_masks[v]
+        mask = 0
+        for parent in parents[v]:
+            mask |= reach[parent] | children[parent]
+        reach[v] = mask & r_mask
+        if parents[v]:
+            candidates.append(v)
+    chosen: list[int] = []
+    covered = 0
+    for v in reversed(candidates):
+        if (covered >> v) & 1:
+            continue
+        if reach[v] & ~(anc[v] | 1 << v) == 0:
+            chosen.append(v)
+            covered |= anc[v]
     return chosen
+
+
+def order(
+    compiled: Compiled,
+    scopes: Sequence[Sequence[int]],
+    output: Sequence[int],
+    sizes: Mapping[int, int] | None = None,
+) -> tuple[list[tuple[int, ...]], int]:
+    """A contraction order (opt_einsum SSA path) for ``scopes`` -> ``output``, and its cost.
+
+    The network-wide order of :attr:`Compiled.rank` restricted to these factors: each
+    variable, by rank, has the factors holding it multiplied and summed over it (a variable
+    no other factor holds is summed at once); a last step multiplies what is left into
+    ``output``. The cost is the number of multiply-adds (the sizes of the steps' index
+    unions). If that costs more than ``_LARGE`` multiply-adds (and ``_PER_FACTOR`` per factor),
+    :func:`opt_einsum.paths.ssa_greedy_optimize` is run on these factors as well and the
+    order with the fewer multiply-adds is kept. ``sizes`` gives the size of labels that
+    are not variables (the case axis of a batch, label −1).
+    """
+    card = compiled.card
+    extra = sizes or {}
+    n = len(scopes)
+    if n == 1:
+        return [(0,)], math.prod(card[u] if u >= 0 else extra[u] for u in scopes[0])
+    rank = compiled.rank
+    holders: dict[int, list[int]] = {}
+    for k, scope in enumerate(scopes):
+        for u in scope:
+            if u in holders:
+                holders[u].append(k)
+            else:
+                holders[u] = [k]
+    count = {u: len(ks) for u, ks in holders.items()}
+    for u in output:
+        count[u] = count.get(u, 0) + 1
+    live = list(scopes)
+    alive = [True] * n
+    path: list[tuple[int, ...]] = []
+    total = 0
+    for u in sorted([u for u in holders if u not in output], key=rank.__getitem__):
+        chosen = tuple(k for k in holders[u] if alive[k])
+        if not chosen:
+            continue
+        union: dict[int, None] = {}
+        for k in chosen:
+            alive[k] = False
+            for w in live[k]:
+                union[w] = None
+                count[w] -= 1
+        kept = tuple(w for w in union if count[w] > 0)
+        entries = 1
+        for w in union:
+            entries *= card[w] if w >= 0 else extra[w]
+        total += entries
+        new = len(live)
+        for w in kept:
+            count[w] += 1
+            holders[w].append(new)
+        live.append(kept)
+        alive.append(True)
+        path.append(chosen)
+    rest = tuple(k for k in range(len(live)) if alive[k])
+    if len(rest) > 1 or not path:
+        path.append(rest)
+        labels = {w for k in rest for w in live[k]}
+        total += math.prod(card[w] if w >= 0 else extra[w] for w in labels)
+    if total > _LARGE and total > _PER_FACTOR * n:
+        sets = [frozenset(scope) for scope in scopes]
+        table = {u: card[u] if u >= 0 else extra[u] for u in holders}
+        greedy = opt_einsum.paths.ssa_greedy_optimize(sets, frozenset(output), table)
+        greedy_total = _cost(sets, set(output), greedy, table)
+        if greedy_total < _cost(sets, set(output), path, table):
+            return [tuple(step) for step in greedy], greedy_total
+    return path, total
+
+
+_LARGE = 1 << 20
+_PER_FACTOR = 1 << 15
+""":func:`order` also asks opt_einsum's greedy search only above ``_LARGE`` multiply-adds
+and ``_PER_FACTOR`` per factor: below, even a much better order saves less time than the
+search costs (~30–40 µs per factor)."""
+
+
+def _cost(
+    sets: Sequence[frozenset[int]],
+    output: set[int],
+    path: Sequence[tuple[int, ...]],
+    size: Mapping[int, int],
+) -> int:
+    """Multiply-adds of an SSA path: the sum of the sizes of each step's index union."""
+    live = list(sets)
+    count: dict[int, int] = {}
+    for scope in sets:
+        for u in scope:
+            count[u] = count.get(u, 0) + 1
+    total = 0
+    for step in path:
+        union = frozenset().union(*(live[k] for k in step))
+        for k in step:
+            for u in live[k]:
+                count[u] -= 1
+        kept = frozenset(u for u in union if u in output or count[u] > 0)
+        for u in kept:
+            count[u] += 1
+        live.append(kept)
+        total += math.prod(size[u] for u in union)
+    return total
+
+
+def _component(scope_masks: Sequence[int], seed: int) -> int:
+    """Bit mask of the free variables linked to ``seed`` (the targets) through shared factors."""
+    reached = seed
+    changed = True
+    while changed:
+        changed = False
+        for mask in scope_masks:
+            if mask & reached and mask & ~reached:
+                reached |= mask
+                changed = True
+    return reached

@@ -48,15 +48,16 @@ def info(
         net = bn.read(file)
     except BayesmapError as error:
         raise _fail(error) from error
-    rows = [
+    kinds = {name: net.kind(name) for name in net.variables}
+    rows: list[dict[str, Any]] = [
         {
             "name": name,
-            "kind": net.kind(name).value if net.kind(name) else None,
+            "kind": kind.value if kind is not None else None,
             "states": list(net.states(name)),
             "parents": list(net.parents(name)),
             "cpt_size": int(net.cpt(name).size),
         }
-        for name in net.variables
+        for name, kind in kinds.items()
     ]
     if as_json:
         typer.echo(json.dumps({"name": net.name, "variables": rows}, indent=2))
@@ -129,32 +130,45 @@ def _answer(
     if fixed_point is not None:
         result["fixed_point"] = str(bn.QFormat.parse(fixed_point))
     if proposition is not None:
-        if fixed_point is not None:
-            raise InputError("--probability is computed in float64 only; drop --fixed-point")
         result["proposition"] = proposition
-        result["probability"] = net.probability(proposition, evidence)
+        if fixed_point is not None:
+            answer = net.probability_fixed(proposition, evidence, fixed_point)
+            result["probability"] = float(answer.values)
+            result["error_bound"] = float(answer.bound)
+        else:
+            result["probability"] = net.probability(proposition, evidence)
         return result
     if map_:
-        if targets:
-            if fixed_point is not None:
-                raise InputError("marginal MAP (--map with --target) runs in float64 only")
+        if fixed_point is not None:
+            assignment, answer = (
+                net.marginal_map_fixed(targets, evidence, fixed_point)
+                if targets
+                else net.map_fixed(evidence, fixed_point)
+            )
+            probability = float(answer.values)
+            result["error_bound"] = float(answer.bound)
+        elif targets:
             assignment, probability = net.marginal_map(targets, evidence)
         else:
-            assignment, probability = net.map(evidence, fixed_point=fixed_point)
+            assignment, probability = net.map(evidence)
         result["map"] = assignment
         result["probability"] = probability
         return result
     if not targets:
         raise InputError("give --target VARIABLE (or --map, or --probability)")
     if len(targets) > 1:
+        bound = None
         if fixed_point is not None:
-            raise InputError("joint posteriors run in float64 only; query one --target")
-        table = net.joint_posterior(targets, evidence)
+            joint = net.joint_posterior_fixed(targets, evidence, fixed_point)
+            table, bound = joint.values, joint.bound
+        else:
+            table = net.joint_posterior(targets, evidence)
         result["targets"] = targets
         result["joint"] = [
             {
                 **{t: net.states(t)[i] for t, i in zip(targets, index, strict=True)},
                 "p": float(table[index]),
+                **({} if bound is None else {"error_bound": float(bound[index])}),
             }
             for index in np.ndindex(*table.shape)
         ]
@@ -176,11 +190,13 @@ def _print(result: dict[str, Any]) -> None:
     console.print(f"[bold]{result['network']}[/bold]  evidence: {shown}")
     if "fixed_point" in result:
         console.print(f"arithmetic: {result['fixed_point']} fixed point")
+    bound = f" ± {result['error_bound']:.2g}" if "error_bound" in result else ""
     if "proposition" in result:
-        console.print(f"P({result['proposition']} | evidence) = {result['probability']:.6g}")
+        console.print(f"P({result['proposition']} | evidence) = {result['probability']:.6g}{bound}")
         return
     if "map" in result:
-        table = Table(title=f"MAP (P = {result['probability']:.6g})")
+        console.print(f"MAP probability given the evidence: {result['probability']:.6g}{bound}")
+        table = Table(title="MAP")
         table.add_column("variable")
         table.add_column("state")
         for name, state in result["map"].items():
@@ -192,8 +208,12 @@ def _print(result: dict[str, Any]) -> None:
         for name in result["targets"]:
             table.add_column(name)
         table.add_column("P", justify="right")
+        bounded = "error_bound" in result["joint"][0]
+        if bounded:
+            table.add_column("± bound", justify="right")
         for row in result["joint"]:
-            table.add_row(*(row[t] for t in result["targets"]), f"{row['p']:.6g}")
+            extra = [f"{row['error_bound']:.2g}"] if bounded else []
+            table.add_row(*(row[t] for t in result["targets"]), f"{row['p']:.6g}", *extra)
         console.print(table)
         return
     table = Table(title=f"P({result['target']} | evidence)")

@@ -1,0 +1,154 @@
+"""The cold path of exact inference: contraction orders, batch memo, pruned evidence checks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from tests.bn.helpers import brute_posterior, random_net, sample_evidence
+
+from bayesmap.bn import BayesNet, elimination, inference, plans
+from bayesmap.errors import InputError
+
+SEEDS = st.integers(0, 2**31 - 1)
+FAST = settings(max_examples=40, deadline=None)
+
+
+def _sliced_factors(
+    net: BayesNet, rng: np.random.Generator
+) -> tuple[list[tuple[int, ...]], list[np.ndarray], tuple[int, ...]]:
+    """Random factors of a network with a random output (CPTs, some axes summed away)."""
+    compiled = net._engine.compiled
+    scopes: list[tuple[int, ...]] = []
+    arrays: list[np.ndarray] = []
+    for v in range(len(compiled.names)):
+        scope = (v, *compiled.parents[v])
+        arrays.append(compiled.cpts[v])
+        scopes.append(scope)
+    labels = sorted({u for scope in scopes for u in scope})
+    k = int(rng.integers(0, min(3, len(labels)) + 1))
+    output = tuple(int(u) for u in rng.choice(labels, size=k, replace=False))
+    return scopes, arrays, output
+
+
+@FAST
+@given(seed=SEEDS, force_greedy=st.booleans(), force_pairwise=st.booleans())
+def test_order_and_program_contract_exactly(
+    seed: int, force_greedy: bool, force_pairwise: bool
+) -> None:
+    """The restricted network order (or the greedy fallback), with buckets contracted at once
+    or pairwise through opt_einsum, gives einsum's exact answer."""
+    net = random_net(seed, n_vars=7, max_card=3)
+    rng = np.random.default_rng(seed)
+    scopes, arrays, output = _sliced_factors(net, rng)
+    compiled = net._engine.compiled
+    old = plans._LARGE, plans._PER_FACTOR, elimination._SMALL, elimination._PAIR
+    if force_greedy:
+        plans._LARGE, plans._PER_FACTOR = -1, -1
+    if force_pairwise:
+        elimination._SMALL, elimination._PAIR = -1, -1
+    try:
+        path, cost = plans.order(compiled, scopes, output)
+        assert cost > 0
+        used = sorted(k for step in path for k in step)
+        assert used == list(range(len(scopes) + len(path) - 1))  # each operand used once
+        n_inputs = int(rng.integers(0, len(scopes) + 1))  # the first few supplied per call
+        specs = [a.shape if k < n_inputs else a for k, a in enumerate(arrays)]
+        program = elimination.SumProgram(scopes, output, specs, path)
+        got = program(*arrays[:n_inputs])
+    finally:
+        plans._LARGE, plans._PER_FACTOR, elimination._SMALL, elimination._PAIR = old
+    args: list[object] = []
+    for array, scope in zip(arrays, scopes, strict=True):
+        args += [array, list(scope)]
+    np.testing.assert_allclose(got, np.einsum(*args, list(output)), rtol=1e-12, atol=1e-15)
+
+
+def _two_parts() -> BayesNet:
+    """A → B, B a copy of A, P(A=1) = 0; and an unrelated C → D."""
+    net = BayesNet("two-parts")
+    net.add_variable("A", ["0", "1"], cpt=[1.0, 0.0])
+    net.add_variable("B", ["0", "1"], parents=["A"], cpt=[[1.0, 0.0], [0.0, 1.0]])
+    net.add_variable("C", ["0", "1"], cpt=[0.3, 0.7])
+    net.add_variable("D", ["0", "1"], parents=["C"], cpt=[[0.9, 0.2], [0.1, 0.8]])
+    return net
+
+
+def test_impossible_evidence_in_a_pruned_part_is_reported() -> None:
+    net = _two_parts()
+    with pytest.raises(InputError, match="probability zero"):
+        net.posterior("D", {"B": "1"})
+    with pytest.raises(InputError, match="probability zero"):
+        net.joint_posterior(["C", "D"], {"B": "1"})
+    with pytest.raises(InputError, match="case 2: .*probability zero"):
+        net.posterior_batch("D", np.array([[0], [0], [1], [1]]), columns=["B"])
+    # possible evidence there changes nothing
+    assert net.posterior("D", {"B": "0"}) == pytest.approx(net.posterior("D"))
+
+
+def test_a_zero_combination_in_a_pruned_part_is_a_documented_limit() -> None:
+    """Each observed state is possible, their combination is not: only P(e) sees it."""
+    net = _two_parts()
+    net.set_cpt("A", [0.5, 0.5])
+    net.add_variable("B2", ["0", "1"], parents=["A"], cpt=[[1.0, 0.0], [0.0, 1.0]])
+    evidence = {"B": "0", "B2": "1"}  # both copies of A, which is unobserved
+    with pytest.raises(InputError):
+        net.probability_of_evidence(evidence)
+    assert net.posterior("D", evidence) == pytest.approx(net.posterior("D"))
+
+
+def test_pruned_evidence_below_a_data_node_is_not_checked_but_still_answers() -> None:
+    net = _two_parts()
+    net.set_source("B", lambda evidence: [[1.0, 0.0], [0.0, 1.0]])
+    assert net.posterior("D", {"B": "0"}) == pytest.approx(net.posterior("D"))
+
+
+@FAST
+@given(seed=SEEDS, force_joint=st.booleans(), sizes=st.lists(st.integers(1, 90), max_size=3))
+def test_batches_of_any_size_equal_looped_queries(
+    seed: int, force_joint: bool, sizes: list[int]
+) -> None:
+    """Deduplicated, memoised and joint-filled batch answers equal one query per case."""
+    net = random_net(seed, n_vars=7, zero_fraction=0.2)
+    rng = np.random.default_rng(seed)
+    names = list(net.variables)
+    target, *columns = (str(v) for v in rng.choice(names, size=3, replace=False))
+    old = inference._JOINT_ABOVE
+    if force_joint:
+        inference._JOINT_ABOVE = -1
+    try:
+        for n in [*sizes, 5]:
+            cases = [sample_evidence(net, rng, len(net)) for _ in range(n)]
+            table = np.array([[net.states(c).index(case[c]) for c in columns] for case in cases])
+            got = net.posterior_batch(target, table, columns=columns)
+            for row, case in zip(got, cases, strict=True):
+                evidence = {c: case[c] for c in columns}
+                want = brute_posterior(net, [target], evidence)
+                np.testing.assert_allclose(row, want, atol=1e-12)
+    finally:
+        inference._JOINT_ABOVE = old
+
+
+@pytest.mark.parametrize("force_joint", [False, True])
+def test_batch_memo_reports_impossible_cases_and_follows_network_changes(
+    force_joint: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    if force_joint:
+        monkeypatch.setattr(inference, "_JOINT_ABOVE", -1)
+    net = BayesNet("memo")
+    net.add_variable("R", ["no", "yes"], cpt=[0.8, 0.2])
+    net.add_variable("S", ["off", "on"], parents=["R"], cpt=[[0.6, 0.99], [0.4, 0.01]])
+    wet = np.array([[[1.0, 0.1], [0.2, 0.01]], [[0.0, 0.9], [0.8, 0.99]]])
+    net.add_variable("W", ["no", "yes"], parents=["R", "S"], cpt=wet)
+    net.add_variable("L", ["no", "yes"], parents=["W"], cpt=[[0.9, 0.3], [0.1, 0.7]])
+    columns = ["R", "S", "W"]
+    good = np.array([[0, 1, 1], [1, 0, 0], [0, 1, 1]] * 4)
+    first = net.posterior_batch("L", good, columns=columns)
+    np.testing.assert_allclose(net.posterior_batch("L", good, columns=columns), first)
+    bad = good.copy()
+    bad[7] = [0, 0, 1]  # no rain, sprinkler off, yet wet: probability zero
+    with pytest.raises(InputError, match="case 7: .*probability zero"):
+        net.posterior_batch("L", bad, columns=columns)
+    net.set_cpt("L", [[0.5, 0.5], [0.5, 0.5]])
+    np.testing.assert_allclose(net.posterior_batch("L", good, columns=columns), 0.5)
