@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from tests.bn.helpers import brute_map, random_net, sample_evidence
 
-from bayesmap.bn import BayesNet
+from bayesmap.bn import BayesNet, elimination
+from bayesmap.errors import ModelError
 
 SEEDS = st.integers(0, 2**31 - 1)
 
@@ -76,3 +77,11 @@ def test_map_on_a_long_chain_does_not_underflow() -> None:
     assignment, probability = net.map({"X599": "a"})
     assert len(assignment) == 599 and 0 < probability <= 1
     assert assignment["X0"] == "c"
+
+
+def test_map_too_wide_for_memory_raises_model_error():
+    """Three factors of 28 binary variables each, overlapping: any order multiplies two of
+    them into a table of at least 2^29 entries, beyond the 2^27 limit."""
+    terms = ["".join(chr(65 + (i + k) % 40) for k in range(28)) for i in range(3)]
+    with pytest.raises(ModelError, match="too densely connected"):
+        elimination.find_path(terms, "", [(2,) * 28] * 3)

@@ -135,8 +135,8 @@ def test_map_agrees_with_pyagrum(name: str, tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("name", ["alarm", "child", "insurance", "hailfinder", "win95pts", "andes"])
 def test_map_is_a_joint_optimum_on_larger_networks(name: str) -> None:
-    """pyAgrum 3.3's ``mpe()`` fails ('Empty tensor') on these, so check what must hold:
-    the returned probability is the assignment's, and no single change improves it."""
+    """Oracle-free checks beside tests/bn/test_map_oracles.py (pgmpy max-product): the
+    returned probability is the assignment's, and no single change improves it."""
     net = bn.read(MODELS / f"{name}.bif.gz")
     rng = np.random.default_rng(5)
     evidence = sample_evidence(net, rng, 3)
