@@ -1,9 +1,13 @@
+from pathlib import Path
+
 import click
 import pytest
+from rich.console import Console
 from typer.main import get_command
 from typer.testing import CliRunner
 
-from bayesmap.cli import app
+from bayesmap.cli import _print_summary, app
+from bayesmap.experiments import ExperimentResult
 
 runner = CliRunner()
 
@@ -34,3 +38,19 @@ def test_reproduce_rejects_an_unknown_experiment(tmp_path):
 def test_version():
     result = runner.invoke(app, ["--version"])
     assert result.exit_code == 0 and result.output.startswith("bayesmap ")
+
+
+def test_reproduce_summary_names_folders_and_headlines_in_a_narrow_terminal():
+    out_dir = Path("results") / "blackboard"
+    result = ExperimentResult(
+        "blackboard",
+        out_dir,
+        figures=(out_dir / "a.png", out_dir / "b.png"),
+        metrics=(out_dir / "normal" / "metrics.json", out_dir / "summary.md"),
+        headline={"scenario": "whisker-tables-v1", "normal_precision": 0.41625},
+    )
+    console = Console(width=80, record=True)
+    _print_summary([(result, 12.34)], console)
+    text = console.export_text()
+    assert str(out_dir) in text and "summary.md" in text and "12.3 s" in text
+    assert "blackboard: scenario whisker-tables-v1, normal_precision 0.416" in text

@@ -115,24 +115,36 @@ def reproduce(
     _print_summary(results)
 
 
-def _print_summary(results: list[tuple[ExperimentResult, float]]) -> None:
+def _print_summary(
+    results: list[tuple[ExperimentResult, float]], out: Console | None = None
+) -> None:
+    """Where each experiment wrote its figures and metrics, then its headline numbers.
+
+    The table keeps to what fits a narrow terminal (folders, counts, the summary file); the
+    headlines follow as wrapped lines, one experiment each.
+    """
+    out = out or Console()
     table = Table(title="bayesmap reproduce: where the results are")
     table.add_column("experiment")
-    table.add_column("folder")
+    table.add_column("folder", overflow="fold")
     table.add_column("figures", justify="right")
-    table.add_column("metrics")
-    table.add_column("headline")
+    table.add_column("metrics", justify="right")
+    table.add_column("read first", overflow="fold")
     table.add_column("time", justify="right")
     for result, seconds in results:
+        summaries = [path for path in result.metrics if path.suffix == ".md"]
         table.add_row(
             result.name,
             str(result.out_dir),
             str(len(result.figures)),
-            "\n".join(str(path) for path in result.metrics),
-            "\n".join(f"{key}: {_fmt(value)}" for key, value in result.headline.items()),
+            str(len(result.metrics)),
+            summaries[0].name if summaries else "",
             f"{seconds:.1f} s",
         )
-    Console().print(table)
+    out.print(table)
+    for result, _ in results:
+        numbers = ", ".join(f"{key} {_fmt(value)}" for key, value in result.headline.items())
+        out.print(f"[bold]{result.name}[/bold]: {numbers}", highlight=False)
 
 
 def _fmt(value: float | int | str) -> str:
