@@ -16,11 +16,13 @@ from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
     Progress,
+    ProgressColumn,
+    Task,
     TaskID,
     TextColumn,
-    TimeElapsedColumn,
 )
 from rich.table import Table
+from rich.text import Text
 
 from bayesmap import __version__
 from bayesmap.cli import bn as bn_commands
@@ -93,7 +95,7 @@ def reproduce(
         TextColumn("{task.description}"),
         BarColumn(),
         MofNCompleteColumn(),
-        TimeElapsedColumn(),
+        _ExperimentTime(),
         console=console,
         transient=False,
     ) as progress:
@@ -112,7 +114,21 @@ def reproduce(
                 raise typer.Exit(1) from error
             results.append((result, time.perf_counter() - started))
             progress.update(task, description="done")
+            progress.stop_task(task)
     _print_summary(results)
+
+
+class _ExperimentTime(ProgressColumn):
+    """Time since the experiment started, until it is stopped.
+
+    An experiment reports several stages (runs, conditions) through one task, each counting
+    up to its own total; rich's elapsed-time column freezes at the first stage that
+    completes, this one runs until the whole experiment is done.
+    """
+
+    def render(self, task: Task) -> Text:
+        seconds = int(task.elapsed or 0)
+        return Text(f"{seconds // 60}:{seconds % 60:02d}", style="progress.elapsed")
 
 
 def _print_summary(
