@@ -16,6 +16,7 @@ import numpy.typing as npt
 import opt_einsum
 
 from bayesmap._typing import FloatArray
+from bayesmap.bn.elimination import ConstantMemo
 from bayesmap.bn.tables import DataSource, checked_cpt
 from bayesmap.errors import InputError, ModelError
 
@@ -103,6 +104,10 @@ class Compiled:
         self._transposed: dict[tuple[int, tuple[int, ...]], FloatArray] = {}
         self.factors: dict[int, Any] = {}
         """Evidence-free plan factors, shared by every plan of this version (``plans.build``)."""
+        self.constants = ConstantMemo()
+        """Evidence-independent contraction steps already computed (``SumProgram`` memo)."""
+        self.layouts: dict[tuple[int, int], Any] = {}
+        """Observed-first layouts of CPTs, by variable and observed family (``plans.build``)."""
         self._rank: tuple[int, ...] | None = None
 
     @property

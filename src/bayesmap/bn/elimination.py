@@ -213,6 +213,31 @@ one of more than ``_MAX_OPERANDS`` into groups (``np.einsum`` takes at most 32 o
 pairwise step over more than ``_PAIR`` entries goes to :func:`opt_einsum.contract` (BLAS)."""
 
 
+class ConstantMemo:
+    """Results of evidence-independent contraction steps, shared by :class:`SumProgram` s.
+
+    Keyed by the identity of the input arrays, their labels and the kept labels; each entry
+    keeps its input arrays alive, so an id cannot be reused by another array while it is
+    stored. Holds at most ``budget`` float entries in all (then stores nothing more).
+    """
+
+    def __init__(self, budget: int = 1 << 22) -> None:
+        self._results: dict[Any, tuple[list[Any], FloatArray]] = {}
+        self._left = budget
+
+    def get(self, key: Any) -> FloatArray | None:
+        """The stored result of step ``key``, or ``None``."""
+        entry = self._results.get(key)
+        return None if entry is None else entry[1]
+
+    def put(self, key: Any, inputs: list[Any], result: FloatArray) -> None:
+        """Store ``result`` (of ``inputs``) if the budget allows."""
+        if result.size <= self._left:
+            self._left -= result.size
+            result.flags.writeable = False  # shared by every program that reuses it
+            self._results[key] = (inputs, result)
+
+
 class SumProgram:
     """A sum-product contraction compiled once: a given order, constants pre-contracted.
 
@@ -235,6 +260,12 @@ class SumProgram:
         SSA contraction path: step ``k`` contracts the operands it lists (inputs are
         numbered first, each step's result takes the next number); the last step gives
         ``output``.
+    kept
+        Labels each step's result keeps (as :func:`kept_labels` gives them), if known.
+    memo
+        Results of evidence-independent steps, shared between programs over the same
+        constant arrays: a new pattern whose plan repeats a step of an earlier one (or of
+        a prior marginal's computation) reuses its result instead of contracting it again.
     """
 
     def __init__(
@@ -243,22 +274,24 @@ class SumProgram:
         output: Sequence[Hashable],
         operands: Sequence[FloatArray | tuple[int, ...]],
         path: Sequence[Sequence[int]],
+        kept: Sequence[Sequence[Hashable]] | None = None,
+        memo: ConstantMemo | None = None,
     ) -> None:
+        self._memo = memo
         sizes: dict[Hashable, int] = {}
-        count: dict[Hashable, int] = dict.fromkeys(output, 1)
         # live operands: (constant value or None, register or -1, labels)
         live: list[tuple[Any, int, Sequence[Hashable]]] = []
         n_inputs = 0
         for scope, op in zip(scopes, operands, strict=True):
-            shape = op if isinstance(op, tuple) else op.shape
-            for label, size in zip(scope, shape, strict=True):
-                sizes[label] = size
-                count[label] = count.get(label, 0) + 1
             if isinstance(op, tuple):
+                sizes.update(zip(scope, op, strict=True))
                 live.append((None, n_inputs, scope))
                 n_inputs += 1
             else:
+                sizes.update(zip(scope, op.shape, strict=True))
                 live.append((op, -1, scope))
+        if kept is None:
+            kept = kept_labels(scopes, output, path)
         self.n_inputs = n_inputs
         self._sizes = sizes
         # each step: (argument template, [(argument slot, register)], result register, large)
@@ -267,40 +300,46 @@ class SumProgram:
         last = len(path) - 1
         for k, position in enumerate(path):
             chosen = [live[i] for i in position]
-            union: dict[Hashable, None] = {}
-            for _, _, scope in chosen:
-                for label in scope:
-                    union[label] = None
-                    count[label] -= 1
-            if k == last:
-                kept: Sequence[Hashable] = output
+            keep = output if k == last else kept[k]
+            if len(chosen) == 1 or len(chosen) == 2:
+                live.append(self._emit(chosen, keep))
+                continue
+            union = dict.fromkeys(label for _, _, scope in chosen for label in scope)
+            large = math.prod([sizes[label] for label in union]) > _SMALL
+            if large or len(chosen) > _MAX_OPERANDS:
+                live.append(self._split(chosen, keep, large))
             else:
-                kept = [label for label in union if count[label] > 0]
-                for label in kept:
-                    count[label] += 1
-            large = math.prod(sizes[label] for label in union) > _SMALL
-            if len(chosen) > 2 and large or len(chosen) > _MAX_OPERANDS:
-                # np.einsum would loop over the whole union (or refuse so many operands):
-                # contract in groups instead — pairwise if large — smallest operands first,
-                # summing each label once no later operand holds it
-                chosen.sort(key=lambda op: math.prod(sizes[label] for label in op[2]))
-                group = 1 if large else _MAX_OPERANDS - 1
-                acc = chosen[0]
-                for j in range(1, len(chosen), group):
-                    rest = chosen[j + group :]
-                    later = {label for _, _, scope in rest for label in scope}
-                    later.update(kept)
-                    joined = [acc, *chosen[j : j + group]]
-                    labels = dict.fromkeys(label for _, _, scope in joined for label in scope)
-                    keep = kept if not rest else [x for x in labels if x in later]
-                    acc = self._emit(joined, keep)
-                live.append(acc)
-            else:
-                live.append(self._emit(chosen, kept))
+                live.append(self._emit(chosen, keep))
         self.steps = tuple(self._steps)
         self.n_registers = self._register
         value, source, _ = live[-1]
         self.result: tuple[Any, int] = (value, source)
+
+    def _split(
+        self,
+        chosen: list[tuple[Any, int, Sequence[Hashable]]],
+        kept: Sequence[Hashable],
+        large: bool,
+    ) -> tuple[Any, int, Sequence[Hashable]]:
+        """Contract a step of many operands in groups (pairwise if ``large``).
+
+        np.einsum would loop over the whole union of a step's indices (or refuse more than
+        32 operands), so the operands are joined smallest first, summing each label once
+        no later operand holds it.
+        """
+        sizes = self._sizes
+        chosen.sort(key=lambda op: math.prod([sizes[label] for label in op[2]]))
+        group = 1 if large else _MAX_OPERANDS - 1
+        acc = chosen[0]
+        for j in range(1, len(chosen), group):
+            rest = chosen[j + group :]
+            later = {label for _, _, scope in rest for label in scope}
+            later.update(kept)
+            joined = [acc, *chosen[j : j + group]]
+            labels = dict.fromkeys(label for _, _, scope in joined for label in scope)
+            keep = kept if not rest else [x for x in labels if x in later]
+            acc = self._emit(joined, keep)
+        return acc
 
     def _emit(
         self, chosen: Sequence[tuple[Any, int, Sequence[Hashable]]], kept: Sequence[Hashable]
@@ -315,10 +354,20 @@ class SumProgram:
             args.append(value)
             args.append([index.setdefault(label, len(index)) for label in scope])
         args.append([index[label] for label in kept])
-        entries = math.prod(self._sizes[label] for label in index)
-        large = len(chosen) == 2 and entries > _PAIR
+        large = False
+        if len(chosen) == 2:
+            sizes = self._sizes
+            large = math.prod([sizes[label] for label in index]) > _PAIR
         if not fills:
-            return _call(args, large), -1, kept
+            memo = self._memo
+            if memo is None:
+                return _call(args, large), -1, kept
+            key = (*[(id(value), tuple(scope)) for value, _, scope in chosen], tuple(kept))
+            result = memo.get(key)
+            if result is None:
+                result = _call(args, large)
+                memo.put(key, [value for value, _, _ in chosen], result)
+            return result, -1, kept
         self._steps.append((args, fills, self._register, large))
         self._register += 1
         return None, self._register - 1, kept
@@ -333,6 +382,32 @@ class SumProgram:
             registers[out] = opt_einsum.contract(*args) if large else np.einsum(*args)
         value, source = self.result
         return np.asarray(value if source < 0 else registers[source])
+
+
+def kept_labels(
+    scopes: Sequence[Sequence[Hashable]],
+    output: Sequence[Hashable],
+    path: Sequence[Sequence[int]],
+) -> list[list[Hashable]]:
+    """For each step of an SSA ``path``: the labels its result keeps (held later or output)."""
+    count: dict[Hashable, int] = dict.fromkeys(output, 1)
+    for scope in scopes:
+        for label in scope:
+            count[label] = count.get(label, 0) + 1
+    live = list(scopes)
+    out: list[list[Hashable]] = []
+    for position in path:
+        union: dict[Hashable, None] = {}
+        for i in position:
+            for label in live[i]:
+                union[label] = None
+                count[label] -= 1
+        kept = [label for label in union if count[label] > 0]
+        for label in kept:
+            count[label] += 1
+        live.append(kept)
+        out.append(kept)
+    return out
 
 
 def _call(args: list[Any], large: bool) -> FloatArray:

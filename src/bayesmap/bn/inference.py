@@ -54,6 +54,10 @@ _BATCH_CLASS = 256
 """Batches up to ``2 * _BATCH_CLASS - 1`` cases share one contraction order."""
 """Multiply-adds of a batch's per-case contraction above which the joint is considered."""
 """Largest memo of batch answers (combinations of observed states × target states)."""
+_ONE_STEP = 1 << 10
+_ONE_STEP_OPERANDS = 16
+"""A one-case contraction over at most ``_ONE_STEP`` joint entries and ``_ONE_STEP_OPERANDS``
+factors is one ``np.einsum`` call (its fixed cost, a few µs, outweighs the arithmetic)."""
 
 
 class Engine:
@@ -792,8 +796,17 @@ def _single_program(plan: Plan, compiled: Compiled) -> tuple[Any, list[Factor]]:
     specs: list[Any] = [
         tuple(compiled.card[v] for v in f.free) if f.observed else f.array for f in plan.factors
     ]
-    path, _ = plans.order(compiled, scopes, plan.targets)
-    program = elimination.SumProgram(scopes, plan.targets, specs, path)
+    card = compiled.card
+    labels = dict.fromkeys(v for scope in scopes for v in scope)
+    if len(scopes) <= _ONE_STEP_OPERANDS and math.prod([card[v] for v in labels]) <= _ONE_STEP:
+        # small enough for one np.einsum call over all variables: no order to compute
+        path: list[tuple[int, ...]] = [tuple(range(len(scopes)))]
+        kept: list[tuple[int, ...]] | None = [plan.targets]
+    else:
+        path, kept, _ = plans.order_steps(compiled, scopes, plan.targets)
+    program = elimination.SumProgram(
+        scopes, plan.targets, specs, path, kept, memo=compiled.constants
+    )
     if not observed:
         return program(), []
     return program, observed
@@ -805,8 +818,10 @@ def _batch_expression(plan: Plan, compiled: Compiled, n: int) -> Any:
     size_class = max(n, _BATCH_CLASS).bit_length()
     program = cache.get(size_class)
     if program is None:
-        scopes, output, specs, path, _ = _batch_order(plan, compiled, n)
-        program = cache[size_class] = elimination.SumProgram(scopes, output, specs, path)
+        scopes, output, specs, path, kept, _ = _batch_order(plan, compiled, n)
+        program = cache[size_class] = elimination.SumProgram(
+            scopes, output, specs, path, kept, memo=compiled.constants
+        )
     return program
 
 
@@ -833,8 +848,8 @@ def _batch_order(plan: Plan, compiled: Compiled, n: int) -> tuple[Any, ...]:
                 scopes.append(f.free)
                 specs.append(f.array)
         output = (_CASE, *plan.targets)
-        path, cost = plans.order(compiled, scopes, output, {_CASE: n})
-        entry = cache[size_class] = (scopes, output, specs, path, cost)
+        path, kept, cost = plans.order_steps(compiled, scopes, output, {_CASE: n})
+        entry = cache[size_class] = (scopes, output, specs, path, kept, cost)
     return entry
 
 

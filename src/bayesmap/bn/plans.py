@@ -46,7 +46,7 @@ def symbol(var: int) -> str:
     return str(opt_einsum.get_symbol(var + 1))
 
 
-@dataclass
+@dataclass(slots=True)
 class Factor:
     """One CPT of a plan, transposed so that its observed axes come first.
 
@@ -187,6 +187,7 @@ def build(
     keep = -1 if keep_all_components else _component(scope_masks, t_mask)
     ev_index = {v: k for k, v in enumerate(ev)}
     shared = compiled.factors  # evidence-free factors, the same in every plan
+    layouts = compiled.layouts  # observed-first layouts of CPTs, by observed family members
     factors: list[Factor] = []
     checks: list[Factor] = []
     dropped = 0
@@ -212,17 +213,15 @@ def build(
                 shared[v] = factor
             factors.append(factor)
             continue
-        observed_axes = [k for k, u in enumerate(variables) if (ev_mask >> u) & 1]
-        free_axes = [k for k, u in enumerate(variables) if not (ev_mask >> u) & 1]
-        perm = (*observed_axes, *free_axes)
+        key = (v, ev_mask & ((1 << v) | parent_masks[v]))
+        layout = layouts.get(key)
+        if layout is None:
+            layout = layouts[key] = _layout(compiled, v, ev_mask)
+        array, perm, seen, free = layout
         factor = Factor(
-            var=v,
-            array=None if v in compiled.sources else compiled.transposed(v, perm),
-            perm=perm,
-            ev_pos=tuple(ev_index[variables[k]] for k in observed_axes),
-            free=tuple(variables[k] for k in free_axes),
+            var=v, array=array, perm=perm, ev_pos=tuple([ev_index[u] for u in seen]), free=free
         )
-        (factors if free_axes else checks).append(factor)
+        (factors if free else checks).append(factor)
     return Plan(
         targets=tuple(targets),
         evidence=ev,
@@ -230,6 +229,19 @@ def build(
         checks=checks,
         dropped=tuple(bits(dropped)),
     )
+
+
+def _layout(
+    compiled: Compiled, v: int, ev_mask: int
+) -> tuple[FloatArray | None, tuple[int, ...], tuple[int, ...], tuple[int, ...]]:
+    """The CPT of ``v`` with its observed axes first: array, permutation, observed, free ids."""
+    variables = (v, *compiled.parents[v])
+    observed_axes = [k for k, u in enumerate(variables) if (ev_mask >> u) & 1]
+    free_axes = [k for k, u in enumerate(variables) if not (ev_mask >> u) & 1]
+    perm = (*observed_axes, *free_axes)
+    array = None if v in compiled.sources else compiled.transposed(v, perm)
+    seen = tuple(variables[k] for k in observed_axes)
+    return array, perm, seen, tuple(variables[k] for k in free_axes)
 
 
 def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int) -> list[int]:
@@ -276,37 +288,58 @@ def order(
 ) -> tuple[list[tuple[int, ...]], int]:
     """A contraction order (opt_einsum SSA path) for ``scopes`` -> ``output``, and its cost.
 
+    See :func:`order_steps`, which also gives the labels each step keeps.
+    """
+    path, _, total = order_steps(compiled, scopes, output, sizes)
+    return path, total
+
+
+def order_steps(
+    compiled: Compiled,
+    scopes: Sequence[Sequence[int]],
+    output: Sequence[int],
+    sizes: Mapping[int, int] | None = None,
+) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int]:
+    """A contraction order (opt_einsum SSA path), the labels each step keeps, and its cost.
+
     The network-wide order of :attr:`Compiled.rank` restricted to these factors: each
     variable, by rank, has the factors holding it multiplied and summed over it (a variable
     no other factor holds is summed at once); a last step multiplies what is left into
     ``output``. The cost is the number of multiply-adds (the sizes of the steps' index
     unions). If that costs more than ``_LARGE`` multiply-adds (and ``_PER_FACTOR`` per factor),
     :func:`opt_einsum.paths.ssa_greedy_optimize` is run on these factors as well and the
-    order with the fewer multiply-adds is kept. ``sizes`` gives the size of labels that
-    are not variables (the case axis of a batch, label −1).
+    order with the fewer multiply-adds is kept (its kept labels are then ``None``: they are
+    not computed here). ``sizes`` gives the size of labels that are not variables (the case
+    axis of a batch, label −1). The kept labels feed
+    :class:`~bayesmap.bn.elimination.SumProgram`, which would otherwise recount them.
     """
     card = compiled.card
     extra = sizes or {}
     n = len(scopes)
     if n == 1:
-        return [(0,)], math.prod(card[u] if u >= 0 else extra[u] for u in scopes[0])
+        size = math.prod([card[u] if u >= 0 else extra[u] for u in scopes[0]])
+        return [(0,)], [tuple(output)], size
     rank = compiled.rank
     holders: dict[int, list[int]] = {}
     for k, scope in enumerate(scopes):
         for u in scope:
-            if u in holders:
-                holders[u].append(k)
-            else:
+            ks = holders.get(u)
+            if ks is None:
                 holders[u] = [k]
+            else:
+                ks.append(k)
     count = {u: len(ks) for u, ks in holders.items()}
     for u in output:
         count[u] = count.get(u, 0) + 1
     live = list(scopes)
     alive = [True] * n
     path: list[tuple[int, ...]] = []
+    kept_steps: list[tuple[int, ...]] = []
     total = 0
-    for u in sorted([u for u in holders if u not in output], key=rank.__getitem__):
-        chosen = tuple(k for k in holders[u] if alive[k])
+    eliminate = [u for u in holders if u not in output]
+    eliminate.sort(key=rank.__getitem__)
+    for u in eliminate:
+        chosen = tuple([k for k in holders[u] if alive[k]])
         if not chosen:
             continue
         union: dict[int, None] = {}
@@ -315,31 +348,85 @@ def order(
             for w in live[k]:
                 union[w] = None
                 count[w] -= 1
-        kept = tuple(w for w in union if count[w] > 0)
+        kept = tuple([w for w in union if count[w] > 0])
+        new = len(live)
         entries = 1
         for w in union:
             entries *= card[w] if w >= 0 else extra[w]
         total += entries
-        new = len(live)
         for w in kept:
             count[w] += 1
             holders[w].append(new)
         live.append(kept)
         alive.append(True)
         path.append(chosen)
-    rest = tuple(k for k in range(len(live)) if alive[k])
+        kept_steps.append(kept)
+    rest = tuple([k for k in range(len(live)) if alive[k]])
     if len(rest) > 1 or not path:
         path.append(rest)
+        kept_steps.append(tuple(output))
         labels = {w for k in rest for w in live[k]}
-        total += math.prod(card[w] if w >= 0 else extra[w] for w in labels)
+        total += math.prod([card[w] if w >= 0 else extra[w] for w in labels])
     if total > _LARGE and total > _PER_FACTOR * n:
         sets = [frozenset(scope) for scope in scopes]
         table = {u: card[u] if u >= 0 else extra[u] for u in holders}
-        greedy = opt_einsum.paths.ssa_greedy_optimize(sets, frozenset(output), table)
+        greedy = _greedy(sets, frozenset(output), table)
         greedy_total = _cost(sets, set(output), greedy, table)
         if greedy_total < _cost(sets, set(output), path, table):
-            return [tuple(step) for step in greedy], greedy_total
-    return path, total
+            return greedy, None, greedy_total
+    return path, kept_steps, total
+
+
+def _greedy(
+    sets: Sequence[frozenset[int]], output: frozenset[int], table: Mapping[int, int]
+) -> list[tuple[int, ...]]:
+    """opt_einsum's greedy SSA path, after multiplying each factor into one that holds it.
+
+    A factor whose labels are all held by another (a prior, a CPT sliced by evidence) is
+    first multiplied into that one — the step greedy takes first anyway, as it only
+    shrinks the operands — so :func:`opt_einsum.paths.ssa_greedy_optimize`, whose time
+    grows faster than linearly with the number of operands, searches fewer of them.
+    """
+    n = len(sets)
+    owners: dict[int, list[int]] = {}
+    for k, scope in enumerate(sets):
+        for u in scope:
+            owners.setdefault(u, []).append(k)
+    count = {u: len(ks) for u, ks in owners.items()}
+    for u in output:
+        count[u] = count.get(u, 0) + 1
+    ssa = list(range(n))  # current SSA id of each factor (a host's merged result)
+    live = list(sets)
+    absorbed = [False] * n
+    path: list[tuple[int, ...]] = []
+    for k in sorted(range(n), key=lambda k: len(sets[k])):
+        scope = sets[k]
+        if not scope:
+            continue
+        candidates = owners[next(iter(scope))]
+        host = next((j for j in candidates if j != k and not absorbed[j] and scope <= live[j]), -1)
+        if host < 0:
+            continue
+        absorbed[k] = True
+        for u in scope:
+            count[u] -= 1
+        for u in live[host]:
+            count[u] -= 1
+        merged = frozenset(u for u in live[host] if count[u] > 0)
+        for u in merged:
+            count[u] += 1
+        live[host] = merged
+        path.append((ssa[host], ssa[k]))
+        ssa[host] = n + len(path) - 1
+    rest = [j for j in range(n) if not absorbed[j]]
+    if len(rest) < 2:
+        return path
+    first = n + len(path)
+    greedy = opt_einsum.paths.ssa_greedy_optimize([live[j] for j in rest], output, table)
+    ids = [ssa[j] for j in rest]
+    for step in greedy:
+        path.append(tuple(ids[i] if i < len(rest) else first + i - len(rest) for i in step))
+    return path
 
 
 _LARGE = 1 << 20
