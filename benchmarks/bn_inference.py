@@ -40,6 +40,7 @@ from benchmarks._report import machine, update_section  # noqa: E402
 from pgmpy.factors.discrete import TabularCPD  # noqa: E402
 from pgmpy.inference import VariableElimination  # noqa: E402
 from pgmpy.models import DiscreteBayesianNetwork  # noqa: E402
+from tests.bn.peers import to_pyagrum  # noqa: E402
 
 import bayesmap.bn as bn  # noqa: E402
 
@@ -77,21 +78,6 @@ def forward_sample(net: bn.BayesNet, n: int, rng: np.random.Generator) -> dict[s
         u = rng.random(n) * cumulative[-1]
         out[name] = np.minimum((cumulative < u).sum(axis=0), table.shape[0] - 1)
     return out
-
-
-def to_pyagrum(net: bn.BayesNet) -> Any:
-    g = gum.BayesNet(net.name)
-    for name in net.topological_order():
-        g.add(gum.LabelizedVariable(name, name, list(net.states(name))))
-    for name in net.variables:
-        for parent in net.parents(name):
-            g.addArc(parent, name)
-    for name in net.variables:
-        table = net.cpt(name)
-        for index in np.ndindex(*table.shape[1:]):
-            where = {p: int(i) for p, i in zip(net.parents(name), index, strict=True)}
-            g.cpt(name)[where] = table[(slice(None), *index)].tolist()
-    return g
 
 
 def load_pyagrum(name: str, net: bn.BayesNet) -> tuple[Any, str]:

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from tests.bn.helpers import sample_evidence
+from tests.bn.peers import to_pyagrum
 
 import bayesmap.bn as bn
 from bayesmap.bn import BayesNet
@@ -36,23 +37,6 @@ LARGE = [
     "munin4",
     "munin",
 ]
-
-
-def to_pyagrum(net: BayesNet) -> gum.BayesNet:
-    """A pyAgrum copy of ``net`` with the same double-precision tables."""
-    g = gum.BayesNet(net.name)
-    for name in net.topological_order():
-        g.add(gum.LabelizedVariable(name, name, list(net.states(name))))
-    for name in net.variables:
-        for parent in net.parents(name):
-            g.addArc(parent, name)
-    for name in net.variables:
-        parents = net.parents(name)
-        table = net.cpt(name)
-        for index in np.ndindex(*table.shape[1:]):
-            where = {p: int(i) for p, i in zip(parents, index, strict=True)}
-            g.cpt(name)[where] = table[(slice(None), *index)].tolist()
-    return g
 
 
 def load_both(name: str, tmp_path: Path) -> tuple[BayesNet, gum.BayesNet]:
