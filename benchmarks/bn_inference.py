@@ -68,16 +68,10 @@ PGMPY_BUDGET_S = 20.0
 
 
 def forward_sample(net: bn.BayesNet, n: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """``n`` joint samples (state indices per variable), vectorised ancestral sampling."""
-    out: dict[str, np.ndarray] = {}
-    for name in net.topological_order():
-        table = net.cpt(name)
-        columns = table[(slice(None), *(out[p] for p in net.parents(name)))]
-        columns = np.broadcast_to(columns.reshape(table.shape[0], -1), (table.shape[0], n))
-        cumulative = np.cumsum(columns, axis=0)
-        u = rng.random(n) * cumulative[-1]
-        out[name] = np.minimum((cumulative < u).sum(axis=0), table.shape[0] - 1)
-    return out
+    """``n`` joint samples (state indices per variable) by ``BayesNet.sample``, drawn from a
+    copy so that ``net``'s own caches stay cold for the first timed question."""
+    draws = net.copy().sample(n, rng=rng)
+    return {name: draws[:, i] for i, name in enumerate(net.variables)}
 
 
 def load_pyagrum(name: str, net: bn.BayesNet) -> tuple[Any, str]:

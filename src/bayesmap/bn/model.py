@@ -38,10 +38,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._typing import CPT, FloatArray
+from bayesmap._rng import RNGLike, as_generator
+from bayesmap._typing import CPT, FloatArray, IntArray
 from bayesmap.bn.fixed_point import FixedResult, QFormat
 from bayesmap.bn.inference import BatchEvidence, Engine, Evidence
 from bayesmap.bn.propositions import Proposition
+from bayesmap.bn.sampling import forward_sample
 from bayesmap.bn.tables import SUM_TOLERANCE as SUM_TOLERANCE
 from bayesmap.bn.tables import WARN_TOLERANCE as WARN_TOLERANCE
 from bayesmap.bn.tables import CPTNormalisationWarning as CPTNormalisationWarning
@@ -448,6 +450,22 @@ class BayesNet:
         if fixed_point is not None:
             return self.joint_posterior_fixed(targets, evidence, fixed_point).values
         return self._engine.joint_posterior(list(targets), evidence or {})
+
+    def sample(self, n: int = 1, *, rng: RNGLike = None) -> IntArray:
+        """``n`` independent draws of the joint distribution (forward sampling, eq. 8).
+
+        Returns an ``(n, len(variables))`` array of state indices, columns in
+        :attr:`variables` order — the batch layout :meth:`posterior_batch` takes. A data
+        node's table is asked of its source with no evidence.
+
+        Examples
+        --------
+        >>> net = BayesNet("rain")
+        >>> _ = net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+        >>> net.sample(5, rng=0).shape
+        (5, 1)
+        """
+        return forward_sample(self._engine.compiled, n, rng=as_generator(rng))
 
     def probability_of_evidence(self, evidence: Evidence | None = None) -> float:
         """``P(evidence)``, the normaliser Σ of Post et al. 2016 eq. 24."""
