@@ -167,6 +167,28 @@ class Engine:
             compiled.id(name): compiled.state(compiled.id(name), s) for name, s in evidence.items()
         }
 
+    def _joint_query(
+        self, targets: Sequence[str], evidence: Evidence
+    ) -> tuple[dict[int, int], tuple[int, ...], tuple[int, ...]]:
+        """``(evidence ids, target ids, unobserved target ids)`` of a joint posterior."""
+        compiled = self.compiled
+        ids = tuple(compiled.id(t) for t in targets)
+        if len(set(ids)) != len(ids):
+            raise InputError(f"joint posterior: a target is listed twice in {list(targets)}")
+        ev = self._evidence_ids(evidence)
+        return ev, ids, tuple(t for t in ids if t not in ev)
+
+    def _map_query(
+        self, variables: Sequence[str], evidence: Evidence
+    ) -> tuple[dict[int, int], tuple[int, ...], dict[str, str]]:
+        """``(evidence ids, unobserved MAP variable ids, observed MAP variables' states)``."""
+        compiled = self.compiled
+        ids = tuple(compiled.id(v) for v in variables)
+        ev = self._evidence_ids(evidence)
+        query = tuple(v for v in dict.fromkeys(ids) if v not in ev)
+        fixed = {compiled.names[v]: compiled.states[v][ev[v]] for v in ids if v in ev}
+        return ev, query, fixed
+
     # --------------------------------------------------------------- posteriors
     def posterior(self, target: str, evidence: Evidence) -> FloatArray:
         """``P(target | evidence)`` as an array over the target's states (eq. 25)."""
@@ -188,11 +210,7 @@ class Engine:
     def joint_posterior(self, targets: Sequence[str], evidence: Evidence) -> FloatArray:
         """``P(targets | evidence)`` as an array with one axis per target, in the given order."""
         compiled = self.compiled
-        ids = tuple(compiled.id(t) for t in targets)
-        if len(set(ids)) != len(ids):
-            raise InputError(f"joint posterior: a target is listed twice in {list(targets)}")
-        ev = self._evidence_ids(evidence)
-        free = tuple(t for t in ids if t not in ev)
+        ev, ids, free = self._joint_query(targets, evidence)
         if free:
             plan = self.plan("sum", free, frozenset(ev))
             if plan.dropped:
@@ -475,10 +493,7 @@ class Engine:
         Returns the assignment and ``P(x | evidence)``.
         """
         compiled = self.compiled
-        ids = tuple(compiled.id(v) for v in variables)
-        ev = self._evidence_ids(evidence)
-        query = tuple(v for v in dict.fromkeys(ids) if v not in ev)
-        fixed = {compiled.names[v]: compiled.states[v][ev[v]] for v in ids if v in ev}
+        ev, query, fixed = self._map_query(variables, evidence)
         if not query:
             return fixed, 1.0 if self.probability_of_evidence(evidence) > 0 else 0.0
         plan = self.plan("sum", query, frozenset(ev))
@@ -548,11 +563,7 @@ class Engine:
     ) -> FixedResult:
         """:meth:`joint_posterior` in Q-format integers: same plan, block floating point."""
         compiled = self.compiled
-        ids = tuple(compiled.id(t) for t in targets)
-        if len(set(ids)) != len(ids):
-            raise InputError(f"joint posterior: a target is listed twice in {list(targets)}")
-        ev = self._evidence_ids(evidence)
-        free = tuple(t for t in ids if t not in ev)
+        ev, ids, free = self._joint_query(targets, evidence)
         if not free:
             self.probability_of_evidence(evidence)
             answer = constant(q, np.ones(()))
@@ -634,10 +645,7 @@ class Engine:
         """:meth:`marginal_map` in Q-format integers: the same sum groups, summed then
         maximised in block floating point; ``P(x | evidence)`` as a 0-d :class:`FixedResult`."""
         compiled = self.compiled
-        ids = tuple(compiled.id(v) for v in variables)
-        ev = self._evidence_ids(evidence)
-        query = tuple(v for v in dict.fromkeys(ids) if v not in ev)
-        fixed = {compiled.names[v]: compiled.states[v][ev[v]] for v in ids if v in ev}
+        ev, query, fixed = self._map_query(variables, evidence)
         if not query:
             self.probability_of_evidence(evidence)
             return fixed, constant(q, np.ones(()))
