@@ -129,9 +129,14 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO
         raise ValueError(f"atomic_open writes only; got mode {mode!r}")
     target = Path(path)
     make_folder(target.parent)
+    if target.is_dir():
+        raise ConfigError(f"cannot write the file {str(target)!r}: it is a folder")
     prefix = f".{target.name}.partial-"
     sweep_abandoned(target.parent, prefix)
-    fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=target.parent)
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=target.parent)
+    except OSError as error:
+        raise ConfigError(f"cannot write in {str(target.parent)!r}: {error.strerror}") from None
     try:
         _lock(fd)
         if "b" not in mode:
@@ -140,8 +145,11 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO
             yield handle
             handle.flush()
             os.fsync(handle.fileno())
-        os.chmod(tmp_name, _permissions_for(target))
-        os.replace(tmp_name, target)
+        try:
+            os.chmod(tmp_name, _permissions_for(target))
+            os.replace(tmp_name, target)
+        except OSError as error:
+            raise ConfigError(f"cannot write {str(target)!r}: {error.strerror}") from None
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp_name)
