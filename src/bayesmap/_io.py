@@ -89,13 +89,25 @@ def read_input(path: str | Path, *, max_bytes: int, gunzip: bool = False) -> byt
             )
         check_size("bytes in the file", info.st_size, max_bytes, "max_bytes", path=name)
         with open(fd, "rb", closefd=False) as handle:
-            data = handle.read(max_bytes + 1)
+            data = _read_at_most(handle, max_bytes + 1, info.st_size + 1)
     except OSError as error:
         raise FormatError(f"cannot read the file: {error.strerror or error}", path=name) from None
     finally:
         os.close(fd)
     check_size("bytes in the file", len(data), max_bytes, "max_bytes", path=name)
     return _gunzip(data, max_bytes, name) if gunzip else data
+
+
+def _read_at_most(handle: IO[bytes], limit: int, expected: int) -> bytes:
+    """Up to ``limit`` bytes of ``handle``, allocating as they come (not ``limit`` at once)."""
+    chunks: list[bytes] = []
+    total = 0
+    want = min(expected, limit)
+    while total < limit and (chunk := handle.read(min(want, limit - total))):
+        chunks.append(chunk)
+        total += len(chunk)
+        want = _CHUNK
+    return b"".join(chunks)
 
 
 def _gunzip(data: bytes, max_bytes: int, name: str) -> bytes:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import warnings
 
 import numpy as np
@@ -9,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from _fuzzing import FUZZ, mutated, read_within_budget
 from bayesmap.bn import io
 from bayesmap.bn.io import bif, xbn, xmlbif
 from bayesmap.bn.model import BayesNet
@@ -94,6 +96,25 @@ def _check(module, text: str | bytes) -> None:
 def test_mutated_files_raise_only_format_error(fmt: str, data: st.DataObject) -> None:
     module = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn}[fmt]
     _check(module, data.draw(mutations(SEEDS[fmt])))
+
+
+@pytest.mark.parametrize("fmt", sorted(SEEDS))
+@FUZZ
+@given(data=st.data())
+def test_byte_mutations_stay_within_the_budget(fmt: str, data: st.DataObject) -> None:
+    module = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn}[fmt]
+    blob = data.draw(mutated([SEEDS[fmt].encode()]))
+    outcome = read_within_budget(lambda: module.loads(blob, path="fuzz"))
+    assert isinstance(outcome, (BayesNet, FormatError))
+
+
+@FUZZ
+@given(data=st.data())
+def test_mutated_gzip_files_stay_within_the_budget(tmp_path_factory, data: st.DataObject) -> None:
+    path = tmp_path_factory.mktemp("gz") / "net.bif.gz"
+    path.write_bytes(data.draw(mutated([gzip.compress(SEEDS["bif"].encode())])))
+    outcome = read_within_budget(lambda: io.read(path))
+    assert isinstance(outcome, (BayesNet, FormatError))
 
 
 @pytest.mark.parametrize("module", [bif, xmlbif, xbn], ids=lambda m: m.__name__.rsplit(".", 1)[-1])

@@ -67,7 +67,9 @@ from bayesmap.limits import ReadLimits
 
 __all__ = ["dumps", "loads", "read", "write"]
 
-_QUOTED = r'"(?:[^"\\\n]|\\[^\n])*"'
+# A quoted name on one line, with backslash escapes; possessive, so a quote that is never
+# closed costs one scan to the end of its line, not a backtracking search.
+_QUOTED = r'"[^"\\\n]*+(?:\\[^\n][^"\\\n]*+)*+"'
 # One linear pass over the text: complete quoted names, comments, and runs of anything else;
 # a quote or a comment that is not closed is an error, found at once.
 _LEXEME = re.compile(
