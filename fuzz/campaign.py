@@ -35,9 +35,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _targets import Target, mutate, targets  # noqa: E402
 from benchmarks._report import machine, update_section  # noqa: E402
 
+from _targets import Target, mutate, targets  # noqa: E402
 from bayesmap.errors import BayesmapError  # noqa: E402
 
 DOC = ROOT / "docs" / "reliability.md"
