@@ -1,12 +1,26 @@
+import fcntl
+import hashlib
 import json
 import os
+import signal
 import stat
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
 
-from bayesmap._io import atomic_open, write_json, write_text
+from bayesmap._io import (
+    atomic_open,
+    read_input,
+    run_folder,
+    verify_run_folder,
+    write_json,
+    write_text,
+)
 from bayesmap._rng import as_generator, spawn
+from bayesmap.errors import ConfigError, FormatError
 
 
 def test_write_text_replaces_atomically(tmp_path):
@@ -57,3 +71,162 @@ def test_new_files_get_the_umask_permissions_and_existing_files_keep_theirs(tmp_
         assert stat.S_IMODE(kept.stat().st_mode) == 0o600
     finally:
         os.umask(old)
+
+
+# ---------------------------------------------------------------------------- run folders
+def _leftovers(folder):
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
+
+
+def _run(target, files, **kwargs):
+    options = {"command": "test", "configuration": {"a": 1}, "seed": 7, **kwargs}
+    with run_folder(target, **options) as folder:
+        for name, text in files.items():
+            write_text(folder.path / name, text)
+    return folder
+
+
+def test_a_run_folder_appears_complete_with_its_manifest(tmp_path):
+    folder = _run(tmp_path / "out", {"a.txt": "one", "sub/b.json": "{}"})
+    assert folder.final(folder.path / "sub" / "b.json") == tmp_path / "out" / "sub" / "b.json"
+    manifest = verify_run_folder(tmp_path / "out")
+    assert manifest["command"] == "test"
+    assert manifest["configuration"] == {"a": 1}
+    assert manifest["seed"] == 7
+    assert manifest["started"] <= manifest["finished"]
+    assert [(f["path"], f["bytes"]) for f in manifest["files"]] == [("a.txt", 3), ("sub/b.json", 2)]
+    expected = hashlib.sha256(b"one").hexdigest()
+    assert manifest["files"][0]["sha256"] == expected
+    assert _leftovers(tmp_path) == []
+
+
+def test_a_new_run_replaces_the_old_one_whole(tmp_path):
+    _run(tmp_path / "out", {"old.png": "x", "metrics.json": "1"})
+    _run(tmp_path / "out", {"metrics.json": "2"})
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["manifest.json", "metrics.json"]
+    assert _leftovers(tmp_path) == []
+
+
+def test_a_failed_run_leaves_the_previous_one_untouched(tmp_path):
+    _run(tmp_path / "out", {"metrics.json": "1"})
+    with (
+        pytest.raises(RuntimeError),
+        run_folder(tmp_path / "out", command="t", configuration={}, seed=None) as folder,
+    ):
+        write_text(folder.path / "metrics.json", "2")
+        write_text(folder.path / "new.png", "half")
+        raise RuntimeError("interrupted")
+    assert (tmp_path / "out" / "metrics.json").read_text() == "1"
+    assert not (tmp_path / "out" / "new.png").exists()
+    verify_run_folder(tmp_path / "out")
+    assert _leftovers(tmp_path) == []
+
+
+def test_run_folders_refuse_to_replace_what_is_not_a_run(tmp_path):
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "thesis.tex").write_text("precious")
+    with pytest.raises(ConfigError, match="no manifest.json"):
+        _run(tmp_path / "mine", {"a": "b"})
+    assert (tmp_path / "mine" / "thesis.tex").read_text() == "precious"
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ConfigError, match="is a file"):
+        _run(tmp_path / "file", {"a": "b"})
+    with pytest.raises(ConfigError, match="is a file"):
+        _run(tmp_path / "file" / "below", {"a": "b"})
+    (tmp_path / "empty").mkdir()
+    _run(tmp_path / "empty", {"a": "b"})
+    assert _leftovers(tmp_path) == []
+
+
+def test_verify_run_folder_notices_a_changed_or_missing_file(tmp_path):
+    _run(tmp_path / "out", {"a.txt": "one"})
+    (tmp_path / "out" / "a.txt").write_text("two")
+    with pytest.raises(FormatError, match="SHA-256"):
+        verify_run_folder(tmp_path / "out")
+    (tmp_path / "out" / "a.txt").unlink()
+    with pytest.raises(FormatError, match="missing"):
+        verify_run_folder(tmp_path / "out")
+    with pytest.raises(FormatError):
+        verify_run_folder(tmp_path)
+
+
+def _age(path, seconds=3600.0):
+    old = time.time() - seconds
+    os.utime(path, (old, old))
+
+
+def test_abandoned_temporaries_are_swept_and_live_ones_kept(tmp_path):
+    dead_dir = tmp_path / ".out.run-dead.tmp"
+    dead_dir.mkdir()
+    (dead_dir / "half.png").write_text("x")
+    _age(dead_dir)
+    live_dir = tmp_path / ".out.run-live.tmp"
+    live_dir.mkdir()
+    _age(live_dir)
+    dead_file = tmp_path / ".x.txt.partial-dead.tmp"
+    dead_file.write_text("half")
+    _age(dead_file)
+    fresh_file = tmp_path / ".x.txt.partial-fresh.tmp"
+    fresh_file.write_text("being written")
+    holder = os.open(live_dir, os.O_RDONLY)
+    try:
+        fcntl.flock(holder, fcntl.LOCK_EX)
+        _run(tmp_path / "out", {"a": "b"})
+        write_text(tmp_path / "x.txt", "whole")
+    finally:
+        os.close(holder)
+    assert _leftovers(tmp_path) == [".out.run-live.tmp", ".x.txt.partial-fresh.tmp"]
+
+
+_INTERRUPTED = """
+import sys, time
+from pathlib import Path
+from bayesmap._io import run_folder, terminate_as_exit, write_text
+target = Path(sys.argv[1])
+with terminate_as_exit(), run_folder(target, command="t", configuration={}, seed=1) as folder:
+    write_text(folder.path / "metrics.json", "new")
+    with open(folder.path / "figure.png", "w") as handle:
+        handle.write("half")
+        print("ready", flush=True)
+        time.sleep(60)
+"""
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT, signal.SIGKILL])
+def test_an_interrupted_run_leaves_the_previous_run_and_no_temporaries(tmp_path, signum):
+    _run(tmp_path / "out", {"metrics.json": "old"})
+    child = subprocess.Popen(
+        [sys.executable, "-c", _INTERRUPTED, str(tmp_path / "out")],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert child.stdout is not None and child.stdout.readline().strip() == "ready"
+    child.send_signal(signum)
+    child.wait(30)
+    assert (tmp_path / "out" / "metrics.json").read_text() == "old"
+    verify_run_folder(tmp_path / "out")
+    left = _leftovers(tmp_path)
+    if signum == signal.SIGKILL:  # nothing runs on SIGKILL: the next run sweeps it
+        assert len(left) == 1
+        _age(tmp_path / left[0])
+        _run(tmp_path / "out", {"metrics.json": "next"})
+    assert _leftovers(tmp_path) == []
+
+
+def test_read_input_refuses_what_is_not_a_regular_file(tmp_path):
+    with pytest.raises(FormatError, match="regular file"):
+        read_input(tmp_path, max_bytes=10)
+    with pytest.raises(FormatError, match="cannot open"):
+        read_input(tmp_path / "missing", max_bytes=10)
+    (tmp_path / "big").write_bytes(b"x" * 11)
+    with pytest.raises(FormatError, match="max_bytes"):
+        read_input(tmp_path / "big", max_bytes=10)
+
+
+def test_writing_over_a_folder_or_under_a_file_is_a_config_error(tmp_path):
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(ConfigError, match="is a folder"):
+        write_text(tmp_path / "folder", "x")
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ConfigError, match="is a file"):
+        write_text(tmp_path / "file" / "out.txt", "x")

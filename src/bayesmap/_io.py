@@ -1,48 +1,186 @@
-"""Atomic file output: a reader never sees a half-written file.
+"""Files in and out: bounded reads of regular files, atomic writes, complete run folders.
 
-Everything bayesmap writes (networks, maps, metrics, figures) goes through these
-helpers: the bytes are written to a temporary file in the destination folder and moved
-into place with :func:`os.replace`, which is atomic on POSIX and Windows. The file gets
-the permissions a plain ``open`` would give it: an existing file's mode is kept, a new file
-gets ``0o666`` minus the process umask.
+Reading
+    :func:`read_input` opens only regular files (a FIFO, ``/dev/zero`` or a folder is refused
+    without blocking), refuses files larger than a limit before reading them, and gunzips
+    with the same cap on the decompressed bytes, so a small gzip cannot expand into
+    gigabytes. Every problem is a :class:`~bayesmap.errors.FormatError` naming the file.
+Writing one file
+    :func:`atomic_open` (and :func:`write_text`, :func:`write_bytes`, :func:`write_json`)
+    write to a hidden temporary file beside the destination, ``.NAME.partial-XXXX.tmp``,
+    and move it into place with :func:`os.replace`, which is atomic on POSIX and Windows.
+    The file gets the permissions a plain ``open`` would give it. While it is written the
+    temporary file is locked (``flock``); a temporary file that nobody holds — left by a
+    process killed with SIGKILL — is removed the next time the same file is written.
+Writing a run
+    :func:`run_folder` gives a run a fresh hidden folder; when the run completes it writes
+    ``manifest.json`` (version, command, configuration, seed, start and end time, every file
+    with its size and SHA-256) and moves the folder into place, replacing the previous
+    run's folder as a whole. A run that fails or is interrupted leaves nothing behind, so a
+    results folder never mixes two runs, and a folder holding a manifest is complete
+    (:func:`verify_run_folder` checks it).
+Interruption
+    Python runs ``finally`` blocks on SIGINT (``KeyboardInterrupt``) but not on SIGTERM;
+    :func:`terminate_as_exit` turns SIGTERM into ``SystemExit`` so the same clean-up runs.
+    Only the process's owner (the CLI) should install it.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
+import secrets
+import shutil
+import signal
+import stat
 import tempfile
-from collections.abc import Iterator
+import threading
+import time
+import zlib
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from datetime import UTC, datetime
 from pathlib import Path
+from types import FrameType
 from typing import IO, Any
 
+from bayesmap import __version__
+from bayesmap.errors import ConfigError, FormatError
+from bayesmap.limits import check_size
 
+try:  # POSIX: advisory locks tell live temporaries from abandoned ones
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: abandoned temporaries are not swept
+    fcntl = None  # type: ignore[assignment]
+
+MANIFEST = "manifest.json"
+"""File name of a run folder's manifest."""
+MANIFEST_FORMAT = "bayesmap-run/1"
+"""Value of the manifest's ``format`` field."""
+STALE_AFTER = 10.0
+"""Seconds after which an unlocked temporary file or folder counts as abandoned [s]."""
+_CHUNK = 1 << 20
+
+
+# ---------------------------------------------------------------------------- reading
+def read_input(path: str | Path, *, max_bytes: int, gunzip: bool = False) -> bytes:
+    """The bytes of the regular file ``path`` (gunzipped if ``gunzip``), at most ``max_bytes``.
+
+    Raises
+    ------
+    FormatError
+        Missing or unreadable file, not a regular file, more than ``max_bytes`` bytes on
+        disk or after gunzipping, or a corrupt gzip stream.
+    """
+    name = str(path)
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0)
+    try:
+        fd = os.open(path, flags)
+    except OSError as error:
+        raise FormatError(f"cannot open the file: {error.strerror or error}", path=name) from None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise FormatError(
+                "not a regular file (a folder, FIFO or device); give the path of a file",
+                path=name,
+            )
+        check_size("bytes in the file", info.st_size, max_bytes, "max_bytes", path=name)
+        with open(fd, "rb", closefd=False) as handle:
+            data = _read_at_most(handle, max_bytes + 1, info.st_size + 1)
+    except OSError as error:
+        raise FormatError(f"cannot read the file: {error.strerror or error}", path=name) from None
+    finally:
+        os.close(fd)
+    check_size("bytes in the file", len(data), max_bytes, "max_bytes", path=name)
+    return _gunzip(data, max_bytes, name) if gunzip else data
+
+
+def _read_at_most(handle: IO[bytes], limit: int, expected: int) -> bytes:
+    """Up to ``limit`` bytes of ``handle``, allocating as they come (not ``limit`` at once)."""
+    chunks: list[bytes] = []
+    total = 0
+    want = min(expected, limit)
+    while total < limit and (chunk := handle.read(min(want, limit - total))):
+        chunks.append(chunk)
+        total += len(chunk)
+        want = _CHUNK
+    return b"".join(chunks)
+
+
+def _gunzip(data: bytes, max_bytes: int, name: str) -> bytes:
+    """Decompress every gzip member of ``data``, stopping as soon as output passes the cap."""
+    out = bytearray()
+    rest = data
+    while True:
+        stream = zlib.decompressobj(wbits=31)
+        try:
+            out += stream.decompress(rest, max_bytes + 1 - len(out))
+        except zlib.error as error:
+            raise FormatError(f"not a valid gzip file ({error})", path=name) from None
+        check_size("bytes after gunzipping", len(out), max_bytes, "max_bytes", path=name)
+        if not stream.eof:
+            raise FormatError("the gzip stream ends early (truncated file)", path=name)
+        rest = stream.unused_data
+        if not rest.strip(b"\0"):
+            return bytes(out)
+
+
+# ---------------------------------------------------------------------------- one file
 @contextlib.contextmanager
 def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO[Any]]:
     """Open ``path`` for writing through a temporary file renamed into place on success.
 
-    If the body raises, the temporary file is removed and ``path`` is left untouched.
-    ``mode`` must be a write mode (``"w"`` or ``"wb"``).
+    If the body raises (or the process is interrupted, see :func:`terminate_as_exit`), the
+    temporary file is removed and ``path`` is left untouched. ``mode`` must be ``"w"`` or
+    ``"wb"``. A parent that is not a folder raises :class:`ConfigError`.
     """
     if mode not in ("w", "wb"):
         raise ValueError(f"atomic_open writes only; got mode {mode!r}")
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    make_folder(target.parent)
+    if target.is_dir():
+        raise ConfigError(f"cannot write the file {str(target)!r}: it is a folder")
+    prefix = f".{target.name}.partial-"
+    sweep_abandoned(target.parent, prefix)
     try:
+        fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=target.parent)
+    except OSError as error:
+        raise ConfigError(f"cannot write in {str(target.parent)!r}: {error.strerror}") from None
+    try:
+        _lock(fd)
         if "b" not in mode:
             kwargs.setdefault("encoding", "utf-8")
         with os.fdopen(fd, mode, **kwargs) as handle:
             yield handle
             handle.flush()
             os.fsync(handle.fileno())
-        os.chmod(tmp_name, _permissions_for(target))
-        os.replace(tmp_name, target)
+        try:
+            os.chmod(tmp_name, _permissions_for(target))
+            os.replace(tmp_name, target)
+        except OSError as error:
+            raise ConfigError(f"cannot write {str(target)!r}: {error.strerror}") from None
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp_name)
         raise
+
+
+def make_folder(folder: Path) -> None:
+    """Create ``folder`` and its parents; a file in the way is a :class:`ConfigError`."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise ConfigError(
+            f"cannot create the folder {str(folder)!r}: it, or one of its parents, is a file; "
+            "choose another output path"
+        ) from None
+    except OSError as error:
+        raise ConfigError(
+            f"cannot create the folder {str(folder)!r}: {error.strerror or error}"
+        ) from None
 
 
 def _permissions_for(target: Path) -> int:
@@ -81,3 +219,254 @@ def _to_builtin(value: Any) -> Any:
     if isinstance(value, Path):
         return str(value)
     raise TypeError(f"cannot write {type(value).__name__} as JSON")
+
+
+# ---------------------------------------------------------------------------- abandoned temporaries
+def _lock(fd: int) -> None:
+    """Hold an exclusive advisory lock on ``fd`` until it is closed (or the process dies)."""
+    if fcntl is not None:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+
+
+def _abandoned(path: str) -> bool:
+    """Whether the temporary ``path`` is old and unlocked: its writer is gone."""
+    if fcntl is None:  # pragma: no cover
+        return False
+    try:
+        if time.time() - os.lstat(path).st_mtime < STALE_AFTER:
+            return False
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False
+    finally:
+        os.close(fd)
+    return True
+
+
+def sweep_abandoned(folder: Path, prefix: str) -> list[Path]:
+    """Remove the temporary files and folders ``folder/PREFIX*.tmp`` whose writer is gone.
+
+    A temporary is abandoned when no process holds its lock and it is older than
+    :data:`STALE_AFTER` seconds; live ones, of this or any other process, are kept.
+    Returns what was removed.
+    """
+    removed: list[Path] = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        if entry.name.startswith(prefix) and entry.name.endswith(".tmp"):
+            if not _abandoned(entry.path):
+                continue
+            if entry.is_dir(follow_symlinks=False):
+                shutil.rmtree(entry.path, ignore_errors=True)
+            else:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(entry.path)
+            removed.append(Path(entry.path))
+    return removed
+
+
+# ---------------------------------------------------------------------------- run folders
+@dataclass(frozen=True)
+class RunFolder:
+    """A run being written: write into :attr:`path`; it becomes :attr:`target` when done."""
+
+    path: Path
+    target: Path
+
+    def final(self, written: Path) -> Path:
+        """Where ``written`` (a path under :attr:`path`) will be once the run completes."""
+        return self.target / Path(written).relative_to(self.path)
+
+
+@contextlib.contextmanager
+def run_folder(
+    target: str | Path,
+    *,
+    command: str,
+    configuration: Mapping[str, Any],
+    seed: int | None,
+) -> Iterator[RunFolder]:
+    """Write a run into a fresh folder that replaces ``target`` only when the run completes.
+
+    The body writes into ``folder.path`` (hidden, beside ``target``). On success
+    ``manifest.json`` is written last and the folder is moved to ``target``; a previous
+    run's folder there is replaced as a whole. If the body raises, or the process is
+    interrupted, the new folder is removed and ``target`` keeps the previous run. Folders
+    abandoned by killed runs are swept when the next run of ``target`` starts.
+
+    Parameters
+    ----------
+    target
+        The run's folder. If it exists it must be empty or hold a previous run (a
+        ``manifest.json``): any other folder is refused rather than replaced.
+    command
+        What produced the run (a command line, or the function called).
+    configuration
+        The run's settings, as JSON-able values.
+    seed
+        The root seed of the run, if it has one.
+
+    Raises
+    ------
+    ConfigError
+        ``target`` is a file, lies under a file, or is a folder that is not a run.
+    """
+    final = Path(target)
+    _check_replaceable(final)
+    make_folder(final.parent)
+    prefix = f".{final.name}."
+    sweep_abandoned(final.parent, prefix)
+    started = _now()
+    work = Path(tempfile.mkdtemp(prefix=f"{prefix}run-", suffix=".tmp", dir=final.parent))
+    holder = os.open(work, os.O_RDONLY)
+    try:
+        _lock(holder)
+        yield RunFolder(work, final)
+        manifest = {
+            "format": MANIFEST_FORMAT,
+            "bayesmap_version": _version(),
+            "command": command,
+            "configuration": dict(configuration),
+            "seed": seed,
+            "started": started,
+            "finished": _now(),
+            "files": _inventory(work),
+        }
+        write_json(work / MANIFEST, manifest)
+        _check_replaceable(final)
+        _move_into_place(work, final, prefix)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    finally:
+        os.close(holder)
+
+
+def _check_replaceable(final: Path) -> None:
+    if not final.exists() and not final.is_symlink():
+        return
+    if final.is_symlink() or not final.is_dir():
+        raise ConfigError(f"the output folder {str(final)!r} is a file; choose another path")
+    if (final / MANIFEST).is_file() or not any(final.iterdir()):
+        return
+    raise ConfigError(
+        f"the output folder {str(final)!r} exists and holds something other than a bayesmap "
+        f"run (it has no {MANIFEST}); choose another path or empty it"
+    )
+
+
+def _move_into_place(work: Path, final: Path, prefix: str) -> None:
+    """Rename ``work`` to ``final``; an old ``final`` is first renamed aside, then deleted."""
+    old = final.parent / f"{prefix}old-{secrets.token_hex(6)}.tmp"
+    moved_aside = False
+    if final.exists():
+        os.rename(final, old)
+        moved_aside = True
+    try:
+        os.rename(work, final)
+    except BaseException:
+        if moved_aside:
+            os.rename(old, final)
+        raise
+    if moved_aside:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def _inventory(folder: Path) -> list[dict[str, Any]]:
+    """Every file under ``folder`` (sorted): relative path, size and SHA-256."""
+    files = []
+    for path in sorted(p for p in folder.rglob("*") if p.is_file()):
+        digest = hashlib.sha256()
+        with path.open("rb") as handle:
+            while chunk := handle.read(_CHUNK):
+                digest.update(chunk)
+        files.append(
+            {
+                "path": path.relative_to(folder).as_posix(),
+                "bytes": path.stat().st_size,
+                "sha256": digest.hexdigest(),
+            }
+        )
+    return files
+
+
+def verify_run_folder(folder: str | Path, *, hashes: bool = True) -> dict[str, Any]:
+    """The manifest of a complete run folder, after checking every file it lists.
+
+    Raises
+    ------
+    FormatError
+        No or unreadable manifest, a listed file missing, of another size or (with
+        ``hashes``) another SHA-256.
+    """
+    root = Path(folder)
+    where = str(root / MANIFEST)
+    raw = read_input(root / MANIFEST, max_bytes=1 << 26)
+    try:
+        manifest = json.loads(raw)
+        files = manifest["files"]
+        if manifest.get("format") != MANIFEST_FORMAT:
+            raise ValueError(f"format is {manifest.get('format')!r}, not {MANIFEST_FORMAT!r}")
+    except (ValueError, KeyError, TypeError) as error:
+        raise FormatError(f"not a run manifest ({error})", path=where) from None
+    for entry in files:
+        path = root / entry["path"]
+        if not path.is_file() or path.stat().st_size != entry["bytes"]:
+            raise FormatError(f"{entry['path']} is missing or has another size", path=where)
+        if hashes:
+            digest = hashlib.sha256(path.read_bytes()).hexdigest()
+            if digest != entry["sha256"]:
+                raise FormatError(f"{entry['path']} has another SHA-256", path=where)
+    return dict(manifest)
+
+
+def _now() -> str:
+    return datetime.now(UTC).isoformat(timespec="milliseconds")
+
+
+def _version() -> str:
+    return __version__
+
+
+# ---------------------------------------------------------------------------- interruption
+@contextlib.contextmanager
+def terminate_as_exit() -> Iterator[None]:
+    """Within the block, SIGTERM raises ``SystemExit(143)`` so clean-up code runs.
+
+    Does nothing outside the main thread (where signal handlers cannot be set).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def _exit(signum: int, frame: FrameType | None) -> None:
+        raise SystemExit(128 + signum)
+
+    previous = signal.signal(signal.SIGTERM, _exit)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+__all__ = [
+    "MANIFEST",
+    "RunFolder",
+    "atomic_open",
+    "make_folder",
+    "read_input",
+    "run_folder",
+    "sweep_abandoned",
+    "terminate_as_exit",
+    "verify_run_folder",
+    "write_bytes",
+    "write_json",
+    "write_text",
+]

@@ -6,6 +6,7 @@ Sub-commands live one module per group (``bn``, ``sonar``) and are mounted here.
 from __future__ import annotations
 
 import logging
+import shlex
 import time
 from pathlib import Path
 from typing import Annotated
@@ -25,8 +26,11 @@ from rich.table import Table
 from rich.text import Text
 
 from bayesmap import __version__
+from bayesmap._io import terminate_as_exit
 from bayesmap.cli import bn as bn_commands
 from bayesmap.cli import sonar as sonar_commands
+from bayesmap.cli._console import console as make_console
+from bayesmap.cli._console import print_error, styled
 from bayesmap.errors import BayesmapError
 from bayesmap.experiments import EXPERIMENTS, ExperimentResult, load
 
@@ -39,7 +43,7 @@ app = typer.Typer(
 )
 app.add_typer(bn_commands.app, name="bn")
 app.add_typer(sonar_commands.app, name="sonar")
-console = Console(stderr=True)
+console = make_console(stderr=True)
 
 
 def _version(value: bool) -> None:
@@ -75,7 +79,11 @@ def reproduce(
     ] = Path("results"),
     list_: Annotated[bool, typer.Option("--list", help="List the experiments and exit.")] = False,
 ) -> None:
-    """Run the paper experiments at their default size; write figures, maps and metrics."""
+    """Run the paper experiments at their default size; write figures, maps and metrics.
+
+    Each experiment's folder appears only once it is complete, with a manifest.json
+    listing every file (size, SHA-256); an interrupted run leaves the previous one intact.
+    """
     if list_:
         for name in EXPERIMENTS:
             doc = (load(name).__doc__ or "").strip()
@@ -84,15 +92,16 @@ def reproduce(
     names = list(experiments) if experiments else list(EXPERIMENTS)
     unknown = [name for name in names if name not in EXPERIMENTS]
     if unknown:
-        console.print(
-            f"[red]error:[/red] unknown experiment(s) {', '.join(unknown)}; "
-            f"choose from: {', '.join(EXPERIMENTS) or 'none'}"
+        print_error(
+            f"unknown experiment(s) {', '.join(unknown)}; "
+            f"choose from: {', '.join(EXPERIMENTS) or 'none'}",
+            out=console,
         )
         raise typer.Exit(2)
     results: list[tuple[ExperimentResult, float]] = []
     with Progress(
-        TextColumn("[bold]{task.fields[experiment]}[/bold]"),
-        TextColumn("{task.description}"),
+        TextColumn("{task.fields[experiment]}", style="bold", markup=False),
+        TextColumn("{task.description}", markup=False),
         BarColumn(),
         MofNCompleteColumn(),
         _ExperimentTime(),
@@ -108,9 +117,14 @@ def reproduce(
 
             started = time.perf_counter()
             try:
-                result = module.run(module.Config(), out / name, progress=hook)
+                result = module.run(
+                    module.Config(),
+                    out / name,
+                    progress=hook,
+                    command=shlex.join(["bayesmap", "reproduce", name, "--out", str(out)]),
+                )
             except BayesmapError as error:
-                console.print(f"[red]error in {name}:[/red] {error}")
+                print_error(error, label=f"error in {name}", out=console)
                 raise typer.Exit(1) from error
             results.append((result, time.perf_counter() - started))
             progress.update(task, description="done")
@@ -139,7 +153,7 @@ def _print_summary(
     The table keeps to what fits a narrow terminal (folders, counts, the summary file); the
     headlines follow as wrapped lines, one experiment each.
     """
-    out = out or Console()
+    out = out or make_console()
     table = Table(title="bayesmap reproduce: where the results are")
     table.add_column("experiment")
     table.add_column("folder", overflow="fold")
@@ -160,7 +174,7 @@ def _print_summary(
     out.print(table)
     for result, _ in results:
         numbers = ", ".join(f"{key} {_fmt(value)}" for key, value in result.headline.items())
-        out.print(f"[bold]{result.name}[/bold]: {numbers}", highlight=False)
+        out.print(styled((result.name, "bold"), f": {numbers}"))
 
 
 def _fmt(value: float | int | str) -> str:
@@ -170,9 +184,10 @@ def _fmt(value: float | int | str) -> str:
 def main() -> None:
     """Entry point of the ``bayesmap`` console script."""
     try:
-        app()
+        with terminate_as_exit():
+            app()
     except BayesmapError as error:
-        console.print(f"[red]error:[/red] {error}")
+        print_error(error, out=console)
         raise SystemExit(1) from error
 
 

@@ -8,21 +8,20 @@ from typing import Annotated, Any
 
 import numpy as np
 import typer
-from rich.console import Console
 from rich.table import Table
 
 from bayesmap import bn
+from bayesmap.cli._console import console, print_error, print_note, styled
 from bayesmap.errors import BayesmapError, InputError
 
 app = typer.Typer(
     help="Inspect, query and convert Bayesian-network files (XMLBIF, BIF, XBN).",
     no_args_is_help=True,
 )
-_err = Console(stderr=True)
 
 
 def _fail(error: BayesmapError) -> typer.Exit:
-    _err.print(f"[red]error:[/red] {error}")
+    print_error(error)
     return typer.Exit(1)
 
 
@@ -73,7 +72,7 @@ def info(
             ", ".join(row["parents"]),
             str(row["cpt_size"]),
         )
-    Console().print(table)
+    console().print(table)
 
 
 @app.command()
@@ -185,23 +184,23 @@ def _answer(
 
 
 def _print(result: dict[str, Any]) -> None:
-    console = Console()
+    out = console()
     shown = ", ".join(f"{k}={v}" for k, v in result["evidence"].items()) or "none"
-    console.print(f"[bold]{result['network']}[/bold]  evidence: {shown}")
+    out.print(styled((result["network"], "bold"), f"  evidence: {shown}"))
     if "fixed_point" in result:
-        console.print(f"arithmetic: {result['fixed_point']} fixed point")
+        out.print(f"arithmetic: {result['fixed_point']} fixed point")
     bound = f" ± {result['error_bound']:.2g}" if "error_bound" in result else ""
     if "proposition" in result:
-        console.print(f"P({result['proposition']} | evidence) = {result['probability']:.6g}{bound}")
+        out.print(f"P({result['proposition']} | evidence) = {result['probability']:.6g}{bound}")
         return
     if "map" in result:
-        console.print(f"MAP probability given the evidence: {result['probability']:.6g}{bound}")
+        out.print(f"MAP probability given the evidence: {result['probability']:.6g}{bound}")
         table = Table(title="MAP")
         table.add_column("variable")
         table.add_column("state")
         for name, state in result["map"].items():
             table.add_row(name, state)
-        console.print(table)
+        out.print(table)
         return
     if "joint" in result:
         table = Table(title="joint posterior")
@@ -214,7 +213,7 @@ def _print(result: dict[str, Any]) -> None:
         for row in result["joint"]:
             extra = [f"{row['error_bound']:.2g}"] if bounded else []
             table.add_row(*(row[t] for t in result["targets"]), f"{row['p']:.6g}", *extra)
-        console.print(table)
+        out.print(table)
         return
     table = Table(title=f"P({result['target']} | evidence)")
     table.add_column("state")
@@ -224,7 +223,7 @@ def _print(result: dict[str, Any]) -> None:
     for state, p in result["posterior"].items():
         extra = [f"{result['error_bound'][state]:.2g}"] if "error_bound" in result else []
         table.add_row(state, f"{p:.6g}", *extra)
-    console.print(table)
+    out.print(table)
 
 
 @app.command()
@@ -238,4 +237,4 @@ def convert(
         bn.write(net, target)
     except BayesmapError as error:
         raise _fail(error) from error
-    _err.print(f"wrote {target} ({len(net)} variables)")
+    print_note(f"wrote {target} ({len(net)} variables)")

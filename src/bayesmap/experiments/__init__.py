@@ -3,9 +3,10 @@
 Each experiment is one module here exposing
 
 - ``Config``: a frozen pydantic model of every setting, with the paper's defaults;
-- ``run(config, out_dir, *, progress=None) -> ExperimentResult``: runs the experiment,
-  writes its figures, maps and metrics under ``out_dir`` and reports progress through
-  the optional :data:`ProgressHook`.
+- ``run(config, out_dir, *, progress=None, command=None) -> ExperimentResult``: runs the
+  experiment, writes its figures, maps and metrics into a fresh folder that becomes
+  ``out_dir`` with a ``manifest.json`` once complete (:func:`run_in_folder`), and reports
+  progress through the optional :data:`ProgressHook`.
 
 :data:`EXPERIMENTS` maps each experiment's name to its module; ``reproduce`` runs them
 in this order.
@@ -17,7 +18,7 @@ import importlib
 from types import ModuleType
 
 from bayesmap.errors import ConfigError
-from bayesmap.experiments._common import ExperimentResult, ProgressHook
+from bayesmap.experiments._common import ExperimentResult, ProgressHook, run_in_folder
 
 EXPERIMENTS: dict[str, str] = {
     "rover": "bayesmap.experiments.rover",
@@ -34,4 +35,4 @@ def load(name: str) -> ModuleType:
     return importlib.import_module(EXPERIMENTS[name])
 
 
-__all__ = ["EXPERIMENTS", "ExperimentResult", "ProgressHook", "load"]
+__all__ = ["EXPERIMENTS", "ExperimentResult", "ProgressHook", "load", "run_in_folder"]

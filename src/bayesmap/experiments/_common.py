@@ -1,10 +1,14 @@
-"""What every experiment shares: the progress hook and the result record."""
+"""What every experiment shares: the progress hook, the result record and the run folder."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+
+from pydantic import BaseModel
+
+from bayesmap._io import RunFolder, run_folder
 
 ProgressHook = Callable[[str, int, int], None]
 """``hook(description, completed, total)``: called as an experiment advances.
@@ -42,3 +46,38 @@ class ExperimentResult:
     figures: tuple[Path, ...] = ()
     metrics: tuple[Path, ...] = ()
     headline: dict[str, float | int | str] = field(default_factory=dict)
+
+    def moved(self, folder: RunFolder) -> ExperimentResult:
+        """This result with its paths moved from ``folder.path`` to ``folder.target``."""
+        return replace(
+            self,
+            out_dir=folder.final(self.out_dir),
+            figures=tuple(folder.final(p) for p in self.figures),
+            metrics=tuple(folder.final(p) for p in self.metrics),
+        )
+
+
+def run_in_folder(
+    name: str,
+    config: BaseModel,
+    out_dir: str | Path,
+    body: Callable[[Path], ExperimentResult],
+    *,
+    command: str | None = None,
+) -> ExperimentResult:
+    """Run ``body(folder)`` in a fresh folder that becomes ``out_dir`` once it completes.
+
+    The folder gets a ``manifest.json`` (version, command, the configuration, its seed,
+    start and end time, every file's size and SHA-256) and replaces a previous run's
+    ``out_dir`` as a whole; a failed or interrupted run leaves ``out_dir`` as it was (see
+    :func:`bayesmap._io.run_folder`). ``command`` is recorded as what produced the run.
+    """
+    seed = getattr(config, "seed", None)
+    with run_folder(
+        out_dir,
+        command=command or f"bayesmap.experiments.{name}.run",
+        configuration={"experiment": name, **config.model_dump(mode="json")},
+        seed=seed if isinstance(seed, int) else None,
+    ) as folder:
+        result = body(folder.path)
+    return result.moved(folder)

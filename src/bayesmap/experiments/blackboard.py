@@ -32,7 +32,12 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap.blackboard import BlackboardParams, Snapshot, TableMapper
 from bayesmap.errors import ConfigError
-from bayesmap.experiments._common import ExperimentResult, ProgressHook, no_progress
+from bayesmap.experiments._common import (
+    ExperimentResult,
+    ProgressHook,
+    no_progress,
+    run_in_folder,
+)
 from bayesmap.experiments.table_metrics import MatchTolerance, recall_by_support, score_run
 from bayesmap.sim.tables_world import TablesWorld, initial, pose_sequence, scenario
 from bayesmap.sim.whiskers import CONDITIONS, WhiskerParams, h, observe
@@ -305,7 +310,9 @@ def _summary(metrics: dict[str, dict[str, Any]], world: TablesWorld, config: Con
     return "\n".join(lines)
 
 
-def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) -> ExperimentResult:
+def _run(
+    config: Config, out_dir: Path, *, progress: ProgressHook | None = None
+) -> ExperimentResult:
     """Run the blackboard experiment and write its figures, metrics and summary.
 
     Parameters
@@ -382,3 +389,24 @@ def _snapshot_figures(
         ),
         write_bytes(out_dir / "annealing.gif", annealing_gif(snapshots, *args)),
     ]
+
+
+def run(
+    config: Config,
+    out_dir: str | Path,
+    *,
+    progress: ProgressHook | None = None,
+    command: str | None = None,
+) -> ExperimentResult:
+    """Run the blackboard experiment and write its figures, metrics and summary.
+
+    Everything is written into a fresh folder that replaces ``out_dir`` only once the run
+    is complete, with a ``manifest.json`` (:func:`~bayesmap.experiments._common.run_in_folder`).
+    """
+    return run_in_folder(
+        "blackboard",
+        config,
+        out_dir,
+        lambda folder: _run(config, folder, progress=progress),
+        command=command,
+    )

@@ -25,7 +25,12 @@ from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap._rng import spawn
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.errors import ConfigError
-from bayesmap.experiments._common import ExperimentResult, ProgressHook, no_progress
+from bayesmap.experiments._common import (
+    ExperimentResult,
+    ProgressHook,
+    no_progress,
+    run_in_folder,
+)
 from bayesmap.grid import OccupancyGrid
 from bayesmap.grid.ros import write_ros_map
 from bayesmap.rover.explorer import Explorer
@@ -326,7 +331,9 @@ def _summary(config: Config, results: dict[str, dict[str, dict[str, Any]]]) -> s
     return "\n".join(lines)
 
 
-def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) -> ExperimentResult:
+def _run(
+    config: Config, out_dir: Path, *, progress: ProgressHook | None = None
+) -> ExperimentResult:
     """Run the four mapping runs (and the frontier baseline); write figures, maps and metrics."""
     hook = progress or no_progress
     unknown = [name for name in config.runs if name not in RUNS]
@@ -365,3 +372,24 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
         "mean coverage": float(np.mean([m["coverage"] for m in paper])),
     }
     return ExperimentResult("rover", out, tuple(figures), (*metric_files, summary), headline)
+
+
+def run(
+    config: Config,
+    out_dir: str | Path,
+    *,
+    progress: ProgressHook | None = None,
+    command: str | None = None,
+) -> ExperimentResult:
+    """Run the four mapping runs (and the frontier baseline); write figures, maps and metrics.
+
+    Everything is written into a fresh folder that replaces ``out_dir`` only once the run
+    is complete, with a ``manifest.json`` (:func:`~bayesmap.experiments._common.run_in_folder`).
+    """
+    return run_in_folder(
+        "rover",
+        config,
+        out_dir,
+        lambda folder: _run(config, folder, progress=progress),
+        command=command,
+    )

@@ -21,7 +21,12 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap._rng import spawn
-from bayesmap.experiments._common import ExperimentResult, ProgressHook, no_progress
+from bayesmap.experiments._common import (
+    ExperimentResult,
+    ProgressHook,
+    no_progress,
+    run_in_folder,
+)
 from bayesmap.grid import OccupancyGrid
 from bayesmap.sim.polygons import PolygonWorld, path_poses, world
 from bayesmap.sim.sonar import SonarRing, SonarScan, observe
@@ -247,7 +252,9 @@ def _summary_table(rows: dict[str, dict[str, list[float]]], title: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) -> ExperimentResult:
+def _run(
+    config: Config, out_dir: Path, *, progress: ProgressHook | None = None
+) -> ExperimentResult:
     """Run the sonar experiment; write metrics.json, summary.md and figures under ``out_dir``."""
     hook = progress or no_progress
     out = Path(out_dir)
@@ -347,4 +354,25 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
         figures=tuple(figures),
         metrics=(metrics_path, summary_path),
         headline=headline,
+    )
+
+
+def run(
+    config: Config,
+    out_dir: str | Path,
+    *,
+    progress: ProgressHook | None = None,
+    command: str | None = None,
+) -> ExperimentResult:
+    """Run the sonar experiment; write metrics.json, summary.md and figures under ``out_dir``.
+
+    Everything is written into a fresh folder that replaces ``out_dir`` only once the run
+    is complete, with a ``manifest.json`` (:func:`~bayesmap.experiments._common.run_in_folder`).
+    """
+    return run_in_folder(
+        "sonar",
+        config,
+        out_dir,
+        lambda folder: _run(config, folder, progress=progress),
+        command=command,
     )

@@ -13,18 +13,21 @@ from __future__ import annotations
 
 import io
 import math
+import struct
 import zipfile
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._io import write_bytes
+from bayesmap._io import read_input, write_bytes
 from bayesmap._typing import BoolArray, FloatArray, Grid, IntArray
 from bayesmap.errors import ConfigError, FormatError, InputError
 from bayesmap.grid.entropy import binary_entropy_bits
+from bayesmap.limits import DEFAULT_LIMITS, ReadLimits, check_size
 
 _NPZ_KEYS = ("probability", "entropy", "resolution", "origin", "prior")
 
@@ -79,6 +82,9 @@ class OccupancyGrid:
     initial_entropy
         Initial entropy of every cell [bits]; 1 (the maximum, "unknown") by default, as in
         Post et al. 2016 §4.4.
+    max_cells
+        Most cells the grid may have; a larger one (a tiny resolution, or a pose far away
+        in a log) is a :class:`ConfigError` before anything is allocated.
 
     Attributes
     ----------
@@ -105,6 +111,8 @@ class OccupancyGrid:
         origin: tuple[float, float] = (0.0, 0.0),
         prior: float = 0.5,
         initial_entropy: float = 1.0,
+        *,
+        max_cells: int = DEFAULT_LIMITS.max_cells,
     ) -> None:
         if not (math.isfinite(resolution) and resolution > 0):
             raise ConfigError(
@@ -118,8 +126,7 @@ class OccupancyGrid:
             raise ConfigError(f"grid prior must be a probability in [0, 1], got {prior!r}")
         if not 0.0 <= initial_entropy <= 1.0:
             raise ConfigError(f"initial entropy must be in [0, 1] bits, got {initial_entropy!r}")
-        nx = max(int(round(width / resolution)), 1)
-        ny = max(int(round(height / resolution)), 1)
+        nx, ny = _cell_counts(width, height, resolution, max_cells)
         self.resolution = float(resolution)
         self.origin = (float(origin[0]), float(origin[1]))
         self.prior = float(prior)
@@ -246,18 +253,15 @@ class OccupancyGrid:
         return write_bytes(path, buffer.getvalue())
 
     @classmethod
-    def load_npz(cls, path: str | Path) -> OccupancyGrid:
-        """Read a grid written by :meth:`save_npz`; :class:`FormatError` if it is not one."""
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                missing = [key for key in _NPZ_KEYS if key not in data.files]
-                if missing:
-                    raise FormatError(f"not an occupancy grid: missing arrays {missing}", path=path)
-                arrays = {key: np.asarray(data[key]) for key in _NPZ_KEYS}
-        except FormatError:
-            raise
-        except (OSError, ValueError, TypeError, EOFError, zipfile.BadZipFile, zlib.error) as error:
-            raise FormatError(f"cannot read .npz occupancy grid ({error})", path=path) from None
+    def load_npz(cls, path: str | Path, *, limits: ReadLimits | None = None) -> OccupancyGrid:
+        """Read a grid written by :meth:`save_npz`; :class:`FormatError` if it is not one.
+
+        The file must be a regular file; its bytes, each array's bytes and cells are
+        checked against ``limits`` (:class:`~bayesmap.limits.ReadLimits`) before they are
+        read, and NaN or infinite values anywhere are refused.
+        """
+        limits = limits or DEFAULT_LIMITS
+        arrays = read_npz_arrays(path, _NPZ_KEYS, limits)
         try:
             probability, entropy, origin = (
                 arrays[key].astype(np.float64) for key in ("probability", "entropy", "origin")
@@ -277,8 +281,8 @@ class OccupancyGrid:
                 "probabilities and entropies [bits] must lie in [0, 1] (no NaN)",
                 path=path,
             )
-        if origin.shape != (2,):
-            raise FormatError(f"origin must hold 2 numbers, got shape {origin.shape}", path=path)
+        if origin.shape != (2,) or not np.all(np.isfinite(origin)):
+            raise FormatError(f"origin must hold 2 finite numbers [m], got {origin!r}", path=path)
         ny, nx = probability.shape
         try:
             grid = cls(
@@ -287,9 +291,91 @@ class OccupancyGrid:
                 resolution,
                 (origin[0], origin[1]),
                 prior=prior,
+                max_cells=limits.max_cells,
             )
         except ConfigError as error:
             raise FormatError(str(error), path=path) from None
+        if grid.shape != probability.shape:
+            raise FormatError(
+                f"layers of {probability.shape} cells do not fit resolution {resolution!r}",
+                path=path,
+            )
         grid.probability = probability
         grid.entropy = entropy
         return grid
+
+
+def _cell_counts(width: float, height: float, resolution: float, max_cells: int) -> tuple[int, int]:
+    """``(nx, ny)`` cells of a ``width x height`` [m] grid; :class:`ConfigError` past the limit."""
+    along_x, along_y = width / resolution, height / resolution
+    cells = along_x * along_y
+    if not math.isfinite(cells) or cells > 2 * max_cells:
+        nx = ny = max_cells + 1  # too many: no need to round
+    else:
+        nx, ny = max(int(round(along_x)), 1), max(int(round(along_y)), 1)
+    if nx * ny > max_cells:
+        raise ConfigError(
+            f"a {width:g} m x {height:g} m grid at {resolution:g} m resolution has "
+            f"{cells:.3g} cells, more than the limit of {max_cells:,} (max_cells); use a "
+            "coarser resolution, a smaller area, or check the poses for outliers"
+        )
+    return nx, ny
+
+
+def read_npz_arrays(
+    path: str | Path, keys: tuple[str, ...], limits: ReadLimits
+) -> dict[str, npt.NDArray[Any]]:
+    """The numeric arrays ``keys`` of the ``.npz`` file ``path``, each checked before reading.
+
+    Every array's header is read first: a non-numeric dtype (objects, pickles), more
+    than ``limits.max_cells`` values or more than ``limits.max_bytes`` bytes is refused
+    before its data is decompressed.
+    """
+    data = read_input(path, max_bytes=limits.max_bytes)
+    arrays: dict[str, npt.NDArray[Any]] = {}
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as archive:
+            names = set(archive.namelist())
+            missing = [key for key in keys if f"{key}.npy" not in names]
+            if missing:
+                raise FormatError(f"not an occupancy grid: missing arrays {missing}", path=path)
+            for key in keys:
+                arrays[key] = _npz_member(archive, key, limits, str(path))
+    except FormatError:
+        raise
+    except (
+        OSError,
+        EOFError,
+        ValueError,
+        TypeError,
+        KeyError,
+        RuntimeError,  # includes NotImplementedError: an unsupported compression method
+        struct.error,
+        zipfile.BadZipFile,
+        zlib.error,
+    ) as error:
+        raise FormatError(
+            f"cannot read .npz occupancy grid ({type(error).__name__}: {error})", path=path
+        ) from None
+    return arrays
+
+
+def _npz_member(
+    archive: zipfile.ZipFile, key: str, limits: ReadLimits, path: str
+) -> npt.NDArray[Any]:
+    info = archive.getinfo(f"{key}.npy")
+    element = f"array {key!r}"
+    check_size("bytes", info.file_size, limits.max_bytes, "max_bytes", path=path, element=element)
+    with archive.open(info) as member:
+        version = np.lib.format.read_magic(member)
+        header = (
+            np.lib.format.read_array_header_1_0
+            if version == (1, 0)
+            else np.lib.format.read_array_header_2_0
+        )
+        shape, _, dtype = header(member)
+    if dtype.kind not in "biuf" or dtype.hasobject:
+        raise FormatError(f"holds {dtype} values, not numbers", path=path, element=element)
+    check_size("cells", math.prod(shape), limits.max_cells, "max_cells", path=path, element=element)
+    with archive.open(info) as member:
+        return np.asarray(np.lib.format.read_array(member, allow_pickle=False))

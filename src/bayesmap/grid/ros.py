@@ -17,6 +17,7 @@ from __future__ import annotations
 import io
 import math
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -25,9 +26,10 @@ import numpy as np
 import numpy.typing as npt
 from PIL import Image, UnidentifiedImageError
 
-from bayesmap._io import write_bytes, write_text
+from bayesmap._io import read_input, write_bytes, write_text
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError, InputError
+from bayesmap.limits import DEFAULT_LIMITS, ReadLimits, check_size
 
 FREE_PIXEL = 254
 OCCUPIED_PIXEL = 0
@@ -36,6 +38,8 @@ OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.196
 SAVE_FREE = 0.25
 SAVE_OCCUPIED = 0.65
+MODES = ("trinary", "scale", "raw")
+"""map_server's interpretations of a map image."""
 
 
 class RosMap(NamedTuple):
@@ -173,13 +177,13 @@ def saved_classes(
     return cells
 
 
-def read_ros_metadata(yaml_path: str | Path) -> RosMapMetadata:
-    """Parse a map_server YAML file (the flat ``key: value`` subset ROS writes)."""
+def read_ros_metadata(yaml_path: str | Path, *, limits: ReadLimits | None = None) -> RosMapMetadata:
+    """Parse a map_server YAML file (the flat ``key: value`` subset ROS writes).
+
+    ``mode`` must be one of :data:`MODES` and ``0 <= free_thresh < occupied_thresh <= 1``.
+    """
     path = Path(yaml_path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        raise FormatError(f"cannot read map YAML ({error})", path=path) from None
+    text = _yaml_text(path, limits or DEFAULT_LIMITS)
     fields: dict[str, tuple[str, int]] = {}
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.split("#", 1)[0].strip()
@@ -241,19 +245,59 @@ def read_ros_metadata(yaml_path: str | Path) -> RosMapMetadata:
             element="negate",
         )
     image = Path(fields["image"][0])
+    occupied_thresh = number("occupied_thresh", OCCUPIED_THRESH)
+    free_thresh = number("free_thresh", FREE_THRESH)
+    _check_thresholds(free_thresh, occupied_thresh, path)
+    mode, mode_line = fields.get("mode", ("trinary", 0))
+    _check_mode(mode, path, mode_line)
     return RosMapMetadata(
         image=image if image.is_absolute() else path.parent / image,
         resolution=resolution,
         origin=(origin[0], origin[1], origin[2]),
         negate=negate_text in ("1", "true"),
-        occupied_thresh=number("occupied_thresh", OCCUPIED_THRESH),
-        free_thresh=number("free_thresh", FREE_THRESH),
-        mode=fields.get("mode", ("trinary", 0))[0],
+        occupied_thresh=occupied_thresh,
+        free_thresh=free_thresh,
+        mode=mode,
     )
 
 
-def read_ros_map(yaml_path: str | Path) -> RosMap:
+def _yaml_text(path: Path, limits: ReadLimits) -> str:
+    """The text of a map YAML: a regular file, at most ``limits.max_bytes``, UTF-8."""
+    data = read_input(path, max_bytes=limits.max_bytes)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise FormatError(f"map YAML is not UTF-8 text ({error})", path=path) from None
+
+
+def _check_thresholds(free_thresh: float, occupied_thresh: float, path: Path) -> None:
+    """map_server's thresholds are probabilities with ``free_thresh < occupied_thresh``."""
+    if not 0.0 <= free_thresh < occupied_thresh <= 1.0:
+        raise FormatError(
+            f"need 0 <= free_thresh < occupied_thresh <= 1, got free_thresh {free_thresh} "
+            f"and occupied_thresh {occupied_thresh}",
+            path=path,
+            element="free_thresh/occupied_thresh",
+        )
+
+
+def _check_mode(mode: str, path: Path, line: int) -> None:
+    """``mode`` is one of map_server's: trinary, scale or raw."""
+    if mode not in MODES:
+        raise FormatError(
+            f"mode must be one of {', '.join(MODES)}, got {mode!r}",
+            path=path,
+            line=line or None,
+            element="mode",
+        )
+
+
+def read_ros_map(yaml_path: str | Path, *, limits: ReadLimits | None = None) -> RosMap:
     """Read a map_server map: ``p = (255 - x) / 255`` per pixel, rows flipped to y-up.
+
+    ``limits`` (:class:`~bayesmap.limits.ReadLimits`) caps the bytes of both files and the
+    pixels of the image, checked from the image header before it is decoded (Pillow's
+    own decompression-bomb cap, about 179 million pixels, also applies).
 
     Returns
     -------
@@ -263,22 +307,46 @@ def read_ros_map(yaml_path: str | Path) -> RosMap:
     Raises
     ------
     FormatError
-        Unreadable or malformed YAML or image.
+        Unreadable, non-regular or malformed YAML or image, or one past a limit.
     """
-    meta = read_ros_metadata(yaml_path)
-    try:
-        data = meta.image.read_bytes()
-        with Image.open(io.BytesIO(data)) as image:
-            image.load()
-            pixels = _grey_levels(image)
-    except (OSError, UnidentifiedImageError, ValueError, SyntaxError) as error:
-        raise FormatError(f"cannot read map image ({error})", path=meta.image) from None
+    limits = limits or DEFAULT_LIMITS
+    meta = read_ros_metadata(yaml_path, limits=limits)
+    pixels = _image_grey_levels(meta.image, limits)
     if pixels.ndim != 2 or pixels.size == 0:
         raise FormatError(
             f"map image must be a non-empty 2-D image, got {pixels.shape}", path=meta.image
         )
     p = pixels / 255.0 if meta.negate else (255.0 - pixels) / 255.0
     return RosMap(np.ascontiguousarray(p[::-1]), meta.resolution, (meta.origin[0], meta.origin[1]))
+
+
+def _image_grey_levels(path: Path, limits: ReadLimits) -> FloatArray:
+    """Grey levels of the image file ``path``, its pixel count checked before decoding."""
+    data = read_input(path, max_bytes=limits.max_bytes)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(io.BytesIO(data)) as image:
+                width, height = image.size
+                check_size(
+                    "pixels in the map image",
+                    width * height,
+                    limits.max_cells,
+                    "max_cells",
+                    path=str(path),
+                )
+                image.load()
+                return _grey_levels(image)
+    except FormatError:
+        raise
+    except Image.DecompressionBombError as error:
+        raise FormatError(f"map image too large to decode safely ({error})", path=path) from None
+    except UnidentifiedImageError as error:
+        raise FormatError(f"not an image Pillow can read ({error})", path=path) from None
+    except Exception as error:  # noqa: BLE001 - Pillow's decoders raise many types on corrupt data
+        raise FormatError(
+            f"cannot decode map image ({type(error).__name__}: {error})", path=path
+        ) from None
 
 
 def _grey_levels(image: Image.Image) -> FloatArray:

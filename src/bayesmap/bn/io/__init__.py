@@ -29,6 +29,7 @@ from bayesmap.bn.io import bif, xbn, xmlbif
 from bayesmap.bn.io._common import read_source, write_output
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
+from bayesmap.limits import ReadLimits
 
 __all__ = ["FORMATS", "Format", "dumps", "format_of", "loads", "read", "write"]
 
@@ -80,17 +81,22 @@ def format_of(path: str | Path, format: str | None = None) -> Format:
     )
 
 
-def read(path: str | Path, format: str | None = None) -> BayesNet:
+def read(
+    path: str | Path, format: str | None = None, *, limits: ReadLimits | None = None
+) -> BayesNet:
     """Read a network file into a new :class:`BayesNet` (format from the extension).
+
+    ``limits`` caps the file's bytes (also after gunzipping) and its tables' sizes before
+    anything is allocated (default :data:`~bayesmap.limits.DEFAULT_LIMITS`).
 
     Raises
     ------
     FormatError
-        Unknown extension, unreadable file, malformed or inconsistent content; the message
-        names the file and the line or element.
+        Unknown extension, unreadable or non-regular file, a limit passed, malformed or
+        inconsistent content; the message names the file and the line or element.
     """
     fmt = format_of(path, format)
-    return fmt.loads(read_source(path), path=str(path))
+    return fmt.loads(read_source(path, limits), path=str(path), limits=limits)
 
 
 def write(net: BayesNet, path: str | Path, format: str | None = None) -> Path:
@@ -99,9 +105,9 @@ def write(net: BayesNet, path: str | Path, format: str | None = None) -> Path:
     return write_output(path, fmt.dumps(net, path=str(path)))
 
 
-def loads(text: str | bytes, format: str) -> BayesNet:
+def loads(text: str | bytes, format: str, *, limits: ReadLimits | None = None) -> BayesNet:
     """Parse a network from file text in ``format`` (``"xmlbif"``, ``"bif"`` or ``"xbn"``)."""
-    return format_of("<string>", format).loads(text)
+    return format_of("<string>", format).loads(text, limits=limits)
 
 
 def dumps(net: BayesNet, format: str) -> str:

@@ -12,18 +12,20 @@ from __future__ import annotations
 
 import gzip
 import heapq
+import math
+import re
 import warnings
-import zlib
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from bayesmap._io import write_bytes
+from bayesmap._io import read_input, write_bytes
 from bayesmap._typing import FloatArray
 from bayesmap.bn.model import BayesNet, NodeKind, Variable
 from bayesmap.errors import FormatError, ModelError
+from bayesmap.limits import DEFAULT_LIMITS, ReadLimits, check_size
 
 KIND_PROPERTY = "kind"
 """Property name under which a node's kind (Post et al. 2016 §3.4) is stored in files."""
@@ -230,13 +232,14 @@ def table_values(array: FloatArray) -> str:
     return " ".join(map(repr, np.asarray(array, dtype=np.float64).ravel().tolist()))
 
 
-def read_source(path: str | Path) -> bytes:
-    """The bytes of ``path``, gunzipped when its name ends in ``.gz``; errors as FormatError."""
-    try:
-        data = Path(path).read_bytes()
-        return gzip.decompress(data) if str(path).lower().endswith(".gz") else data
-    except (OSError, EOFError, zlib.error) as error:
-        raise FormatError(f"cannot read the file: {error}", path=str(path)) from None
+def read_source(path: str | Path, limits: ReadLimits | None = None) -> bytes:
+    """The bytes of the regular file ``path``, gunzipped when its name ends in ``.gz``.
+
+    Both the file and its gunzipped content are capped at ``limits.max_bytes``; every
+    problem is a :class:`FormatError` naming the file.
+    """
+    limits = limits or DEFAULT_LIMITS
+    return read_input(path, max_bytes=limits.max_bytes, gunzip=str(path).lower().endswith(".gz"))
 
 
 def write_output(path: str | Path, text: str) -> Path:
@@ -255,3 +258,89 @@ def decode(data: str | bytes) -> str:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError:
         return data.decode("latin-1")
+
+
+# ---------------------------------------------------------------------------- strict reading
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_NOT_IN_NUMBERS = re.compile(r"[^0-9eE+\-.\s]")
+
+
+def probabilities(
+    tokens: Sequence[str], locate: Location | Callable[[int], Location]
+) -> FloatArray:
+    """Table entries as float64, accepting only ASCII decimal numbers that are finite.
+
+    ``1_0``, ``0x1``, ``inf``, ``Infinity``, ``nan``, non-ASCII digits and numbers too large
+    for a double (``1e999``) are refused with a :class:`FormatError` at ``locate(k)``, the
+    place of the ``k``-th token (or at ``locate`` itself, when it is a :class:`Location`).
+    One vectorised conversion does the work; the tokens are looked at one by one only to
+    name the culprit.
+    """
+    if isinstance(locate, Location):
+        where = locate
+        locate = lambda _: where  # noqa: E731 - one place for every token
+    if not tokens:
+        return np.empty(0)
+    if _NOT_IN_NUMBERS.search(" ".join(tokens)) is None:
+        try:
+            values = np.array(tokens, dtype=np.float64)
+        except ValueError:
+            values = None
+        if values is not None:
+            bad = np.flatnonzero(~np.isfinite(values))
+            if bad.size == 0:
+                return values
+            k = int(bad[0])
+            raise locate(k).error(f"{tokens[k][:40]!r} is too large for a probability")
+    k = next(k for k, token in enumerate(tokens) if _NUMBER.fullmatch(token) is None)
+    raise locate(k).error(
+        f"{tokens[k][:40]!r} is not a number (write plain decimals such as 0.25 or 1e-3)"
+    )
+
+
+def check_names(what: str, names: Iterable[str], where: Location) -> None:
+    """Refuse an empty name (which no writer produces) in a file being read."""
+    for name in names:
+        if not name:
+            raise where.error(f"{what}: an empty name")
+
+
+class TableBudget:
+    """Sizes of the tables of one file, checked against :class:`ReadLimits` before allocation.
+
+    A variable with ``L`` parents of ``N_l`` states and ``N`` states of its own has a table
+    of ``N x prod(N_l)`` entries (Post et al. 2016 eq. 28), counted here with Python
+    integers, which cannot overflow.
+    """
+
+    def __init__(self, limits: ReadLimits | None) -> None:
+        self.limits = limits or DEFAULT_LIMITS
+        self.total = 0
+
+    def claim(self, name: str, n_states: int, cards: Sequence[int], where: Location) -> int:
+        """Entries of ``name``'s table; :class:`FormatError` when a limit is passed."""
+        limits = self.limits
+        self._check(f"parents of {name!r}", len(cards), limits.max_parents, "max_parents", where)
+        entries = n_states * math.prod(cards)
+        self._check(
+            f"entries in the table of {name!r}",
+            entries,
+            limits.max_table_entries,
+            "max_table_entries",
+            where,
+        )
+        self.total += entries
+        self._check(
+            "entries in all tables of the network",
+            self.total,
+            limits.max_network_entries,
+            "max_network_entries",
+            where,
+        )
+        return entries
+
+    @staticmethod
+    def _check(what: str, size: int, limit: int, field: str, where: Location) -> None:
+        check_size(
+            what, size, limit, field, path=where.path, line=where.line, element=where.element
+        )

@@ -16,12 +16,34 @@ def parse(data: str | bytes, path: str | None) -> etree._Element:
     if isinstance(data, str):
         data = data.encode("utf-8") if not data.lstrip().startswith("<?xml") else _strip_decl(data)
     try:
-        return etree.fromstring(data, _PARSER)
+        root = etree.fromstring(data, _PARSER)
     except etree.XMLSyntaxError as error:
         line = error.position[0] if error.position else None
         raise FormatError(f"not well-formed XML: {error.msg}", path=path, line=line) from None
     except ValueError as error:
         raise FormatError(f"not XML: {error}", path=path) from None
+    _refuse_entities(root, path)
+    return root
+
+
+def _refuse_entities(root: etree._Element, path: str | None) -> None:
+    """Refuse entity declarations and references: network files need none, and they are the
+    vehicle of entity-expansion and external-entity attacks (the five predefined entities
+    and character references are plain text to the parser and stay allowed)."""
+    dtd = root.getroottree().docinfo.internalDTD
+    declared = [] if dtd is None else [entity.name for entity in dtd.iterentities()]
+    if declared:
+        raise FormatError(
+            f"the document declares entities {declared[:5]}, which network files do not use",
+            path=path,
+            element="<!DOCTYPE>",
+        )
+    for entity in root.iter(etree.Entity):
+        raise FormatError(
+            f"entity reference {entity.text} is not allowed; write the text itself",
+            path=path,
+            line=entity.sourceline,
+        )
 
 
 def _strip_decl(text: str) -> bytes:

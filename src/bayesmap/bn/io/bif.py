@@ -15,8 +15,13 @@ A file is a sequence of blocks::
     }
 
 Reading
-    A hand-written block scanner with regular expressions; the numbers of a table are
-    converted in one numpy call, at full double precision. ``//`` and ``/* */`` comments,
+    One linear pass of a regular-expression tokenizer checks quotes and removes comments,
+    then a block scanner whose every regular expression is matched once, forwards, so the
+    time is linear in the size of the file, whatever it holds (see the ``bif_scaling``
+    section of docs/benchmarks.md). The numbers of a table are converted in one numpy
+    call, at full double precision, and must be plain ASCII decimals (``1_0``, ``inf``,
+    ``nan`` and non-ASCII digits are refused); a table's size is checked against
+    :class:`~bayesmap.limits.ReadLimits` before it is allocated. ``//`` and ``/* */`` comments,
     quoted names (``"a b"``, with ``\\"`` and ``\\\\`` escapes), unquoted names with any
     character other than the separators (``<5``, ``Asy/Patch``, ``>=7.5``), whitespace-
     or comma-separated lists, ``table`` (child state slowest, last parent fastest, as
@@ -35,6 +40,7 @@ Every problem raises :class:`~bayesmap.errors.FormatError` naming the file and l
 from __future__ import annotations
 
 import itertools
+import math
 import re
 from pathlib import Path
 
@@ -43,11 +49,13 @@ import numpy as np
 from bayesmap._typing import FloatArray
 from bayesmap.bn.io._common import (
     Location,
+    TableBudget,
     VariableSpec,
     build_network,
     check_name,
     check_property,
     decode,
+    probabilities,
     properties_with_kind,
     read_source,
     split_property,
@@ -55,11 +63,23 @@ from bayesmap.bn.io._common import (
 )
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
+from bayesmap.limits import ReadLimits
 
 __all__ = ["dumps", "loads", "read", "write"]
 
-_QUOTED = r'"(?:[^"\\\n]|\\.)*"'
-_COMMENT = re.compile(_QUOTED + r"|//[^\n]*|/\*.*?\*/", re.DOTALL)
+# A quoted name on one line, with backslash escapes; possessive, so a quote that is never
+# closed costs one scan to the end of its line, not a backtracking search.
+_QUOTED = r'"[^"\\\n]*+(?:\\[^\n][^"\\\n]*+)*+"'
+# One linear pass over the text: complete quoted names, comments, and runs of anything else;
+# a quote or a comment that is not closed is an error, found at once.
+_LEXEME = re.compile(
+    r"(?P<quoted>" + _QUOTED + r")"
+    r'|(?P<open_quote>")'
+    r"|(?P<line_comment>//[^\n]*)"
+    r"|(?P<block_comment>/\*[\s\S]*?\*/)"
+    r"|(?P<open_comment>/\*)"
+    r'|(?:[^"/]|/(?![/*]))+'
+)
 _BLOCK = re.compile(r"\s*(?:(network|variable|probability)(?![\w.\-])|\Z)")
 _WORD = re.compile(r"\S{1,40}")
 _HEADER_END = re.compile(_QUOTED + r'|[{};"]')
@@ -67,7 +87,7 @@ _BODY_TOKEN = re.compile(_QUOTED + r'|[{}"]')
 _STATEMENT = re.compile(r"(?:" + _QUOTED + r'|[^";])*;')
 _ITEM = re.compile(r'\s*(?:"((?:[^"\\\n]|\\.)*)"\s*|([^",]*))(,|\Z)')
 _ESCAPE = re.compile(r"\\(.)", re.DOTALL)
-_TYPE = re.compile(r"\s*type\s+discrete\s*\[\s*(\d{1,9})\s*\]\s*\{(.*)\}\s*\Z", re.DOTALL)
+_TYPE = re.compile(r"\s*type\s+discrete\s*\[\s*([0-9]{1,9})\s*\]\s*\{(.*)\}\s*\Z", re.DOTALL)
 _PROPERTY = re.compile(r"\s*property(?![\w.\-])(.*)\Z", re.DOTALL)
 _PAREN_TOKEN = re.compile(_QUOTED + r'|[()"]')
 _TABLE = re.compile(r"\s*(table|default)(?![\w.\-])(.*)\Z", re.DOTALL)
@@ -78,33 +98,47 @@ _ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\r": "\\r", "\t": "\\t"}
 
 
 # ---------------------------------------------------------------------------- reading
-def read(path: str | Path) -> BayesNet:
+def read(path: str | Path, *, limits: ReadLimits | None = None) -> BayesNet:
     """Read a BIF file (``.bif`` or ``.bif.gz``) into a new :class:`BayesNet`.
 
     Raises
     ------
     FormatError
-        The file cannot be read, is malformed or describes an inconsistent network; the
-        message names the file and line.
+        The file cannot be read, is malformed, passes a :class:`ReadLimits` limit or
+        describes an inconsistent network; the message names the file and line.
     """
-    return loads(read_source(path), path=str(path))
+    return loads(read_source(path, limits), path=str(path), limits=limits)
 
 
-def loads(text: str | bytes, *, path: str | None = None) -> BayesNet:
+def loads(
+    text: str | bytes, *, path: str | None = None, limits: ReadLimits | None = None
+) -> BayesNet:
     """Parse BIF text; ``path`` only names the source in error messages."""
-    return _Parser(decode(text), path).parse()
+    return _Parser(decode(text), path, TableBudget(limits)).parse()
 
 
 class _Parser:
     """One pass over the blocks of a BIF text."""
 
-    def __init__(self, text: str, path: str | None) -> None:
-        if "//" in text or "/*" in text:
-            text = _COMMENT.sub(_blank_comment, text)
+    def __init__(self, text: str, path: str | None, budget: TableBudget) -> None:
         self.text = text
         self.path = path
+        self.budget = budget
+        if '"' in text or "/" in text:
+            self.text = _LEXEME.sub(self._lexeme, text)
         self._line_pos = 0
         self._line = 1
+
+    def _lexeme(self, match: re.Match[str]) -> str:
+        """Keep names and text, blank comments (keeping their line breaks), stop at a stray."""
+        kind = match.lastgroup
+        if kind is None or kind == "quoted":
+            return match.group()
+        if kind == "open_quote":
+            raise self.error(match.start(), "unterminated quoted name (it must close on its line)")
+        if kind == "open_comment":
+            raise self.error(match.start(), "unterminated comment: '/*' without '*/'")
+        return "\n" * match.group().count("\n") or " "
 
     def line_at(self, offset: int) -> int:
         """1-based line of ``offset`` (offsets must not go backwards between calls)."""
@@ -204,9 +238,7 @@ class _Parser:
         else:
             result = []
             at = 0
-            for match in _STATEMENT.finditer(body):
-                if match.start() != at:
-                    break
+            while (match := _STATEMENT.match(body, at)) is not None:
                 result.append((match.group()[:-1], offset + match.start()))
                 at = match.end()
             tail = body[at:]
@@ -313,6 +345,9 @@ class _Parser:
         spec = specs[child]
         spec.parents = tuple(parents)
         spec.cpt_where = Location(self.path, line, element)
+        self.budget.claim(
+            child, len(spec.states), [len(specs[p].states) for p in parents], spec.cpt_where
+        )
         spec.cpt = self._table(spec, [specs[p].states for p in parents], body, offset, element)
 
     def _probability_header(self, inner: str, offset: int) -> tuple[str, list[str]]:
@@ -338,9 +373,9 @@ class _Parser:
     ) -> FloatArray:
         n_child = len(spec.states)
         cards = [len(s) for s in parent_states]
-        n_columns = int(np.prod(cards)) if cards else 1
+        n_columns = math.prod(cards)
         lookups = [{s: i for i, s in enumerate(states)} for states in parent_states]
-        strides = [int(np.prod(cards[k + 1 :])) for k in range(len(cards))]
+        strides = [math.prod(cards[k + 1 :]) for k in range(len(cards))]
         tokens: list[str] = []
         columns: list[int] = []
         row_offsets: list[int] = []
@@ -415,7 +450,8 @@ class _Parser:
             return self._numbers(
                 table[0].split(), [table[1]], len(table[0].split()), element
             ).reshape((n_child, *cards))
-        matrix = np.full((n_columns, n_child), np.nan)
+        matrix = np.empty((n_columns, n_child))
+        given = np.zeros(n_columns, dtype=bool)
         if columns:
             numbers = self._numbers(tokens, row_offsets, n_child, element)
             rows = np.asarray(columns, dtype=np.int64)
@@ -428,11 +464,11 @@ class _Parser:
                         )
                     seen.add(column)
             matrix[rows] = numbers.reshape(-1, n_child)
+            given[rows] = True
         if default is not None:
-            fill = self._numbers(default[0], [default[1]], n_child, element)
-            missing = np.isnan(matrix[:, 0])
-            matrix[missing] = fill
-        missing_columns = np.flatnonzero(np.isnan(matrix[:, 0]))
+            matrix[~given] = self._numbers(default[0], [default[1]], n_child, element)
+            given[:] = True
+        missing_columns = np.flatnonzero(~given)
         if missing_columns.size:
             where = np.unravel_index(int(missing_columns[0]), cards) if cards else ()
             config = ", ".join(
@@ -450,18 +486,11 @@ class _Parser:
     def _numbers(
         self, tokens: list[str], offsets: list[int], per_row: int, element: str
     ) -> FloatArray:
-        try:
-            return np.array(tokens, dtype=np.float64)
-        except ValueError:
-            for k, token in enumerate(tokens):
-                try:
-                    float(token)
-                except ValueError:
-                    raise self.error(
-                        offsets[min(k // per_row, len(offsets) - 1)],
-                        f"{element}: {token[:40]!r} is not a number",
-                    ) from None
-            raise
+        def locate(k: int) -> Location:
+            at = offsets[min(k // per_row, len(offsets) - 1)]
+            return Location(self.path, self.text.count("\n", 0, at) + 1, element)
+
+        return probabilities(tokens, locate)
 
     def _closing_paren(self, statement: str, open_at: int, at: int) -> int:
         if '"' not in statement:
@@ -493,6 +522,8 @@ class _Parser:
                     offset, f"{what}: cannot read {raw.strip()[:60]!r} as a list of names"
                 )
             if match.group(1) is not None:
+                if not match.group(1):
+                    raise self.error(offset, f'{what}: an empty name "" in {raw.strip()[:60]!r}')
                 items.append(_unescape(match.group(1)))
             else:
                 item = match.group(2).strip()
@@ -516,11 +547,6 @@ class _Parser:
         if not name or "," in name:
             raise self.error(offset, f"{what}: expected one name, found {name[:60]!r}")
         return name
-
-
-def _blank_comment(match: re.Match[str]) -> str:
-    text = match.group()
-    return text if text.startswith('"') else "\n" * text.count("\n") or " "
 
 
 def _first_word(statement: str) -> str:

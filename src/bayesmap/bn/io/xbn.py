@@ -39,6 +39,8 @@ configuration, last parent fastest). The node kind is the ``kind`` property; a
 from __future__ import annotations
 
 import itertools
+import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -49,10 +51,13 @@ from bayesmap.bn.io import _xml
 from bayesmap.bn.io._common import (
     KIND_PROPERTY,
     Location,
+    TableBudget,
     VariableSpec,
     build_network,
     check_name,
+    check_names,
     check_property,
+    probabilities,
     properties_with_kind,
     read_source,
     table_values,
@@ -60,27 +65,33 @@ from bayesmap.bn.io._common import (
 )
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
+from bayesmap.limits import ReadLimits
 
 __all__ = ["dumps", "loads", "read", "write"]
 
+_INDEX = re.compile(r"[0-9]{1,18}")
 DESCRIPTION_PROPERTY = "description"
 """Property that holds a variable's XBN ``<DESCRIPTION>``."""
 
 
-def read(path: str | Path) -> BayesNet:
+def read(path: str | Path, *, limits: ReadLimits | None = None) -> BayesNet:
     """Read an XBN file (``.xbn`` or ``.xbn.gz``) into a new :class:`BayesNet`.
 
     Raises
     ------
     FormatError
-        Unreadable, malformed or inconsistent file; the message names file, line and element.
+        Unreadable, malformed or inconsistent file, or one past a :class:`ReadLimits`
+        limit; the message names file, line and element.
     """
-    return loads(read_source(path), path=str(path))
+    return loads(read_source(path, limits), path=str(path), limits=limits)
 
 
-def loads(text: str | bytes, *, path: str | None = None) -> BayesNet:
+def loads(
+    text: str | bytes, *, path: str | None = None, limits: ReadLimits | None = None
+) -> BayesNet:
     """Parse XBN text; ``path`` only names the source in error messages."""
     root = _xml.parse(text, path)
+    budget = TableBudget(limits)
     if _xml.tag(root) == "BNMODEL":
         model = root
     elif _xml.tag(root) == "ANALYSISNOTEBOOK":
@@ -108,7 +119,7 @@ def loads(text: str | bytes, *, path: str | None = None) -> BayesNet:
     defined: set[str] = set()
     for distributions in _xml.children(model, "DISTRIBUTIONS"):
         for dist in _xml.children(distributions, "DIST"):
-            _distribution(dist, specs, defined, path)
+            _distribution(dist, specs, defined, path, budget)
     for child, parents in arcs.items():
         declared = set(specs[child].parents)
         if child in defined and parents != declared:
@@ -175,6 +186,8 @@ def _variable(element: etree._Element, path: str | None) -> VariableSpec:
     states = tuple(_xml.text(s) for s in _xml.children(element, "STATENAME"))
     if not states:
         raise _located(element, path, f"variable {name!r} has no <STATENAME>", name)
+    where = Location(path, element.sourceline, f"<VAR> {name!r}")
+    check_names(f"<STATENAME> of {name!r}", states, where)
     if len(set(states)) != len(states):
         dup = sorted({s for s in states if states.count(s) > 1})
         raise _located(element, path, f"variable {name!r} lists state(s) {dup} twice", name)
@@ -182,9 +195,7 @@ def _variable(element: etree._Element, path: str | None) -> VariableSpec:
     descriptions = _xml.children(element, "DESCRIPTION")
     if descriptions and _xml.text(descriptions[0]):
         props.setdefault(DESCRIPTION_PROPERTY, _xml.text(descriptions[0]))
-    return VariableSpec(
-        name, states, Location(path, element.sourceline, f"<VAR> {name!r}"), properties=props
-    )
+    return VariableSpec(name, states, where, properties=props)
 
 
 def _arcs(
@@ -205,7 +216,11 @@ def _arcs(
 
 
 def _distribution(
-    element: etree._Element, specs: dict[str, VariableSpec], defined: set[str], path: str | None
+    element: etree._Element,
+    specs: dict[str, VariableSpec],
+    defined: set[str],
+    path: str | None,
+    budget: TableBudget,
 ) -> None:
     name = _xml.attribute(_xml.child(element, "PRIVATE", path, "<DIST>"), "NAME", path, "<PRIVATE>")
     if name not in specs:
@@ -238,6 +253,7 @@ def _distribution(
     spec.parents = parents
     spec.cpt_where = Location(path, element.sourceline, f"<DIST> of {name!r}")
     dpis = _xml.child(element, "DPIS", path, f"<DIST> of {name!r}")
+    budget.claim(name, len(spec.states), [len(specs[p].states) for p in parents], spec.cpt_where)
     spec.cpt = _table(dpis, spec, [specs[p].states for p in parents], path)
 
 
@@ -245,9 +261,10 @@ def _table(
     dpis: etree._Element, spec: VariableSpec, parent_states: list[tuple[str, ...]], path: str | None
 ) -> FloatArray:
     cards = [len(s) for s in parent_states]
-    n_columns = int(np.prod(cards)) if cards else 1
+    n_columns = math.prod(cards)
     n_child = len(spec.states)
-    matrix = np.full((n_columns, n_child), np.nan)
+    matrix = np.empty((n_columns, n_child))
+    given = np.zeros(n_columns, dtype=bool)
     for position, dpi in enumerate(_xml.children(dpis, "DPI")):
         indexes = _xml.optional_attribute(dpi, "INDEXES")
         if indexes is None:
@@ -258,7 +275,7 @@ def _table(
             raise _located(
                 dpi, path, f"more <DPI> rows than the {n_columns} parent configurations", spec.name
             )
-        if not np.isnan(matrix[column, 0]):
+        if given[column]:
             raise _located(
                 dpi, path, f"parent configuration {indexes or position} is given twice", spec.name
             )
@@ -271,13 +288,10 @@ def _table(
                 f"(one per state of {spec.name!r})",
                 spec.name,
             )
-        try:
-            matrix[column] = np.array(tokens, dtype=np.float64)
-        except ValueError:
-            raise _located(
-                dpi, path, f"<DPI> holds something that is not a number: {tokens}", spec.name
-            ) from None
-    missing = np.flatnonzero(np.isnan(matrix[:, 0]))
+        row_at = Location(path, dpi.sourceline, f"<DPI> of {spec.name!r}")
+        matrix[column] = probabilities(tokens, row_at)
+        given[column] = True
+    missing = np.flatnonzero(~given)
     if missing.size:
         where = np.unravel_index(int(missing[0]), cards) if cards else ()
         raise _located(
@@ -293,12 +307,10 @@ def _table(
 def _column(
     dpi: etree._Element, indexes: str, cards: list[int], spec: VariableSpec, path: str | None
 ) -> int:
-    try:
-        index = [int(t) for t in indexes.split()]
-    except ValueError:
-        raise _located(
-            dpi, path, f"INDEXES={indexes!r} is not a list of integers", spec.name
-        ) from None
+    tokens = indexes.split()
+    if not all(_INDEX.fullmatch(t) for t in tokens):
+        raise _located(dpi, path, f"INDEXES={indexes!r} is not a list of integers", spec.name)
+    index = [int(t) for t in tokens]
     if len(index) != len(cards) or any(not 0 <= i < c for i, c in zip(index, cards, strict=False)):
         raise _located(
             dpi,

@@ -39,10 +39,13 @@ from bayesmap._typing import FloatArray
 from bayesmap.bn.io import _xml
 from bayesmap.bn.io._common import (
     Location,
+    TableBudget,
     VariableSpec,
     build_network,
     check_name,
+    check_names,
     check_property,
+    probabilities,
     properties_with_kind,
     read_source,
     split_property,
@@ -51,24 +54,29 @@ from bayesmap.bn.io._common import (
 )
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
+from bayesmap.limits import ReadLimits
 
 __all__ = ["dumps", "loads", "read", "write"]
 
 
-def read(path: str | Path) -> BayesNet:
+def read(path: str | Path, *, limits: ReadLimits | None = None) -> BayesNet:
     """Read an XMLBIF file (``.xml``, ``.xmlbif``, ``.bifxml``, optionally ``.gz``).
 
     Raises
     ------
     FormatError
-        Unreadable, malformed or inconsistent file; the message names file, line and element.
+        Unreadable, malformed or inconsistent file, or one past a :class:`ReadLimits`
+        limit; the message names file, line and element.
     """
-    return loads(read_source(path), path=str(path))
+    return loads(read_source(path, limits), path=str(path), limits=limits)
 
 
-def loads(text: str | bytes, *, path: str | None = None) -> BayesNet:
+def loads(
+    text: str | bytes, *, path: str | None = None, limits: ReadLimits | None = None
+) -> BayesNet:
     """Parse XMLBIF text; ``path`` only names the source in error messages."""
     root = _xml.parse(text, path)
+    budget = TableBudget(limits)
     if _xml.tag(root) == "NETWORK":
         network = root
     elif _xml.tag(root) == "BIF":
@@ -91,7 +99,7 @@ def loads(text: str | bytes, *, path: str | None = None) -> BayesNet:
         specs[spec.name] = spec
     defined: set[str] = set()
     for definition in _xml.children(network, "DEFINITION"):
-        _definition(definition, specs, defined, path)
+        _definition(definition, specs, defined, path, budget)
     properties = _properties(network, path)
     return build_network(name, specs.values(), properties=properties, path=path)
 
@@ -129,15 +137,20 @@ def _variable(element: etree._Element, path: str | None) -> VariableSpec:
     states = tuple(_xml.text(outcome) for outcome in _xml.children(element, "OUTCOME"))
     if not states:
         raise _located(element, path, f"variable {name!r} has no <OUTCOME>", name)
+    where = Location(path, element.sourceline, f"<VARIABLE> {name!r}")
+    check_names(f"<OUTCOME> of {name!r}", states, where)
     if len(set(states)) != len(states):
         dup = sorted({s for s in states if states.count(s) > 1})
         raise _located(element, path, f"variable {name!r} lists outcome(s) {dup} twice", name)
-    where = Location(path, element.sourceline, f"<VARIABLE> {name!r}")
     return VariableSpec(name, states, where, properties=_properties(element, path))
 
 
 def _definition(
-    element: etree._Element, specs: dict[str, VariableSpec], defined: set[str], path: str | None
+    element: etree._Element,
+    specs: dict[str, VariableSpec],
+    defined: set[str],
+    path: str | None,
+    budget: TableBudget,
 ) -> None:
     name = _xml.text(_xml.child(element, "FOR", path, "<DEFINITION>"))
     if name not in specs:
@@ -158,36 +171,24 @@ def _definition(
     shape = (*(len(specs[p].states) for p in parents), len(spec.states))
     spec.parents = parents
     spec.cpt_where = Location(path, element.sourceline, f"<DEFINITION> of {name!r}")
-    spec.cpt = np.moveaxis(_numbers(table, shape, path, name), -1, 0)
+    expected = budget.claim(name, shape[-1], shape[:-1], spec.cpt_where)
+    spec.cpt = np.moveaxis(_numbers(table, shape, expected, path, name), -1, 0)
 
 
 def _numbers(
-    table: etree._Element, shape: tuple[int, ...], path: str | None, name: str
+    table: etree._Element, shape: tuple[int, ...], expected: int, path: str | None, name: str
 ) -> FloatArray:
     tokens = _xml.text(table).split()
-    try:
-        values = np.array(tokens, dtype=np.float64)
-    except ValueError:
-        bad = next(t for t in tokens if not _is_number(t))
-        raise _located(table, path, f"{bad[:40]!r} is not a number", name) from None
-    expected = int(np.prod(shape))
-    if values.size != expected:
+    if len(tokens) != expected:
         raise _located(
             table,
             path,
-            f"<TABLE> has {values.size} probabilities, expected {expected} "
+            f"<TABLE> has {len(tokens)} probabilities, expected {expected} "
             f"({shape[-1]} states x {expected // shape[-1]} parent configurations)",
             name,
         )
-    return values.reshape(shape)
-
-
-def _is_number(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
+    where = Location(path, table.sourceline, f"<TABLE> of {name!r}")
+    return probabilities(tokens, where).reshape(shape)
 
 
 def write(net: BayesNet, path: str | Path) -> Path:

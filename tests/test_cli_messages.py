@@ -1,0 +1,114 @@
+"""Every command prints user text literally and turns hostile input into one clear line."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from rich.console import Console
+from typer.testing import CliRunner
+
+from bayesmap import bn
+from bayesmap.bn.model import BayesNet
+from bayesmap.cli import app
+from bayesmap.cli._console import print_error, print_note
+
+runner = CliRunner()
+DATA = Path(__file__).parent / "sonar" / "data"
+BAYESMAP = [sys.executable, "-c", "from bayesmap.cli import main; main()"]
+
+
+def _net(tmp_path: Path) -> Path:
+    net = BayesNet("n[m]")
+    net.add_variable("A[/x]", ["[red]", "b"], cpt=[0.5, 0.5])
+    return bn.write(net, tmp_path / "n.bif")
+
+
+@pytest.mark.parametrize("text", ["[/x]", "[m] metres", "[red]boom[/red]", "[bold"])
+def test_messages_print_brackets_literally(text: str) -> None:
+    out = Console(record=True, width=200)
+    print_error(f"value {text}", out=out)
+    print_note(f"wrote {text}", out=out)
+    assert out.export_text() == f"error: value {text}\nwrote {text}\n"
+
+
+def test_evidence_with_markup_is_echoed_literally(tmp_path: Path) -> None:
+    path = _net(tmp_path)
+    result = runner.invoke(app, ["bn", "query", str(path), "-t", "A[/x]", "-e", "A[/x]=[/x]"])
+    assert result.exit_code == 1
+    assert "[/x]" in result.output and "Traceback" not in result.output
+    shown = runner.invoke(app, ["bn", "query", str(path), "-t", "A[/x]", "-e", "A[/x]=[red]"])
+    assert shown.exit_code == 0, shown.output
+    assert "n[m]" in shown.output and "A[/x]=[red]" in shown.output
+    info = runner.invoke(app, ["bn", "info", str(path)])
+    assert "[red]" in info.output and "A[/x]" in info.output
+
+
+def test_convert_into_a_path_under_a_file_is_a_clear_error(tmp_path: Path) -> None:
+    path = _net(tmp_path)
+    (tmp_path / "file").write_text("x")
+    result = runner.invoke(app, ["bn", "convert", str(path), str(tmp_path / "file" / "n.xml")])
+    assert result.exit_code == 1
+    assert "is a file" in result.output and "Traceback" not in result.output
+    (tmp_path / "dir.xml").mkdir()
+    result = runner.invoke(app, ["bn", "convert", str(path), str(tmp_path / "dir.xml")])
+    assert result.exit_code == 1 and "is a folder" in result.output
+
+
+def test_hostile_inputs_end_in_one_line_not_a_traceback(tmp_path: Path) -> None:
+    angles = ",".join(str(22.5 * k) for k in range(16))
+    sonar = [
+        "sonar",
+        "map",
+        str(DATA / "example_log.txt"),
+        "--angles-deg",
+        angles,
+        "--range-unit",
+        "mm",
+        "--position-unit",
+        "mm",
+        "--heading-unit",
+        "deg",
+        "--max-range",
+        "5000",
+        "--resolution",
+        "1e-5",
+        "--out",
+        str(tmp_path / "map"),
+    ]
+    result = subprocess.run([*BAYESMAP, *sonar], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1
+    assert "Traceback" not in result.stderr
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and "max_cells" in errors[0]
+    fifo = tmp_path / "pipe.bif"
+    os.mkfifo(fifo)
+    result = subprocess.run(
+        [*BAYESMAP, "bn", "info", str(fifo)], capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 1 and "regular file" in result.stderr
+
+
+@pytest.mark.slow
+def test_sigterm_during_reproduce_leaves_no_partial_results(tmp_path: Path) -> None:
+    out = tmp_path / "results"
+    child = subprocess.Popen(
+        [*BAYESMAP, "reproduce", "sonar", "--out", str(out)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 120
+    while not (out.exists() and any(out.iterdir())) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert out.exists(), "the experiment never started"
+    time.sleep(1.0)
+    child.send_signal(signal.SIGTERM)
+    child.wait(60)
+    assert child.returncode != 0
+    assert list(out.iterdir()) == []
