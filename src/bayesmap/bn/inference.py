@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 import opt_einsum
 
-from bayesmap._typing import FloatArray, IntArray
+from bayesmap._typing import BoolArray, FloatArray, IntArray
 from bayesmap.bn import ancestral, elimination, plans
 from bayesmap.bn.compiled import Compiled, NetworkLike
 from bayesmap.bn.fixed_point import (
@@ -38,6 +38,7 @@ from bayesmap.bn.fixed_point import (
 )
 from bayesmap.bn.plans import BATCH, Factor, Plan, symbol
 from bayesmap.bn.propositions import Proposition, parse
+from bayesmap.bn.soft import check_weights
 from bayesmap.errors import InputError
 
 Evidence = Mapping[str, str | int]
@@ -256,7 +257,12 @@ class Engine:
 
     # --------------------------------------------------------------------- batch
     def posterior_batch(
-        self, target: str, evidence: BatchEvidence, *, columns: Sequence[str] | None = None
+        self,
+        target: str,
+        evidence: BatchEvidence,
+        *,
+        columns: Sequence[str] | None = None,
+        soft: Mapping[str, npt.ArrayLike] | None = None,
     ) -> FloatArray:
         """``P(target | case)`` for many evidence cases at once: shape ``(n_cases, n_states)``.
 
@@ -272,10 +278,16 @@ class Engine:
             variable is unobserved, or a sequence of ``{variable: state}`` mappings.
         columns
             Variable of each array column; default: all variables in network order.
+        soft
+            Soft evidence per case, ``{variable: (n_cases, n_states) weights}``: the joint
+            posterior of the target and these variables is weighted by them and summed
+            (its size grows with the product of their state counts).
         """
         compiled = self.compiled
         t = compiled.id(target)
         table, cols = self._batch_array(evidence, columns)
+        if soft:
+            return self._soft_batch(t, table, cols, soft)
         out = np.empty((table.shape[0], compiled.card[t]))
         for rows, pattern in _patterns(table):
             ev_vars = [cols[j] for j in pattern]
@@ -288,6 +300,58 @@ class Engine:
                 out[rows] = np.eye(compiled.card[t])[values[:, col]]
                 continue
             out[rows] = self._batch_answers(t, ev_vars, values, rows)
+        return out
+
+    def _soft_batch(
+        self, t: int, table: IntArray, cols: list[int], soft: Mapping[str, npt.ArrayLike]
+    ) -> FloatArray:
+        """:meth:`posterior_batch` with soft evidence: ``P(t, S | case)`` weighted by each
+        case's likelihoods of the softly observed variables ``S`` and summed over ``S``."""
+        compiled = self.compiled
+        n = table.shape[0]
+        weights: dict[int, FloatArray] = {}
+        for name, value in soft.items():
+            v = compiled.id(name)
+            w = np.asarray(value, dtype=np.float64)
+            if w.shape != (n, compiled.card[v]):
+                raise InputError(
+                    f"soft evidence on {name!r}: need shape ({n}, {compiled.card[v]}) "
+                    f"(cases, states), got {w.shape}"
+                )
+            check_weights(name, w)
+            if v in cols and np.any(table[:, cols.index(v)] >= 0):
+                case = int(np.flatnonzero(table[:, cols.index(v)] >= 0)[0])
+                raise InputError(
+                    f"batched evidence case {case}: {name!r} has both an observed state "
+                    "and soft evidence"
+                )
+            weights[v] = w
+        out = np.empty((n, compiled.card[t]))
+        for rows, pattern in _patterns(table):
+            ev_vars = [cols[j] for j in pattern]
+            values = table[np.ix_(rows, pattern)]
+            if t in ev_vars:
+                out[rows] = self.posterior_batch(
+                    compiled.names[t], values, columns=[compiled.names[v] for v in ev_vars]
+                )
+                continue
+            targets = (t, *(v for v in weights if v != t))
+            plan = self.plan("sum", targets, frozenset(ev_vars))
+            joint = self._batch_contract(plan, ev_vars, values, rows)
+            for axis, v in enumerate(targets, start=1):
+                if v in weights:
+                    shape = [len(rows)] + [1] * len(targets)
+                    shape[axis] = compiled.card[v]
+                    joint = joint * weights[v][rows].reshape(shape)
+            answer = joint.reshape(len(rows), compiled.card[t], -1).sum(axis=2)
+            totals = answer.sum(axis=1)
+            bad = np.flatnonzero(~(totals > 0.0))
+            if bad.size:
+                raise InputError(
+                    f"batched evidence case {int(rows[bad[0]])}: the evidence and soft "
+                    "evidence have probability zero together"
+                )
+            out[rows] = answer / totals[:, np.newaxis]
         return out
 
     def _batch_answers(
@@ -528,15 +592,44 @@ class Engine:
         probability = math.exp(float(best) - math.log(total))
         return assignment, min(probability, 1.0)
 
-    def probability(self, proposition: Proposition | str, evidence: Evidence) -> float:
-        """``P(proposition | evidence)`` (§2.4): the joint posterior summed where it holds."""
-        prop = parse(proposition) if isinstance(proposition, str) else proposition
-        names = prop.variables()
+    def probability(
+        self,
+        proposition: Proposition | str,
+        evidence: Evidence,
+        given: Proposition | str | None = None,
+    ) -> float:
+        """``P(proposition | given, evidence)`` (§2.4, eqs. 15–21): the joint posterior of
+        the mentioned variables summed where both hold, over the sum where ``given`` holds."""
+        names, holds, condition = self._truth(proposition, given)
         joint = self.joint_posterior(names, evidence)
-        grids: dict[str, IntArray] = dict(zip(names, np.indices(joint.shape), strict=True))
+        if condition is None:
+            return float(joint[holds].sum())
+        total = float(joint[condition].sum())
+        if not total > 0.0:
+            raise InputError(f"the condition {given} has probability zero given the evidence")
+        return float(joint[holds & condition].sum()) / total
+
+    def _truth(
+        self, proposition: Proposition | str, given: Proposition | str | None
+    ) -> tuple[tuple[str, ...], BoolArray, BoolArray | None]:
+        """Variables mentioned by a proposition and its condition, and where each holds on
+        the grid of their joint states (condition ``None`` when there is none)."""
+        prop = parse(proposition) if isinstance(proposition, str) else proposition
+        cond = parse(given) if isinstance(given, str) else given
+        names = prop.variables() if cond is None else (*prop.variables(), *cond.variables())
+        names = tuple(dict.fromkeys(names))
         compiled = self.compiled
-        mask = prop.holds(grids, lambda var, state: compiled.state(compiled.id(var), state))
-        return float(joint[mask].sum())
+        ids = [compiled.id(n) for n in names]
+        shape = [compiled.card[v] for v in ids]
+        grids: dict[str, IntArray] = dict(zip(names, np.indices(shape), strict=True))
+
+        def index(var: str, state: str) -> int:
+            return compiled.state(compiled.id(var), state)
+
+        holds = np.broadcast_to(prop.holds(grids, index), shape)
+        if cond is None:
+            return names, holds, None
+        return names, holds, np.broadcast_to(cond.holds(grids, index), shape)
 
     def ancestral_posterior(self, target: str, evidence: Evidence) -> FloatArray:
         """The paper's recursive query (eq. 27); exact only where :func:`ancestral.is_exact`."""
@@ -683,30 +776,42 @@ class Engine:
         return assignment, ratio(q, best, total, "marginal MAP")
 
     def fixed_probability(
-        self, proposition: Proposition | str, evidence: Evidence, q: QFormat
+        self,
+        proposition: Proposition | str,
+        evidence: Evidence,
+        q: QFormat,
+        given: Proposition | str | None = None,
     ) -> FixedResult:
         """:meth:`probability` in Q-format integers: the unnormalised joint of the mentioned
-        variables, summed where the proposition holds and where it does not, then divided."""
-        prop = parse(proposition) if isinstance(proposition, str) else proposition
+        variables, summed where the proposition holds and where it does not (within the
+        condition, if any), then divided."""
         compiled = self.compiled
-        ids = tuple(compiled.id(n) for n in prop.variables())
+        names, holds, condition = self._truth(proposition, given)
+        ids = tuple(compiled.id(n) for n in names)
         ev = self._evidence_ids(evidence)
-        shape = [compiled.card[v] for v in ids]
-        grids = dict(zip(prop.variables(), np.indices(shape), strict=True))
-        mask = prop.holds(grids, lambda var, state: compiled.state(compiled.id(var), state))
-        mask = np.broadcast_to(mask, shape)
-        mask = mask[tuple(ev.get(v, slice(None)) for v in ids)]
+        observed = tuple(ev.get(v, slice(None)) for v in ids)
+        mask = holds[observed]
+        inside = None if condition is None else condition[observed]
         free = tuple(v for v in ids if v not in ev)
+        what = f"probability of {proposition}" + ("" if given is None else f" given {given}")
         if not free:
             self.probability_of_evidence(evidence)
+            if inside is not None and not inside:
+                raise InputError(f"the condition {given} is false for the evidence")
             return constant(q, np.asarray(float(mask)))
         joint = self._fixed_sum(self.plan("sum", free, frozenset(ev)), ev, evidence, q)
+        if inside is None:
+            yes, no = mask, ~mask
+        else:
+            if not np.any(joint.raw[inside] > 0):
+                raise InputError(f"the condition {given} has probability zero given the evidence")
+            yes, no = mask & inside, ~mask & inside
         split = Fixed(
-            np.array([joint.raw[mask].sum(), joint.raw[~mask].sum()]),
+            np.array([joint.raw[yes].sum(), joint.raw[no].sum()]),
             joint.exp.reshape(1),
-            np.array([joint.error[mask].sum(), joint.error[~mask].sum()]),
+            np.array([joint.error[yes].sum(), joint.error[no].sum()]),
         )
-        answer = normalise(q, split, (0,), f"probability of {prop}")
+        answer = normalise(q, split, (0,), what)
         return FixedResult(q, answer.raw[0], answer.values[0], answer.bound[0])
 
     def _fixed_operands(

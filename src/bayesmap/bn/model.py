@@ -44,12 +44,17 @@ from bayesmap.bn.fixed_point import FixedResult, QFormat
 from bayesmap.bn.inference import BatchEvidence, Engine, Evidence
 from bayesmap.bn.propositions import Proposition
 from bayesmap.bn.sampling import forward_sample
+from bayesmap.bn.soft import Likelihoods, Shadow, likelihood
+from bayesmap.bn.suggest import unknown
 from bayesmap.bn.tables import SUM_TOLERANCE as SUM_TOLERANCE
 from bayesmap.bn.tables import WARN_TOLERANCE as WARN_TOLERANCE
 from bayesmap.bn.tables import CPTNormalisationWarning as CPTNormalisationWarning
 from bayesmap.bn.tables import DataSource as DataSource
 from bayesmap.bn.tables import checked_cpt
 from bayesmap.errors import InputError, ModelError
+
+_MAX_SHADOWS = 32
+"""Shadow networks kept for soft evidence (one per set of softly observed variables)."""
 
 
 class NodeKind(enum.Enum):
@@ -119,7 +124,8 @@ class Variable:
             return self.states.index(str(state))
         except ValueError:
             raise ModelError(
-                f"variable {self.name!r} has no state {state!r}; its states are {list(self.states)}"
+                f"variable {self.name!r} has no state {state!r}; "
+                + unknown("state", state, self.states)
             ) from None
 
 
@@ -146,6 +152,7 @@ class BayesNet:
         self.properties: dict[str, str] = {}
         self._version = 0
         self._engine = Engine(self)
+        self._shadows: dict[tuple[str, ...], Shadow] = {}
 
     # ------------------------------------------------------------------ structure
     @property
@@ -173,7 +180,10 @@ class BayesNet:
         try:
             return self._variables[name]
         except KeyError:
-            raise ModelError(f"network {self.name!r} has no variable {name!r}") from None
+            raise ModelError(
+                f"network {self.name!r} has no variable {name!r}; "
+                + unknown("variable", name, self._variables)
+            ) from None
 
     def states(self, name: str) -> tuple[str, ...]:
         """State names of ``name``."""
@@ -377,6 +387,7 @@ class BayesNet:
         target: str,
         evidence: Evidence | None = None,
         *,
+        soft: Likelihoods | None = None,
         fixed_point: QFormat | str | None = None,
     ) -> dict[str, float]:
         """Exact ``P(target | evidence)`` (Post et al. 2016 eqs. 22–25).
@@ -392,6 +403,9 @@ class BayesNet:
             The queried variable.
         evidence
             Observed values ``{variable: state name or index}``.
+        soft
+            Soft (likelihood) evidence ``{variable: weight per state}``, e.g. a sensor's
+            ``P(reading | state)``; only ratios matter (see :mod:`bayesmap.bn.soft`).
         fixed_point
             Compute in this Q-format (``"Q16.16"``, ``"Q8.24"``, ...) with integer
             arithmetic, as the rover's embedded engine does; see :meth:`posterior_fixed`
@@ -417,7 +431,12 @@ class BayesNet:
         ...                      cpt=[[0.9, 0.1], [0.1, 0.9]])
         >>> round(net.posterior("Rain", {"Wet": "yes"})["yes"], 4)
         0.6923
+        >>> round(net.posterior("Rain", soft={"Wet": [0.2, 0.6]})["yes"], 4)
+        0.3684
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.posterior(target, hard, fixed_point=fixed_point)
         if fixed_point is not None:
             values = self.posterior_fixed(target, evidence, fixed_point).values
         else:
@@ -425,28 +444,39 @@ class BayesNet:
         return dict(zip(self.variable(target).states, values.tolist(), strict=True))
 
     def posterior_batch(
-        self, target: str, evidence: BatchEvidence, *, columns: Sequence[str] | None = None
+        self,
+        target: str,
+        evidence: BatchEvidence,
+        *,
+        columns: Sequence[str] | None = None,
+        soft: Mapping[str, npt.ArrayLike] | None = None,
     ) -> FloatArray:
         """``P(target | case)`` for many evidence cases: an ``(n_cases, n_states)`` array.
 
         ``evidence`` is an ``(n_cases, n_columns)`` integer array of state indices (−1 =
         unobserved; columns are ``columns`` or all variables in network order) or a list
         of ``{variable: state}`` mappings. Cases observing the same variables are answered
-        by one contraction with a leading case axis.
+        by one contraction with a leading case axis. ``soft`` gives soft evidence per case,
+        ``{variable: (n_cases, n_states) weights}`` (a row of ones: no information).
         """
-        return self._engine.posterior_batch(target, evidence, columns=columns)
+        return self._engine.posterior_batch(target, evidence, columns=columns, soft=soft)
 
     def joint_posterior(
         self,
         targets: Sequence[str],
         evidence: Evidence | None = None,
         *,
+        soft: Likelihoods | None = None,
         fixed_point: QFormat | str | None = None,
     ) -> FloatArray:
         """Exact joint ``P(targets | evidence)``: one array axis per target, in the given order.
 
-        With ``fixed_point``, computed in that Q-format (see :meth:`joint_posterior_fixed`).
+        ``soft`` adds soft evidence as in :meth:`posterior`. With ``fixed_point``, computed
+        in that Q-format (see :meth:`joint_posterior_fixed`).
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.joint_posterior(targets, hard, fixed_point=fixed_point)
         if fixed_point is not None:
             return self.joint_posterior_fixed(targets, evidence, fixed_point).values
         return self._engine.joint_posterior(list(targets), evidence or {})
@@ -472,13 +502,22 @@ class BayesNet:
         return self._engine.probability_of_evidence(evidence or {})
 
     def posterior_fixed(
-        self, target: str, evidence: Evidence | None = None, fixed_point: QFormat | str = "Q16.16"
+        self,
+        target: str,
+        evidence: Evidence | None = None,
+        fixed_point: QFormat | str = "Q16.16",
+        *,
+        soft: Likelihoods | None = None,
     ) -> FixedResult:
         """``P(target | evidence)`` in Q-format integer arithmetic, with a guaranteed error bound.
 
         Returns a :class:`~bayesmap.bn.fixed_point.FixedResult` (raw integers, values and
-        the bound on ``|value − exact|`` of each state).
+        the bound on ``|value − exact|`` of each state). Soft evidence is quantised like a
+        CPT column (its largest weight scaled to 1).
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.posterior_fixed(target, hard, fixed_point)
         return self._engine.fixed_posterior(target, evidence or {}, QFormat.parse(fixed_point))
 
     def joint_posterior_fixed(
@@ -486,8 +525,13 @@ class BayesNet:
         targets: Sequence[str],
         evidence: Evidence | None = None,
         fixed_point: QFormat | str = "Q16.16",
+        *,
+        soft: Likelihoods | None = None,
     ) -> FixedResult:
         """:meth:`joint_posterior` in Q-format integer arithmetic, with a guaranteed bound."""
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.joint_posterior_fixed(targets, hard, fixed_point)
         q = QFormat.parse(fixed_point)
         return self._engine.fixed_joint_posterior(list(targets), evidence or {}, q)
 
@@ -504,7 +548,11 @@ class BayesNet:
         return self._engine.fixed_posterior_batch(target, evidence, q, columns=columns)
 
     def map(
-        self, evidence: Evidence | None = None, *, fixed_point: QFormat | str | None = None
+        self,
+        evidence: Evidence | None = None,
+        *,
+        soft: Likelihoods | None = None,
+        fixed_point: QFormat | str | None = None,
     ) -> tuple[dict[str, str], float]:
         """MAP/MPE over all unobserved variables (Post et al. 2016 eq. 13), by max-product.
 
@@ -516,18 +564,29 @@ class BayesNet:
         tuple
             ``({variable: state}, P(assignment | evidence))``. With ``fixed_point``, the
             max-product runs in that Q-format (ties broken by the lowest state index).
+            ``soft`` adds soft evidence as in :meth:`posterior`.
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.map(hard, fixed_point=fixed_point)
         if fixed_point is not None:
             assignment, result = self.map_fixed(evidence, fixed_point)
             return assignment, float(result.values)
         return self._engine.mpe(evidence or {})
 
     def map_fixed(
-        self, evidence: Evidence | None = None, fixed_point: QFormat | str = "Q16.16"
+        self,
+        evidence: Evidence | None = None,
+        fixed_point: QFormat | str = "Q16.16",
+        *,
+        soft: Likelihoods | None = None,
     ) -> tuple[dict[str, str], FixedResult]:
         """:meth:`map` by max-product in Q-format integers; ``P(x | e)`` as a 0-d
         :class:`~bayesmap.bn.fixed_point.FixedResult` whose bound covers both the exact
         probability of the returned assignment and the exact maximum."""
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.map_fixed(hard, fixed_point)
         return self._engine.fixed_mpe(evidence or {}, QFormat.parse(fixed_point))
 
     def marginal_map(
@@ -535,13 +594,18 @@ class BayesNet:
         variables: Sequence[str],
         evidence: Evidence | None = None,
         *,
+        soft: Likelihoods | None = None,
         fixed_point: QFormat | str | None = None,
     ) -> tuple[dict[str, str], float]:
         """Marginal MAP over ``variables`` (Post et al. 2016 eq. 14): sum out the rest, then max.
 
         Returns ``({variable: state}, P(assignment | evidence))``; exact, or with
-        ``fixed_point`` in that Q-format (see :meth:`marginal_map_fixed`).
+        ``fixed_point`` in that Q-format (see :meth:`marginal_map_fixed`). ``soft`` adds
+        soft evidence as in :meth:`posterior`.
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.marginal_map(variables, hard, fixed_point=fixed_point)
         if fixed_point is not None:
             assignment, result = self.marginal_map_fixed(variables, evidence, fixed_point)
             return assignment, float(result.values)
@@ -552,9 +616,14 @@ class BayesNet:
         variables: Sequence[str],
         evidence: Evidence | None = None,
         fixed_point: QFormat | str = "Q16.16",
+        *,
+        soft: Likelihoods | None = None,
     ) -> tuple[dict[str, str], FixedResult]:
         """:meth:`marginal_map` in Q-format integers; ``P(x | e)`` as a 0-d
         :class:`~bayesmap.bn.fixed_point.FixedResult` (bound as in :meth:`map_fixed`)."""
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.marginal_map_fixed(variables, hard, fixed_point)
         q = QFormat.parse(fixed_point)
         return self._engine.fixed_marginal_map(list(variables), evidence or {}, q)
 
@@ -563,28 +632,67 @@ class BayesNet:
         proposition: Proposition | str,
         evidence: Evidence | None = None,
         *,
+        given: Proposition | str | None = None,
+        soft: Likelihoods | None = None,
         fixed_point: QFormat | str | None = None,
     ) -> float:
-        """``P(proposition | evidence)`` of a logical proposition (Post et al. 2016 §2.4).
+        """``P(proposition | given, evidence)`` of a logical proposition (Post et al. 2016 §2.4).
 
         Build it with :class:`~bayesmap.bn.propositions.V` (``(V("A") == "yes") & ~(V("B")
-        == "no")``) or pass a string such as ``"A=yes & !(B=no)"``. With ``fixed_point``,
-        computed in that Q-format (see :meth:`probability_fixed`).
+        == "no")``) or pass a string such as ``"A=yes and not B=no"``. ``given`` is a
+        condition, itself a proposition: ``P(p | g, e) = P(p ∧ g | e) / P(g | e)``. With
+        ``fixed_point``, computed in that Q-format (see :meth:`probability_fixed`).
+
+        Examples
+        --------
+        >>> net = BayesNet("rain")
+        >>> _ = net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+        >>> _ = net.add_variable("Wet", ["no", "yes"], parents=["Rain"],
+        ...                      cpt=[[0.9, 0.1], [0.1, 0.9]])
+        >>> round(net.probability("Rain=yes", given="Wet=yes"), 4)
+        0.6923
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.probability(proposition, hard, given=given, fixed_point=fixed_point)
         if fixed_point is not None:
-            return float(self.probability_fixed(proposition, evidence, fixed_point).values)
-        return self._engine.probability(proposition, evidence or {})
+            answer = self.probability_fixed(proposition, evidence, fixed_point, given=given)
+            return float(answer.values)
+        return self._engine.probability(proposition, evidence or {}, given)
 
     def probability_fixed(
         self,
         proposition: Proposition | str,
         evidence: Evidence | None = None,
         fixed_point: QFormat | str = "Q16.16",
+        *,
+        given: Proposition | str | None = None,
+        soft: Likelihoods | None = None,
     ) -> FixedResult:
         """:meth:`probability` in Q-format integers, as a 0-d
         :class:`~bayesmap.bn.fixed_point.FixedResult` with its guaranteed bound."""
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.probability_fixed(proposition, hard, fixed_point, given=given)
         q = QFormat.parse(fixed_point)
-        return self._engine.fixed_probability(proposition, evidence or {}, q)
+        return self._engine.fixed_probability(proposition, evidence or {}, q, given)
+
+    def _with_soft(
+        self, evidence: Evidence | None, soft: Likelihoods
+    ) -> tuple[BayesNet, dict[str, str | int]]:
+        """The shadow network to ask (see :mod:`bayesmap.bn.soft`) and the evidence to ask it.
+
+        One shadow is kept per set of softly observed variables while the network is
+        unchanged, so repeated questions reuse its plans.
+        """
+        names = tuple(sorted(soft))
+        weights = {x: likelihood(x, self.states(x), soft[x]) for x in names}
+        shadow = self._shadows.get(names)
+        if shadow is None or shadow.version != self._version:
+            if len(self._shadows) >= _MAX_SHADOWS:
+                self._shadows.pop(next(iter(self._shadows)))
+            shadow = self._shadows[names] = Shadow(self, names)
+        return shadow.net, shadow.evidence(evidence or {}, weights)
 
     def class_ratio(
         self, variable: str, state_1: str, state_2: str, evidence: Evidence | None = None
