@@ -286,6 +286,8 @@ class Engine:
         compiled = self.compiled
         t = compiled.id(target)
         table, cols = self._batch_array(evidence, columns)
+        if table.shape[0] == 0:
+            return np.empty((0, compiled.card[t]))
         if soft:
             return self._soft_batch(t, table, cols, soft)
         out = np.empty((table.shape[0], compiled.card[t]))

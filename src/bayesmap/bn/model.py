@@ -32,14 +32,17 @@ precision.
 from __future__ import annotations
 
 import enum
+import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import CPT, FloatArray, IntArray
+from bayesmap.bn.cases import posterior_frame
 from bayesmap.bn.fixed_point import FixedResult, QFormat
 from bayesmap.bn.inference import BatchEvidence, Engine, Evidence
 from bayesmap.bn.propositions import Proposition
@@ -450,15 +453,34 @@ class BayesNet:
         *,
         columns: Sequence[str] | None = None,
         soft: Mapping[str, npt.ArrayLike] | None = None,
-    ) -> FloatArray:
+    ) -> Any:
         """``P(target | case)`` for many evidence cases: an ``(n_cases, n_states)`` array.
 
         ``evidence`` is an ``(n_cases, n_columns)`` integer array of state indices (−1 =
-        unobserved; columns are ``columns`` or all variables in network order) or a list
-        of ``{variable: state}`` mappings. Cases observing the same variables are answered
-        by one contraction with a leading case axis. ``soft`` gives soft evidence per case,
+        unobserved; columns are ``columns`` or all variables in network order), a list
+        of ``{variable: state}`` mappings, or a pandas DataFrame with one column per
+        observed variable (state names or indices, blanks unobserved) — then the answer is
+        a DataFrame too, one column ``"target=state"`` per state, rows labelled alike (see
+        :mod:`bayesmap.bn.cases`). Cases observing the same variables are answered by one
+        contraction with a leading case axis. ``soft`` gives soft evidence per case,
         ``{variable: (n_cases, n_states) weights}`` (a row of ones: no information).
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> net = BayesNet("rain")
+        >>> _ = net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+        >>> _ = net.add_variable("Wet", ["no", "yes"], parents=["Rain"],
+        ...                      cpt=[[0.9, 0.1], [0.1, 0.9]])
+        >>> net.posterior_batch("Rain", pd.DataFrame({"Wet": ["yes", None]})).round(4)
+           Rain=no  Rain=yes
+        0   0.3077    0.6923
+        1   0.8000    0.2000
         """
+        if _is_frame(evidence):
+            if columns is not None or soft:
+                raise InputError("posterior_batch: a DataFrame names its own columns; no soft")
+            return posterior_frame(self, evidence, [target])
         return self._engine.posterior_batch(target, evidence, columns=columns, soft=soft)
 
     def joint_posterior(
@@ -766,6 +788,12 @@ def cpt_from_flat(flat: npt.ArrayLike, shape: Sequence[int]) -> CPT:
             f"flat table has {values.size} values; shape {tuple(shape)} needs {int(np.prod(shape))}"
         )
     return np.asarray(values.reshape(tuple(shape), order="F"))
+
+
+def _is_frame(value: object) -> bool:
+    """Whether ``value`` is a pandas DataFrame (without importing pandas)."""
+    pandas = sys.modules.get("pandas")
+    return pandas is not None and isinstance(value, pandas.DataFrame)
 
 
 def _as_kind(kind: NodeKind | str | None, name: str) -> NodeKind | None:
