@@ -285,7 +285,7 @@ class Engine:
         """
         compiled = self.compiled
         t = compiled.id(target)
-        table, cols = self._batch_array(evidence, columns)
+        table, cols = self.batch_array(evidence, columns)
         if table.shape[0] == 0:
             return np.empty((0, compiled.card[t]))
         if soft:
@@ -442,9 +442,11 @@ class Engine:
         memo[~(totals > 0.0)] = -1.0
         return True
 
-    def _batch_array(
+    def batch_array(
         self, evidence: BatchEvidence, columns: Sequence[str] | None
     ) -> tuple[IntArray, list[int]]:
+        """Checked ``(n_cases, n_columns)`` state indices of batched evidence, and the
+        variable id of each column."""
         compiled = self.compiled
         if not _is_mapping_list(evidence):
             table = np.asarray(evidence)
@@ -477,6 +479,53 @@ class Engine:
                 v = compiled.id(name)
                 table[i, where[v]] = compiled.state(v, state)
         return table, cols
+
+    def expected_counts(
+        self, table: IntArray, cols: Sequence[int], weights: FloatArray
+    ) -> tuple[list[FloatArray], float]:
+        """The E-step of EM: expected family counts of weighted cases, and their log-likelihood.
+
+        For every variable ``v`` an array shaped like its CPT, ``(v, *parents)``, holds
+        ``Σ_cases w · P(v, parents | case)`` (observed members fixed, unobserved ones
+        weighted by their joint posterior); the float is ``Σ_cases w · log P(case)``. Cases
+        are grouped by their pattern of observed columns, and each family's posterior of
+        a pattern is one batched contraction.
+        """
+        compiled = self.compiled
+        n_vars = len(compiled.names)
+        counts = [np.zeros(compiled.cpts[v].shape) for v in range(n_vars)]
+        log_likelihood = 0.0
+        for rows, pattern in _patterns(table):
+            ev_vars = [cols[j] for j in pattern]
+            values = table[np.ix_(rows, pattern)]
+            w = weights[rows]
+            observed = frozenset(ev_vars)
+            if ev_vars:
+                plan = self.plan("evidence", (), observed)
+                p_case = self._batch_contract(plan, ev_vars, values, rows).reshape(-1)
+                log_likelihood += float(w @ np.log(p_case))
+            where = {v: values[:, k] for k, v in enumerate(ev_vars)}
+            for v in range(n_vars):
+                if v in compiled.sources:  # a data node's table is not learned
+                    continue
+                family = (v, *compiled.parents[v])
+                free = tuple(m for m in family if m not in observed)
+                fixed = [m for m in family if m in observed]
+                if free:
+                    joint = self._batch_contract(
+                        self.plan("sum", free, observed), ev_vars, values, rows
+                    )
+                    totals = joint.reshape(len(rows), -1).sum(axis=1)
+                    shape = (-1, *[1] * len(free))
+                    share = joint * (w / totals).reshape(shape)
+                else:
+                    share = w
+                view = counts[v].transpose([family.index(m) for m in (*fixed, *free)])
+                if fixed:
+                    np.add.at(view, tuple(where[m] for m in fixed), share)
+                else:
+                    view += share.sum(axis=0)
+        return counts, log_likelihood
 
     def _batch_contract(
         self, plan: Plan, ev_vars: Sequence[int], values: IntArray, rows: IntArray
@@ -682,7 +731,7 @@ class Engine:
         one block exponent per case."""
         compiled = self.compiled
         t = compiled.id(target)
-        table, cols = self._batch_array(evidence, columns)
+        table, cols = self.batch_array(evidence, columns)
         n_states = compiled.card[t]
         raw = np.empty((table.shape[0], n_states), dtype=np.int64)
         bound = np.empty((table.shape[0], n_states))
