@@ -25,7 +25,7 @@ import numpy.typing as npt
 import opt_einsum
 
 from bayesmap._typing import BoolArray, FloatArray, IntArray
-from bayesmap.bn import ancestral, elimination, plans
+from bayesmap.bn import ancestral, elimination, marginals, plans
 from bayesmap.bn.compiled import Compiled, NetworkLike
 from bayesmap.bn.fixed_point import (
     Fixed,
@@ -221,6 +221,88 @@ class Engine:
             self.probability_of_evidence(evidence)
             table = np.ones(())
         return _embed(table, ids, free, ev, compiled.card)
+
+    def posteriors(self, evidence: Evidence) -> dict[int, FloatArray]:
+        """``P(v | evidence)`` of every unobserved variable ``v`` from one two-pass
+        contraction (:mod:`bayesmap.bn.marginals`), by variable id."""
+        compiled = self.compiled
+        ev = self._evidence_ids(evidence)
+        free = tuple(v for v in range(len(compiled.names)) if v not in ev)
+        if not free:
+            self.probability_of_evidence(evidence)
+            return {}
+        plan = self.plan("mpe", free, frozenset(ev))  # every variable, nothing pruned
+        ev_idx = [ev[v] for v in plan.evidence]
+        names = self._source_evidence(ev)
+        scale = 1.0
+        for factor in plan.checks:
+            scale *= float(_slice(compiled, factor, ev_idx, names))
+        program, wanted = self._two_pass(plan, free, ())
+        operands = [_slice(compiled, f, ev_idx, names) for f in plan.factors if f.observed]
+        total, joints = program(operands)
+        if not float(total) * scale > 0.0:
+            raise InputError(_impossible(evidence))
+        return {v: np.asarray(j / j.sum()) for (_, v), j in zip(wanted, joints, strict=True)}
+
+    def posteriors_batch(
+        self, evidence: BatchEvidence, columns: Sequence[str] | None
+    ) -> dict[int, FloatArray]:
+        """:meth:`posteriors` of many cases: ``{variable id: (n_cases, n_states)}``, one
+        two-pass contraction per pattern of observed columns (observed: one-hot)."""
+        compiled = self.compiled
+        table, cols = self.batch_array(evidence, columns)
+        n = table.shape[0]
+        out = {v: np.zeros((n, compiled.card[v])) for v in range(len(compiled.names))}
+        for rows, pattern in _patterns(table):
+            ev_vars = [cols[j] for j in pattern]
+            values = table[np.ix_(rows, pattern)]
+            self._batch_contract(
+                self.plan("evidence", (), frozenset(ev_vars)), ev_vars, values, rows
+            )
+            for k, v in enumerate(ev_vars):
+                out[v][rows, values[:, k]] = 1.0
+            free = tuple(v for v in range(len(compiled.names)) if v not in set(ev_vars))
+            if not free:
+                continue
+            plan = self.plan("mpe", free, frozenset(ev_vars))
+            if not any(f.observed for f in plan.factors):  # the free part ignores the evidence
+                answers = self.posteriors({})
+                for v in free:
+                    out[v][rows] = answers[v]
+                continue
+            order = [ev_vars.index(v) for v in plan.evidence]
+            cols_k = [values[:, j] for j in order]
+            case_names = _case_names(compiled, plan.evidence, cols_k)
+            operands = [
+                _slice_batch(compiled, f, cols_k, case_names) for f in plan.factors if f.observed
+            ]
+            size_class = 1 << max(len(rows), _BATCH_CLASS).bit_length()
+            program, wanted = self._two_pass(plan, free, (_CASE,), size_class)
+            _, joints = program(operands)
+            for (_, v), joint in zip(wanted, joints, strict=True):
+                out[v][rows] = joint / joint.sum(axis=1, keepdims=True)
+        return out
+
+    def _two_pass(
+        self, plan: Plan, free: tuple[int, ...], output: tuple[int, ...], cases: int = 1
+    ) -> tuple[marginals.TwoPass, list[tuple[int, int]]]:
+        """The compiled two-pass contraction of a plan and its wanted ``(factor, variable)``
+        pairs (cached in the plan; a batch's per size class of ``cases``)."""
+        key = ("two_pass", output, cases)
+        entry = plan.cache.get(key)
+        if entry is None:
+            compiled = self.compiled
+            batched = bool(output)
+            scopes = [(_CASE, *f.free) if batched and f.observed else f.free for f in plan.factors]
+            sizes: dict[Any, int] = dict(enumerate(compiled.card))
+            sizes[_CASE] = cases
+            path, _, _ = plans.order_steps(compiled, scopes, output, {_CASE: cases})
+            own = {f.var: k for k, f in enumerate(plan.factors)}
+            wanted = [(own[v], v) for v in free]
+            constants = [None if f.observed else f.array for f in plan.factors]
+            program = marginals.TwoPass(scopes, constants, path, output, sizes, wanted)
+            entry = plan.cache[key] = (program, wanted)
+        return entry
 
     def probability_of_evidence(self, evidence: Evidence) -> float:
         """``P(evidence)``, the normalising constant Σ of eq. 24 (1 for no evidence)."""

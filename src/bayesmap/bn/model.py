@@ -514,6 +514,56 @@ class BayesNet:
             return self.joint_posterior_fixed(targets, evidence, fixed_point).values
         return self._engine.joint_posterior(list(targets), evidence or {})
 
+    def posteriors(
+        self,
+        evidence: Evidence | None = None,
+        *,
+        soft: Likelihoods | None = None,
+        fixed_point: QFormat | str | None = None,
+    ) -> dict[str, dict[str, float]]:
+        """Every unobserved variable's posterior, ``{variable: {state: probability}}``.
+
+        One contraction of the network and its reverse give all of them at once (the
+        two-pass scheme of :mod:`bayesmap.bn.marginals`), exact like :meth:`posterior`.
+        ``soft`` adds soft evidence; with ``fixed_point`` each posterior is computed by
+        :meth:`posterior_fixed` in turn.
+
+        Examples
+        --------
+        >>> net = BayesNet("rain")
+        >>> _ = net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+        >>> _ = net.add_variable("Wet", ["no", "yes"], parents=["Rain"],
+        ...                      cpt=[[0.9, 0.1], [0.1, 0.9]])
+        >>> {k: round(v["yes"], 4) for k, v in net.posteriors({"Wet": "yes"}).items()}
+        {'Rain': 0.6923}
+        """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            answers = net.posteriors(hard, fixed_point=fixed_point)
+            return {name: answers[name] for name in self.variables if name in answers}
+        evidence = evidence or {}
+        if fixed_point is not None:
+            observed = {self._engine.compiled.id(name) for name in evidence}
+            return {
+                name: self.posterior(name, evidence, fixed_point=fixed_point)
+                for v, name in enumerate(self.variables)
+                if v not in observed
+            }
+        names = self.variables
+        return {
+            names[v]: dict(zip(self.states(names[v]), values.tolist(), strict=True))
+            for v, values in self._engine.posteriors(evidence).items()
+        }
+
+    def posteriors_batch(
+        self, evidence: BatchEvidence, *, columns: Sequence[str] | None = None
+    ) -> dict[str, FloatArray]:
+        """:meth:`posteriors` for many cases: ``{variable: (n_cases, n_states) array}``
+        (observed variables one-hot); evidence as in :meth:`posterior_batch`."""
+        names = self.variables
+        answers = self._engine.posteriors_batch(evidence, columns)
+        return {names[v]: values for v, values in answers.items()}
+
     def sample(self, n: int = 1, *, rng: RNGLike = None) -> IntArray:
         """``n`` independent draws of the joint distribution (forward sampling, eq. 8).
 

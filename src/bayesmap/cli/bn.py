@@ -325,6 +325,9 @@ def _answer(
         return result
     if len(targets) > 1:
         return {**result, **_joint(net, targets, evidence, soft, fixed_point)}
+    if not targets and fixed_point is None:
+        result["posteriors"] = net.posteriors(evidence, soft=soft)
+        return result
     if not targets:
         answers = {
             name: _posterior(net, name, evidence, soft, fixed_point)
@@ -332,8 +335,7 @@ def _answer(
             if name not in evidence
         }
         result["posteriors"] = {name: a["posterior"] for name, a in answers.items()}
-        if fixed_point is not None:
-            result["error_bounds"] = {name: a["error_bound"] for name, a in answers.items()}
+        result["error_bounds"] = {name: a["error_bound"] for name, a in answers.items()}
         return result
     result["target"] = targets[0]
     result.update(_posterior(net, targets[0], evidence, soft, fixed_point))
