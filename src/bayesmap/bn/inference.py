@@ -55,6 +55,10 @@ _BATCH_CLASS = 256
 """Batches up to ``2 * _BATCH_CLASS - 1`` cases share one contraction order."""
 """Multiply-adds of a batch's per-case contraction above which the joint is considered."""
 """Largest memo of batch answers (combinations of observed states × target states)."""
+_CALL_COST = 4000
+"""Fixed cost of one contraction call, in multiply-adds (a few µs of Python and numpy)."""
+_CALLS_PER_QUESTION = 8
+"""Calls of one single-variable question (evidence, slicing, contraction, normalising)."""
 _ONE_STEP = 1 << 10
 _ONE_STEP_OPERANDS = 16
 """A one-case contraction over at most ``_ONE_STEP`` joint entries and ``_ONE_STEP_OPERANDS``
@@ -232,6 +236,8 @@ class Engine:
             self.probability_of_evidence(evidence)
             return {}
         plan = self.plan("mpe", free, frozenset(ev))  # every variable, nothing pruned
+        if not self._two_pass_pays(plan, free):
+            return {v: self.posterior(compiled.names[v], evidence) for v in free}
         ev_idx = [ev[v] for v in plan.evidence]
         names = self._source_evidence(ev)
         scale = 1.0
@@ -265,6 +271,11 @@ class Engine:
             if not free:
                 continue
             plan = self.plan("mpe", free, frozenset(ev_vars))
+            if not self._two_pass_pays(plan, free):
+                names = [compiled.names[v] for v in ev_vars]
+                for v in free:
+                    out[v][rows] = self.posterior_batch(compiled.names[v], values, columns=names)
+                continue
             if not any(f.observed for f in plan.factors):  # the free part ignores the evidence
                 answers = self.posteriors({})
                 for v in free:
@@ -283,6 +294,42 @@ class Engine:
                 out[v][rows] = joint / joint.sum(axis=1, keepdims=True)
         return out
 
+    def _two_pass_pays(self, plan: Plan, free: tuple[int, ...]) -> bool:
+        """Whether one two-pass contraction of the whole network costs less than one pruned
+        contraction per variable (decided once per pattern, by multiply-adds plus a fixed
+        cost per call: the per-variable plans prune barren nodes and reuse priors, which on
+        some networks — munin1 — beats three contractions of everything)."""
+        decision = plan.cache.get("two_pass_pays")
+        if decision is None:
+            compiled = self.compiled
+            ev = frozenset(plan.evidence)
+            _, _, forward = self._two_pass_order(plan, ())
+            budget = 3 * forward + 3 * len(plan.factors) * _CALL_COST
+            loop = 0
+            for v in free:
+                single = self.plan("sum", (v,), ev)
+                loop += _CALL_COST * _CALLS_PER_QUESTION
+                if single.cache["ancestral"] is None and single.factors:
+                    scopes = [f.free for f in single.factors]
+                    loop += plans.order(compiled, scopes, single.targets)[1]
+                if loop > budget:
+                    break
+            decision = plan.cache["two_pass_pays"] = budget <= loop
+        return bool(decision)
+
+    def _two_pass_order(
+        self, plan: Plan, output: tuple[int, ...], cases: int = 1
+    ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]], int]:
+        """Scopes, contraction order and multiply-adds of a plan's two-pass contraction."""
+        key = ("two_pass_order", output, cases)
+        entry = plan.cache.get(key)
+        if entry is None:
+            batched = bool(output)
+            scopes = [(_CASE, *f.free) if batched and f.observed else f.free for f in plan.factors]
+            path, _, cost = plans.order_steps(self.compiled, scopes, output, {_CASE: cases})
+            entry = plan.cache[key] = (scopes, path, cost)
+        return entry
+
     def _two_pass(
         self, plan: Plan, free: tuple[int, ...], output: tuple[int, ...], cases: int = 1
     ) -> tuple[marginals.TwoPass, list[tuple[int, int]]]:
@@ -292,11 +339,9 @@ class Engine:
         entry = plan.cache.get(key)
         if entry is None:
             compiled = self.compiled
-            batched = bool(output)
-            scopes = [(_CASE, *f.free) if batched and f.observed else f.free for f in plan.factors]
+            scopes, path, _ = self._two_pass_order(plan, output, cases)
             sizes: dict[Any, int] = dict(enumerate(compiled.card))
             sizes[_CASE] = cases
-            path, _, _ = plans.order_steps(compiled, scopes, output, {_CASE: cases})
             own = {f.var: k for k, f in enumerate(plan.factors)}
             wanted = [(own[v], v) for v in free]
             constants = [None if f.observed else f.array for f in plan.factors]
