@@ -10,13 +10,17 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Any, NoReturn
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
 
-from bayesmap import bn
-from bayesmap.bn import cases as batch
 from bayesmap.errors import BayesmapError
+
+if TYPE_CHECKING:
+    from bayesmap import bn
+
+# The engine (numpy, opt_einsum, lxml) is imported inside the commands, so that
+# ``bayesmap --help`` and the other command groups start without it.
 
 app = typer.Typer(
     help="Inspect, query, draw and convert Bayesian-network files (XMLBIF, BIF, XBN).",
@@ -69,6 +73,8 @@ def _likelihood(name: str, text: str) -> list[float] | dict[str, float]:
 
 
 def _load(file: Path) -> bn.BayesNet:
+    from bayesmap import bn
+
     try:
         return bn.read(file)
     except BayesmapError as error:
@@ -177,8 +183,9 @@ def query(
         typer.Option("--out", help="Batch answers (.csv or .parquet): one column per state."),
     ] = None,
     chunk_rows: Annotated[
-        int, typer.Option("--chunk-rows", min=1, help="Cases per chunk of a batch.")
-    ] = batch.CHUNK_ROWS,
+        int | None,
+        typer.Option("--chunk-rows", min=1, help="Cases per chunk of a batch [default: 65536]."),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Ask a network: posteriors, MAP, a proposition's probability, or a batch from a file."""
@@ -244,10 +251,15 @@ def _check_usage(
             _fail(f"--cases takes its evidence from the file; drop {', '.join(extra)}", USAGE)
 
 
-def _batch(net: bn.BayesNet, targets: list[str], cases: Path, out: Path, chunk_rows: int) -> None:
+def _batch(
+    net: bn.BayesNet, targets: list[str], cases: Path, out: Path, chunk_rows: int | None
+) -> None:
     """Stream a cases file through the network into an answers file, with a progress bar."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
+    from bayesmap.bn import cases as batch
+
+    chunk_rows = chunk_rows or batch.CHUNK_ROWS
     try:
         for t in targets:
             net.variable(t)
@@ -289,6 +301,8 @@ def _answer(
     given: str | None,
     fixed_point: str | None,
 ) -> dict[str, Any]:
+    from bayesmap import bn
+
     result: dict[str, Any] = {"network": net.name, "evidence": evidence}
     if soft:
         result["soft"] = soft
@@ -460,6 +474,8 @@ def convert(
     target: Annotated[Path, typer.Argument(help="Output file; the format follows its extension.")],
 ) -> None:
     """Convert a network between XMLBIF, BIF and XBN (by file extension)."""
+    from bayesmap import bn
+
     net = _load(source)
     try:
         bn.write(net, target)
