@@ -58,16 +58,15 @@ def layered_layout(net: BayesNet) -> dict[str, tuple[float, float]]:
     children = {name: net.children(name) for name in net.variables}
     for sweep in range(_SWEEPS):
         downward = sweep % 2 == 0
-        order = rows[1:] if downward else rows[-2::-1]
-        for row in order:
-
-            def centre(name: str) -> float:
-                linked = net.parents(name) if downward else children[name]
-                if not linked:
-                    return position[name]
-                return sum(position[n] for n in linked) / len(linked)
-
-            row.sort(key=lambda name: (centre(name), position[name]))
+        for row in rows[1:] if downward else rows[-2::-1]:
+            linked = {n: net.parents(n) if downward else children[n] for n in row}
+            centre = {
+                n: sum(position[m] for m in linked[n]) / len(linked[n])
+                if linked[n]
+                else position[n]
+                for n in row
+            }
+            row.sort(key=lambda n: (centre[n], position[n]))
             for i, name in enumerate(row):
                 position[name] = float(i)
     width = max((len(row) for row in rows), default=1)
