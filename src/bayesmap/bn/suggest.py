@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Iterable
 
 _SHOWN = 12
@@ -20,6 +19,8 @@ def unknown(what: str, name: object, known: Iterable[str]) -> str:
     >>> unknown("state", "hgh", ["LOW", "NORMAL", "HIGH"])
     "did you mean 'HIGH'? Known states: ['LOW', 'NORMAL', 'HIGH']"
     """
+    import difflib  # only on the error path: keeps ``import bayesmap.bn`` lean
+
     choices = list(known)
     folded = {c.lower(): c for c in choices}
     close = difflib.get_close_matches(str(name).lower(), list(folded), n=3, cutoff=0.6)
