@@ -145,7 +145,7 @@ def sprinkler_file(tmp_path: Path) -> Path:
         ["-t", "Rain", "-t", "Sprinkler"],
         ["--map"],
         ["--map", "-t", "Rain"],
-        ["--probability", "Rain=yes | Sprinkler=on"],
+        ["--probability", "Rain=yes or Sprinkler=on"],
     ],
 )
 def test_cli_answers_every_question_in_fixed_point(sprinkler_file: Path, args: list[str]) -> None:

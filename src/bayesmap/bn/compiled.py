@@ -17,6 +17,7 @@ import opt_einsum
 
 from bayesmap._typing import FloatArray
 from bayesmap.bn.elimination import ConstantMemo
+from bayesmap.bn.suggest import unknown
 from bayesmap.bn.tables import DataSource, checked_cpt
 from bayesmap.errors import InputError, ModelError
 
@@ -157,7 +158,10 @@ class Compiled:
         try:
             return self.index[name]
         except (KeyError, TypeError):
-            raise ModelError(f"network {self.net.name!r} has no variable {name!r}") from None
+            raise ModelError(
+                f"network {self.net.name!r} has no variable {name!r}; "
+                + unknown("variable", name, self.names)
+            ) from None
 
     def state(self, var: int, value: object) -> int:
         """Index of state ``value`` (a name or an index) of variable ``var``."""
@@ -170,7 +174,7 @@ class Compiled:
                 return int(value)
         raise InputError(
             f"variable {self.names[var]!r} has no state {value!r}; "
-            f"its states are {list(self.states[var])}"
+            + unknown("state", value, self.states[var])
         )
 
     def ancestors(self, ids: Iterable[int]) -> set[int]:

@@ -24,8 +24,8 @@ import numpy as np
 import numpy.typing as npt
 import opt_einsum
 
-from bayesmap._typing import FloatArray, IntArray
-from bayesmap.bn import ancestral, elimination, plans
+from bayesmap._typing import BoolArray, FloatArray, IntArray
+from bayesmap.bn import ancestral, elimination, marginals, plans
 from bayesmap.bn.compiled import Compiled, NetworkLike
 from bayesmap.bn.fixed_point import (
     Fixed,
@@ -38,6 +38,7 @@ from bayesmap.bn.fixed_point import (
 )
 from bayesmap.bn.plans import BATCH, Factor, Plan, symbol
 from bayesmap.bn.propositions import Proposition, parse
+from bayesmap.bn.soft import check_weights
 from bayesmap.errors import InputError
 
 Evidence = Mapping[str, str | int]
@@ -54,6 +55,10 @@ _BATCH_CLASS = 256
 """Batches up to ``2 * _BATCH_CLASS - 1`` cases share one contraction order."""
 """Multiply-adds of a batch's per-case contraction above which the joint is considered."""
 """Largest memo of batch answers (combinations of observed states × target states)."""
+_CALL_COST = 4000
+"""Fixed cost of one contraction call, in multiply-adds (a few µs of Python and numpy)."""
+_CALLS_PER_QUESTION = 8
+"""Calls of one single-variable question (evidence, slicing, contraction, normalising)."""
 _ONE_STEP = 1 << 10
 _ONE_STEP_OPERANDS = 16
 """A one-case contraction over at most ``_ONE_STEP`` joint entries and ``_ONE_STEP_OPERANDS``
@@ -221,6 +226,129 @@ class Engine:
             table = np.ones(())
         return _embed(table, ids, free, ev, compiled.card)
 
+    def posteriors(self, evidence: Evidence) -> dict[int, FloatArray]:
+        """``P(v | evidence)`` of every unobserved variable ``v`` from one two-pass
+        contraction (:mod:`bayesmap.bn.marginals`), by variable id."""
+        compiled = self.compiled
+        ev = self._evidence_ids(evidence)
+        free = tuple(v for v in range(len(compiled.names)) if v not in ev)
+        if not free:
+            self.probability_of_evidence(evidence)
+            return {}
+        plan = self.plan("mpe", free, frozenset(ev))  # every variable, nothing pruned
+        if not self._two_pass_pays(plan, free):
+            return {v: self.posterior(compiled.names[v], evidence) for v in free}
+        ev_idx = [ev[v] for v in plan.evidence]
+        names = self._source_evidence(ev)
+        scale = 1.0
+        for factor in plan.checks:
+            scale *= float(_slice(compiled, factor, ev_idx, names))
+        program, wanted = self._two_pass(plan, free, ())
+        operands = [_slice(compiled, f, ev_idx, names) for f in plan.factors if f.observed]
+        total, joints = program(operands)
+        if not float(total) * scale > 0.0:
+            raise InputError(_impossible(evidence))
+        return {v: np.asarray(j / j.sum()) for (_, v), j in zip(wanted, joints, strict=True)}
+
+    def posteriors_batch(
+        self, evidence: BatchEvidence, columns: Sequence[str] | None
+    ) -> dict[int, FloatArray]:
+        """:meth:`posteriors` of many cases: ``{variable id: (n_cases, n_states)}``, one
+        two-pass contraction per pattern of observed columns (observed: one-hot)."""
+        compiled = self.compiled
+        table, cols = self.batch_array(evidence, columns)
+        n = table.shape[0]
+        out = {v: np.zeros((n, compiled.card[v])) for v in range(len(compiled.names))}
+        for rows, pattern in _patterns(table):
+            ev_vars = [cols[j] for j in pattern]
+            values = table[np.ix_(rows, pattern)]
+            self._batch_contract(
+                self.plan("evidence", (), frozenset(ev_vars)), ev_vars, values, rows
+            )
+            for k, v in enumerate(ev_vars):
+                out[v][rows, values[:, k]] = 1.0
+            free = tuple(v for v in range(len(compiled.names)) if v not in set(ev_vars))
+            if not free:
+                continue
+            plan = self.plan("mpe", free, frozenset(ev_vars))
+            if not self._two_pass_pays(plan, free):
+                names = [compiled.names[v] for v in ev_vars]
+                for v in free:
+                    out[v][rows] = self.posterior_batch(compiled.names[v], values, columns=names)
+                continue
+            if not any(f.observed for f in plan.factors):  # the free part ignores the evidence
+                answers = self.posteriors({})
+                for v in free:
+                    out[v][rows] = answers[v]
+                continue
+            order = [ev_vars.index(v) for v in plan.evidence]
+            cols_k = [values[:, j] for j in order]
+            case_names = _case_names(compiled, plan.evidence, cols_k)
+            operands = [
+                _slice_batch(compiled, f, cols_k, case_names) for f in plan.factors if f.observed
+            ]
+            size_class = 1 << max(len(rows), _BATCH_CLASS).bit_length()
+            program, wanted = self._two_pass(plan, free, (_CASE,), size_class)
+            _, joints = program(operands)
+            for (_, v), joint in zip(wanted, joints, strict=True):
+                out[v][rows] = joint / joint.sum(axis=1, keepdims=True)
+        return out
+
+    def _two_pass_pays(self, plan: Plan, free: tuple[int, ...]) -> bool:
+        """Whether one two-pass contraction of the whole network costs less than one pruned
+        contraction per variable (decided once per pattern, by multiply-adds plus a fixed
+        cost per call: the per-variable plans prune barren nodes and reuse priors, which on
+        some networks — munin1 — beats three contractions of everything)."""
+        decision = plan.cache.get("two_pass_pays")
+        if decision is None:
+            compiled = self.compiled
+            ev = frozenset(plan.evidence)
+            _, _, forward = self._two_pass_order(plan, ())
+            budget = 3 * forward + 3 * len(plan.factors) * _CALL_COST
+            loop = 0
+            for v in free:
+                single = self.plan("sum", (v,), ev)
+                loop += _CALL_COST * _CALLS_PER_QUESTION
+                if single.cache["ancestral"] is None and single.factors:
+                    scopes = [f.free for f in single.factors]
+                    loop += plans.order(compiled, scopes, single.targets)[1]
+                if loop > budget:
+                    break
+            decision = plan.cache["two_pass_pays"] = budget <= loop
+        return bool(decision)
+
+    def _two_pass_order(
+        self, plan: Plan, output: tuple[int, ...], cases: int = 1
+    ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]], int]:
+        """Scopes, contraction order and multiply-adds of a plan's two-pass contraction."""
+        key = ("two_pass_order", output, cases)
+        entry = plan.cache.get(key)
+        if entry is None:
+            batched = bool(output)
+            scopes = [(_CASE, *f.free) if batched and f.observed else f.free for f in plan.factors]
+            path, _, cost = plans.order_steps(self.compiled, scopes, output, {_CASE: cases})
+            entry = plan.cache[key] = (scopes, path, cost)
+        return entry
+
+    def _two_pass(
+        self, plan: Plan, free: tuple[int, ...], output: tuple[int, ...], cases: int = 1
+    ) -> tuple[marginals.TwoPass, list[tuple[int, int]]]:
+        """The compiled two-pass contraction of a plan and its wanted ``(factor, variable)``
+        pairs (cached in the plan; a batch's per size class of ``cases``)."""
+        key = ("two_pass", output, cases)
+        entry = plan.cache.get(key)
+        if entry is None:
+            compiled = self.compiled
+            scopes, path, _ = self._two_pass_order(plan, output, cases)
+            sizes: dict[Any, int] = dict(enumerate(compiled.card))
+            sizes[_CASE] = cases
+            own = {f.var: k for k, f in enumerate(plan.factors)}
+            wanted = [(own[v], v) for v in free]
+            constants = [None if f.observed else f.array for f in plan.factors]
+            program = marginals.TwoPass(scopes, constants, path, output, sizes, wanted)
+            entry = plan.cache[key] = (program, wanted)
+        return entry
+
     def probability_of_evidence(self, evidence: Evidence) -> float:
         """``P(evidence)``, the normalising constant Σ of eq. 24 (1 for no evidence)."""
         ev = self._evidence_ids(evidence)
@@ -256,7 +384,12 @@ class Engine:
 
     # --------------------------------------------------------------------- batch
     def posterior_batch(
-        self, target: str, evidence: BatchEvidence, *, columns: Sequence[str] | None = None
+        self,
+        target: str,
+        evidence: BatchEvidence,
+        *,
+        columns: Sequence[str] | None = None,
+        soft: Mapping[str, npt.ArrayLike] | None = None,
     ) -> FloatArray:
         """``P(target | case)`` for many evidence cases at once: shape ``(n_cases, n_states)``.
 
@@ -272,10 +405,18 @@ class Engine:
             variable is unobserved, or a sequence of ``{variable: state}`` mappings.
         columns
             Variable of each array column; default: all variables in network order.
+        soft
+            Soft evidence per case, ``{variable: (n_cases, n_states) weights}``: the joint
+            posterior of the target and these variables is weighted by them and summed
+            (its size grows with the product of their state counts).
         """
         compiled = self.compiled
         t = compiled.id(target)
-        table, cols = self._batch_array(evidence, columns)
+        table, cols = self.batch_array(evidence, columns)
+        if table.shape[0] == 0:
+            return np.empty((0, compiled.card[t]))
+        if soft:
+            return self._soft_batch(t, table, cols, soft)
         out = np.empty((table.shape[0], compiled.card[t]))
         for rows, pattern in _patterns(table):
             ev_vars = [cols[j] for j in pattern]
@@ -288,6 +429,58 @@ class Engine:
                 out[rows] = np.eye(compiled.card[t])[values[:, col]]
                 continue
             out[rows] = self._batch_answers(t, ev_vars, values, rows)
+        return out
+
+    def _soft_batch(
+        self, t: int, table: IntArray, cols: list[int], soft: Mapping[str, npt.ArrayLike]
+    ) -> FloatArray:
+        """:meth:`posterior_batch` with soft evidence: ``P(t, S | case)`` weighted by each
+        case's likelihoods of the softly observed variables ``S`` and summed over ``S``."""
+        compiled = self.compiled
+        n = table.shape[0]
+        weights: dict[int, FloatArray] = {}
+        for name, value in soft.items():
+            v = compiled.id(name)
+            w = np.asarray(value, dtype=np.float64)
+            if w.shape != (n, compiled.card[v]):
+                raise InputError(
+                    f"soft evidence on {name!r}: need shape ({n}, {compiled.card[v]}) "
+                    f"(cases, states), got {w.shape}"
+                )
+            check_weights(name, w)
+            if v in cols and np.any(table[:, cols.index(v)] >= 0):
+                case = int(np.flatnonzero(table[:, cols.index(v)] >= 0)[0])
+                raise InputError(
+                    f"batched evidence case {case}: {name!r} has both an observed state "
+                    "and soft evidence"
+                )
+            weights[v] = w
+        out = np.empty((n, compiled.card[t]))
+        for rows, pattern in _patterns(table):
+            ev_vars = [cols[j] for j in pattern]
+            values = table[np.ix_(rows, pattern)]
+            if t in ev_vars:
+                out[rows] = self.posterior_batch(
+                    compiled.names[t], values, columns=[compiled.names[v] for v in ev_vars]
+                )
+                continue
+            targets = (t, *(v for v in weights if v != t))
+            plan = self.plan("sum", targets, frozenset(ev_vars))
+            joint = self._batch_contract(plan, ev_vars, values, rows)
+            for axis, v in enumerate(targets, start=1):
+                if v in weights:
+                    shape = [len(rows)] + [1] * len(targets)
+                    shape[axis] = compiled.card[v]
+                    joint = joint * weights[v][rows].reshape(shape)
+            answer = joint.reshape(len(rows), compiled.card[t], -1).sum(axis=2)
+            totals = answer.sum(axis=1)
+            bad = np.flatnonzero(~(totals > 0.0))
+            if bad.size:
+                raise InputError(
+                    f"batched evidence case {int(rows[bad[0]])}: the evidence and soft "
+                    "evidence have probability zero together"
+                )
+            out[rows] = answer / totals[:, np.newaxis]
         return out
 
     def _batch_answers(
@@ -376,9 +569,11 @@ class Engine:
         memo[~(totals > 0.0)] = -1.0
         return True
 
-    def _batch_array(
+    def batch_array(
         self, evidence: BatchEvidence, columns: Sequence[str] | None
     ) -> tuple[IntArray, list[int]]:
+        """Checked ``(n_cases, n_columns)`` state indices of batched evidence, and the
+        variable id of each column."""
         compiled = self.compiled
         if not _is_mapping_list(evidence):
             table = np.asarray(evidence)
@@ -411,6 +606,53 @@ class Engine:
                 v = compiled.id(name)
                 table[i, where[v]] = compiled.state(v, state)
         return table, cols
+
+    def expected_counts(
+        self, table: IntArray, cols: Sequence[int], weights: FloatArray
+    ) -> tuple[list[FloatArray], float]:
+        """The E-step of EM: expected family counts of weighted cases, and their log-likelihood.
+
+        For every variable ``v`` an array shaped like its CPT, ``(v, *parents)``, holds
+        ``Σ_cases w · P(v, parents | case)`` (observed members fixed, unobserved ones
+        weighted by their joint posterior); the float is ``Σ_cases w · log P(case)``. Cases
+        are grouped by their pattern of observed columns, and each family's posterior of
+        a pattern is one batched contraction.
+        """
+        compiled = self.compiled
+        n_vars = len(compiled.names)
+        counts = [np.zeros(compiled.cpts[v].shape) for v in range(n_vars)]
+        log_likelihood = 0.0
+        for rows, pattern in _patterns(table):
+            ev_vars = [cols[j] for j in pattern]
+            values = table[np.ix_(rows, pattern)]
+            w = weights[rows]
+            observed = frozenset(ev_vars)
+            if ev_vars:
+                plan = self.plan("evidence", (), observed)
+                p_case = self._batch_contract(plan, ev_vars, values, rows).reshape(-1)
+                log_likelihood += float(w @ np.log(p_case))
+            where = {v: values[:, k] for k, v in enumerate(ev_vars)}
+            for v in range(n_vars):
+                if v in compiled.sources:  # a data node's table is not learned
+                    continue
+                family = (v, *compiled.parents[v])
+                free = tuple(m for m in family if m not in observed)
+                fixed = [m for m in family if m in observed]
+                if free:
+                    joint = self._batch_contract(
+                        self.plan("sum", free, observed), ev_vars, values, rows
+                    )
+                    totals = joint.reshape(len(rows), -1).sum(axis=1)
+                    shape = (-1, *[1] * len(free))
+                    share = joint * (w / totals).reshape(shape)
+                else:
+                    share = w
+                view = counts[v].transpose([family.index(m) for m in (*fixed, *free)])
+                if fixed:
+                    np.add.at(view, tuple(where[m] for m in fixed), share)
+                else:
+                    view += share.sum(axis=0)
+        return counts, log_likelihood
 
     def _batch_contract(
         self, plan: Plan, ev_vars: Sequence[int], values: IntArray, rows: IntArray
@@ -528,15 +770,44 @@ class Engine:
         probability = math.exp(float(best) - math.log(total))
         return assignment, min(probability, 1.0)
 
-    def probability(self, proposition: Proposition | str, evidence: Evidence) -> float:
-        """``P(proposition | evidence)`` (§2.4): the joint posterior summed where it holds."""
-        prop = parse(proposition) if isinstance(proposition, str) else proposition
-        names = prop.variables()
+    def probability(
+        self,
+        proposition: Proposition | str,
+        evidence: Evidence,
+        given: Proposition | str | None = None,
+    ) -> float:
+        """``P(proposition | given, evidence)`` (§2.4, eqs. 15–21): the joint posterior of
+        the mentioned variables summed where both hold, over the sum where ``given`` holds."""
+        names, holds, condition = self._truth(proposition, given)
         joint = self.joint_posterior(names, evidence)
-        grids: dict[str, IntArray] = dict(zip(names, np.indices(joint.shape), strict=True))
+        if condition is None:
+            return float(joint[holds].sum())
+        total = float(joint[condition].sum())
+        if not total > 0.0:
+            raise InputError(f"the condition {given} has probability zero given the evidence")
+        return float(joint[holds & condition].sum()) / total
+
+    def _truth(
+        self, proposition: Proposition | str, given: Proposition | str | None
+    ) -> tuple[tuple[str, ...], BoolArray, BoolArray | None]:
+        """Variables mentioned by a proposition and its condition, and where each holds on
+        the grid of their joint states (condition ``None`` when there is none)."""
+        prop = parse(proposition) if isinstance(proposition, str) else proposition
+        cond = parse(given) if isinstance(given, str) else given
+        names = prop.variables() if cond is None else (*prop.variables(), *cond.variables())
+        names = tuple(dict.fromkeys(names))
         compiled = self.compiled
-        mask = prop.holds(grids, lambda var, state: compiled.state(compiled.id(var), state))
-        return float(joint[mask].sum())
+        ids = [compiled.id(n) for n in names]
+        shape = [compiled.card[v] for v in ids]
+        grids: dict[str, IntArray] = dict(zip(names, np.indices(shape), strict=True))
+
+        def index(var: str, state: str) -> int:
+            return compiled.state(compiled.id(var), state)
+
+        holds = np.broadcast_to(prop.holds(grids, index), shape)
+        if cond is None:
+            return names, holds, None
+        return names, holds, np.broadcast_to(cond.holds(grids, index), shape)
 
     def ancestral_posterior(self, target: str, evidence: Evidence) -> FloatArray:
         """The paper's recursive query (eq. 27); exact only where :func:`ancestral.is_exact`."""
@@ -587,7 +858,7 @@ class Engine:
         one block exponent per case."""
         compiled = self.compiled
         t = compiled.id(target)
-        table, cols = self._batch_array(evidence, columns)
+        table, cols = self.batch_array(evidence, columns)
         n_states = compiled.card[t]
         raw = np.empty((table.shape[0], n_states), dtype=np.int64)
         bound = np.empty((table.shape[0], n_states))
@@ -683,30 +954,42 @@ class Engine:
         return assignment, ratio(q, best, total, "marginal MAP")
 
     def fixed_probability(
-        self, proposition: Proposition | str, evidence: Evidence, q: QFormat
+        self,
+        proposition: Proposition | str,
+        evidence: Evidence,
+        q: QFormat,
+        given: Proposition | str | None = None,
     ) -> FixedResult:
         """:meth:`probability` in Q-format integers: the unnormalised joint of the mentioned
-        variables, summed where the proposition holds and where it does not, then divided."""
-        prop = parse(proposition) if isinstance(proposition, str) else proposition
+        variables, summed where the proposition holds and where it does not (within the
+        condition, if any), then divided."""
         compiled = self.compiled
-        ids = tuple(compiled.id(n) for n in prop.variables())
+        names, holds, condition = self._truth(proposition, given)
+        ids = tuple(compiled.id(n) for n in names)
         ev = self._evidence_ids(evidence)
-        shape = [compiled.card[v] for v in ids]
-        grids = dict(zip(prop.variables(), np.indices(shape), strict=True))
-        mask = prop.holds(grids, lambda var, state: compiled.state(compiled.id(var), state))
-        mask = np.broadcast_to(mask, shape)
-        mask = mask[tuple(ev.get(v, slice(None)) for v in ids)]
+        observed = tuple(ev.get(v, slice(None)) for v in ids)
+        mask = holds[observed]
+        inside = None if condition is None else condition[observed]
         free = tuple(v for v in ids if v not in ev)
+        what = f"probability of {proposition}" + ("" if given is None else f" given {given}")
         if not free:
             self.probability_of_evidence(evidence)
+            if inside is not None and not inside:
+                raise InputError(f"the condition {given} is false for the evidence")
             return constant(q, np.asarray(float(mask)))
         joint = self._fixed_sum(self.plan("sum", free, frozenset(ev)), ev, evidence, q)
+        if inside is None:
+            yes, no = mask, ~mask
+        else:
+            if not np.any(joint.raw[inside] > 0):
+                raise InputError(f"the condition {given} has probability zero given the evidence")
+            yes, no = mask & inside, ~mask & inside
         split = Fixed(
-            np.array([joint.raw[mask].sum(), joint.raw[~mask].sum()]),
+            np.array([joint.raw[yes].sum(), joint.raw[no].sum()]),
             joint.exp.reshape(1),
-            np.array([joint.error[mask].sum(), joint.error[~mask].sum()]),
+            np.array([joint.error[yes].sum(), joint.error[no].sum()]),
         )
-        answer = normalise(q, split, (0,), f"probability of {prop}")
+        answer = normalise(q, split, (0,), what)
         return FixedResult(q, answer.raw[0], answer.values[0], answer.bound[0])
 
     def _fixed_operands(

@@ -32,24 +32,41 @@ precision.
 from __future__ import annotations
 
 import enum
+import math
+import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import CPT, FloatArray, IntArray
+from bayesmap.bn.cases import case_array, posterior_frame
 from bayesmap.bn.fixed_point import FixedResult, QFormat
 from bayesmap.bn.inference import BatchEvidence, Engine, Evidence
+from bayesmap.bn.learning import (
+    FitReport,
+    Prior,
+    complete_log_likelihood,
+    estimate,
+    family_counts,
+    pseudo_counts,
+)
 from bayesmap.bn.propositions import Proposition
 from bayesmap.bn.sampling import forward_sample
+from bayesmap.bn.soft import Likelihoods, Shadow, likelihood
+from bayesmap.bn.suggest import unknown
 from bayesmap.bn.tables import SUM_TOLERANCE as SUM_TOLERANCE
 from bayesmap.bn.tables import WARN_TOLERANCE as WARN_TOLERANCE
 from bayesmap.bn.tables import CPTNormalisationWarning as CPTNormalisationWarning
 from bayesmap.bn.tables import DataSource as DataSource
 from bayesmap.bn.tables import checked_cpt
-from bayesmap.errors import InputError, ModelError
+from bayesmap.errors import ConfigError, InputError, ModelError
+
+_MAX_SHADOWS = 32
+"""Shadow networks kept for soft evidence (one per set of softly observed variables)."""
 
 
 class NodeKind(enum.Enum):
@@ -119,7 +136,8 @@ class Variable:
             return self.states.index(str(state))
         except ValueError:
             raise ModelError(
-                f"variable {self.name!r} has no state {state!r}; its states are {list(self.states)}"
+                f"variable {self.name!r} has no state {state!r}; "
+                + unknown("state", state, self.states)
             ) from None
 
 
@@ -146,6 +164,9 @@ class BayesNet:
         self.properties: dict[str, str] = {}
         self._version = 0
         self._engine = Engine(self)
+        self._shadows: dict[tuple[str, ...], Shadow] = {}
+        self._counts: list[FloatArray] | None = None
+        self._counts_version = -1
 
     # ------------------------------------------------------------------ structure
     @property
@@ -173,7 +194,10 @@ class BayesNet:
         try:
             return self._variables[name]
         except KeyError:
-            raise ModelError(f"network {self.name!r} has no variable {name!r}") from None
+            raise ModelError(
+                f"network {self.name!r} has no variable {name!r}; "
+                + unknown("variable", name, self._variables)
+            ) from None
 
     def states(self, name: str) -> tuple[str, ...]:
         """State names of ``name``."""
@@ -377,6 +401,7 @@ class BayesNet:
         target: str,
         evidence: Evidence | None = None,
         *,
+        soft: Likelihoods | None = None,
         fixed_point: QFormat | str | None = None,
     ) -> dict[str, float]:
         """Exact ``P(target | evidence)`` (Post et al. 2016 eqs. 22–25).
@@ -392,6 +417,9 @@ class BayesNet:
             The queried variable.
         evidence
             Observed values ``{variable: state name or index}``.
+        soft
+            Soft (likelihood) evidence ``{variable: weight per state}``, e.g. a sensor's
+            ``P(reading | state)``; only ratios matter (see :mod:`bayesmap.bn.soft`).
         fixed_point
             Compute in this Q-format (``"Q16.16"``, ``"Q8.24"``, ...) with integer
             arithmetic, as the rover's embedded engine does; see :meth:`posterior_fixed`
@@ -417,7 +445,12 @@ class BayesNet:
         ...                      cpt=[[0.9, 0.1], [0.1, 0.9]])
         >>> round(net.posterior("Rain", {"Wet": "yes"})["yes"], 4)
         0.6923
+        >>> round(net.posterior("Rain", soft={"Wet": [0.2, 0.6]})["yes"], 4)
+        0.3684
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.posterior(target, hard, fixed_point=fixed_point)
         if fixed_point is not None:
             values = self.posterior_fixed(target, evidence, fixed_point).values
         else:
@@ -425,31 +458,111 @@ class BayesNet:
         return dict(zip(self.variable(target).states, values.tolist(), strict=True))
 
     def posterior_batch(
-        self, target: str, evidence: BatchEvidence, *, columns: Sequence[str] | None = None
-    ) -> FloatArray:
+        self,
+        target: str,
+        evidence: BatchEvidence,
+        *,
+        columns: Sequence[str] | None = None,
+        soft: Mapping[str, npt.ArrayLike] | None = None,
+    ) -> Any:
         """``P(target | case)`` for many evidence cases: an ``(n_cases, n_states)`` array.
 
         ``evidence`` is an ``(n_cases, n_columns)`` integer array of state indices (−1 =
-        unobserved; columns are ``columns`` or all variables in network order) or a list
-        of ``{variable: state}`` mappings. Cases observing the same variables are answered
-        by one contraction with a leading case axis.
+        unobserved; columns are ``columns`` or all variables in network order), a list
+        of ``{variable: state}`` mappings, or a pandas DataFrame with one column per
+        observed variable (state names or indices, blanks unobserved) — then the answer is
+        a DataFrame too, one column ``"target=state"`` per state, rows labelled alike (see
+        :mod:`bayesmap.bn.cases`). Cases observing the same variables are answered by one
+        contraction with a leading case axis. ``soft`` gives soft evidence per case,
+        ``{variable: (n_cases, n_states) weights}`` (a row of ones: no information).
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> net = BayesNet("rain")
+        >>> _ = net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+        >>> _ = net.add_variable("Wet", ["no", "yes"], parents=["Rain"],
+        ...                      cpt=[[0.9, 0.1], [0.1, 0.9]])
+        >>> net.posterior_batch("Rain", pd.DataFrame({"Wet": ["yes", None]})).round(4)
+           Rain=no  Rain=yes
+        0   0.3077    0.6923
+        1   0.8000    0.2000
         """
-        return self._engine.posterior_batch(target, evidence, columns=columns)
+        if _is_frame(evidence):
+            if columns is not None or soft:
+                raise InputError("posterior_batch: a DataFrame names its own columns; no soft")
+            return posterior_frame(self, evidence, [target])
+        return self._engine.posterior_batch(target, evidence, columns=columns, soft=soft)
 
     def joint_posterior(
         self,
         targets: Sequence[str],
         evidence: Evidence | None = None,
         *,
+        soft: Likelihoods | None = None,
         fixed_point: QFormat | str | None = None,
     ) -> FloatArray:
         """Exact joint ``P(targets | evidence)``: one array axis per target, in the given order.
 
-        With ``fixed_point``, computed in that Q-format (see :meth:`joint_posterior_fixed`).
+        ``soft`` adds soft evidence as in :meth:`posterior`. With ``fixed_point``, computed
+        in that Q-format (see :meth:`joint_posterior_fixed`).
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.joint_posterior(targets, hard, fixed_point=fixed_point)
         if fixed_point is not None:
             return self.joint_posterior_fixed(targets, evidence, fixed_point).values
         return self._engine.joint_posterior(list(targets), evidence or {})
+
+    def posteriors(
+        self,
+        evidence: Evidence | None = None,
+        *,
+        soft: Likelihoods | None = None,
+        fixed_point: QFormat | str | None = None,
+    ) -> dict[str, dict[str, float]]:
+        """Every unobserved variable's posterior, ``{variable: {state: probability}}``.
+
+        One contraction of the network and its reverse give all of them at once (the
+        two-pass scheme of :mod:`bayesmap.bn.marginals`), exact like :meth:`posterior`.
+        ``soft`` adds soft evidence; with ``fixed_point`` each posterior is computed by
+        :meth:`posterior_fixed` in turn.
+
+        Examples
+        --------
+        >>> net = BayesNet("rain")
+        >>> _ = net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+        >>> _ = net.add_variable("Wet", ["no", "yes"], parents=["Rain"],
+        ...                      cpt=[[0.9, 0.1], [0.1, 0.9]])
+        >>> {k: round(v["yes"], 4) for k, v in net.posteriors({"Wet": "yes"}).items()}
+        {'Rain': 0.6923}
+        """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            answers = net.posteriors(hard, fixed_point=fixed_point)
+            return {name: answers[name] for name in self.variables if name in answers}
+        evidence = evidence or {}
+        if fixed_point is not None:
+            observed = {self._engine.compiled.id(name) for name in evidence}
+            return {
+                name: self.posterior(name, evidence, fixed_point=fixed_point)
+                for v, name in enumerate(self.variables)
+                if v not in observed
+            }
+        names = self.variables
+        return {
+            names[v]: dict(zip(self.states(names[v]), values.tolist(), strict=True))
+            for v, values in self._engine.posteriors(evidence).items()
+        }
+
+    def posteriors_batch(
+        self, evidence: BatchEvidence, *, columns: Sequence[str] | None = None
+    ) -> dict[str, FloatArray]:
+        """:meth:`posteriors` for many cases: ``{variable: (n_cases, n_states) array}``
+        (observed variables one-hot); evidence as in :meth:`posterior_batch`."""
+        names = self.variables
+        answers = self._engine.posteriors_batch(evidence, columns)
+        return {names[v]: values for v, values in answers.items()}
 
     def sample(self, n: int = 1, *, rng: RNGLike = None) -> IntArray:
         """``n`` independent draws of the joint distribution (forward sampling, eq. 8).
@@ -472,13 +585,22 @@ class BayesNet:
         return self._engine.probability_of_evidence(evidence or {})
 
     def posterior_fixed(
-        self, target: str, evidence: Evidence | None = None, fixed_point: QFormat | str = "Q16.16"
+        self,
+        target: str,
+        evidence: Evidence | None = None,
+        fixed_point: QFormat | str = "Q16.16",
+        *,
+        soft: Likelihoods | None = None,
     ) -> FixedResult:
         """``P(target | evidence)`` in Q-format integer arithmetic, with a guaranteed error bound.
 
         Returns a :class:`~bayesmap.bn.fixed_point.FixedResult` (raw integers, values and
-        the bound on ``|value − exact|`` of each state).
+        the bound on ``|value − exact|`` of each state). Soft evidence is quantised like a
+        CPT column (its largest weight scaled to 1).
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.posterior_fixed(target, hard, fixed_point)
         return self._engine.fixed_posterior(target, evidence or {}, QFormat.parse(fixed_point))
 
     def joint_posterior_fixed(
@@ -486,8 +608,13 @@ class BayesNet:
         targets: Sequence[str],
         evidence: Evidence | None = None,
         fixed_point: QFormat | str = "Q16.16",
+        *,
+        soft: Likelihoods | None = None,
     ) -> FixedResult:
         """:meth:`joint_posterior` in Q-format integer arithmetic, with a guaranteed bound."""
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.joint_posterior_fixed(targets, hard, fixed_point)
         q = QFormat.parse(fixed_point)
         return self._engine.fixed_joint_posterior(list(targets), evidence or {}, q)
 
@@ -504,7 +631,11 @@ class BayesNet:
         return self._engine.fixed_posterior_batch(target, evidence, q, columns=columns)
 
     def map(
-        self, evidence: Evidence | None = None, *, fixed_point: QFormat | str | None = None
+        self,
+        evidence: Evidence | None = None,
+        *,
+        soft: Likelihoods | None = None,
+        fixed_point: QFormat | str | None = None,
     ) -> tuple[dict[str, str], float]:
         """MAP/MPE over all unobserved variables (Post et al. 2016 eq. 13), by max-product.
 
@@ -516,18 +647,29 @@ class BayesNet:
         tuple
             ``({variable: state}, P(assignment | evidence))``. With ``fixed_point``, the
             max-product runs in that Q-format (ties broken by the lowest state index).
+            ``soft`` adds soft evidence as in :meth:`posterior`.
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.map(hard, fixed_point=fixed_point)
         if fixed_point is not None:
             assignment, result = self.map_fixed(evidence, fixed_point)
             return assignment, float(result.values)
         return self._engine.mpe(evidence or {})
 
     def map_fixed(
-        self, evidence: Evidence | None = None, fixed_point: QFormat | str = "Q16.16"
+        self,
+        evidence: Evidence | None = None,
+        fixed_point: QFormat | str = "Q16.16",
+        *,
+        soft: Likelihoods | None = None,
     ) -> tuple[dict[str, str], FixedResult]:
         """:meth:`map` by max-product in Q-format integers; ``P(x | e)`` as a 0-d
         :class:`~bayesmap.bn.fixed_point.FixedResult` whose bound covers both the exact
         probability of the returned assignment and the exact maximum."""
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.map_fixed(hard, fixed_point)
         return self._engine.fixed_mpe(evidence or {}, QFormat.parse(fixed_point))
 
     def marginal_map(
@@ -535,13 +677,18 @@ class BayesNet:
         variables: Sequence[str],
         evidence: Evidence | None = None,
         *,
+        soft: Likelihoods | None = None,
         fixed_point: QFormat | str | None = None,
     ) -> tuple[dict[str, str], float]:
         """Marginal MAP over ``variables`` (Post et al. 2016 eq. 14): sum out the rest, then max.
 
         Returns ``({variable: state}, P(assignment | evidence))``; exact, or with
-        ``fixed_point`` in that Q-format (see :meth:`marginal_map_fixed`).
+        ``fixed_point`` in that Q-format (see :meth:`marginal_map_fixed`). ``soft`` adds
+        soft evidence as in :meth:`posterior`.
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.marginal_map(variables, hard, fixed_point=fixed_point)
         if fixed_point is not None:
             assignment, result = self.marginal_map_fixed(variables, evidence, fixed_point)
             return assignment, float(result.values)
@@ -552,9 +699,14 @@ class BayesNet:
         variables: Sequence[str],
         evidence: Evidence | None = None,
         fixed_point: QFormat | str = "Q16.16",
+        *,
+        soft: Likelihoods | None = None,
     ) -> tuple[dict[str, str], FixedResult]:
         """:meth:`marginal_map` in Q-format integers; ``P(x | e)`` as a 0-d
         :class:`~bayesmap.bn.fixed_point.FixedResult` (bound as in :meth:`map_fixed`)."""
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.marginal_map_fixed(variables, hard, fixed_point)
         q = QFormat.parse(fixed_point)
         return self._engine.fixed_marginal_map(list(variables), evidence or {}, q)
 
@@ -563,28 +715,225 @@ class BayesNet:
         proposition: Proposition | str,
         evidence: Evidence | None = None,
         *,
+        given: Proposition | str | None = None,
+        soft: Likelihoods | None = None,
         fixed_point: QFormat | str | None = None,
     ) -> float:
-        """``P(proposition | evidence)`` of a logical proposition (Post et al. 2016 §2.4).
+        """``P(proposition | given, evidence)`` of a logical proposition (Post et al. 2016 §2.4).
 
         Build it with :class:`~bayesmap.bn.propositions.V` (``(V("A") == "yes") & ~(V("B")
-        == "no")``) or pass a string such as ``"A=yes & !(B=no)"``. With ``fixed_point``,
-        computed in that Q-format (see :meth:`probability_fixed`).
+        == "no")``) or pass a string such as ``"A=yes and not B=no"``. ``given`` is a
+        condition, itself a proposition: ``P(p | g, e) = P(p ∧ g | e) / P(g | e)``. With
+        ``fixed_point``, computed in that Q-format (see :meth:`probability_fixed`).
+
+        Examples
+        --------
+        >>> net = BayesNet("rain")
+        >>> _ = net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+        >>> _ = net.add_variable("Wet", ["no", "yes"], parents=["Rain"],
+        ...                      cpt=[[0.9, 0.1], [0.1, 0.9]])
+        >>> round(net.probability("Rain=yes", given="Wet=yes"), 4)
+        0.6923
         """
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.probability(proposition, hard, given=given, fixed_point=fixed_point)
         if fixed_point is not None:
-            return float(self.probability_fixed(proposition, evidence, fixed_point).values)
-        return self._engine.probability(proposition, evidence or {})
+            answer = self.probability_fixed(proposition, evidence, fixed_point, given=given)
+            return float(answer.values)
+        return self._engine.probability(proposition, evidence or {}, given)
 
     def probability_fixed(
         self,
         proposition: Proposition | str,
         evidence: Evidence | None = None,
         fixed_point: QFormat | str = "Q16.16",
+        *,
+        given: Proposition | str | None = None,
+        soft: Likelihoods | None = None,
     ) -> FixedResult:
         """:meth:`probability` in Q-format integers, as a 0-d
         :class:`~bayesmap.bn.fixed_point.FixedResult` with its guaranteed bound."""
+        if soft:
+            net, hard = self._with_soft(evidence, soft)
+            return net.probability_fixed(proposition, hard, fixed_point, given=given)
         q = QFormat.parse(fixed_point)
-        return self._engine.fixed_probability(proposition, evidence or {}, q)
+        return self._engine.fixed_probability(proposition, evidence or {}, q, given)
+
+    # --------------------------------------------------------------- learning
+    def fit(
+        self,
+        data: Any,
+        *,
+        columns: Sequence[str] | None = None,
+        prior: Prior = "none",
+        equivalent_sample_size: float = 1.0,
+        max_iterations: int = 100,
+        tol: float = 1e-8,
+    ) -> FitReport:
+        """Learn every CPT from data (see :mod:`bayesmap.bn.learning`), keeping the structure.
+
+        Parameters
+        ----------
+        data
+            Cases: a pandas DataFrame (one column per variable, state names or indices,
+            blanks missing), an ``(n_cases, n_columns)`` integer array (−1 missing) or
+            array of state names, or a list of ``{variable: state}`` mappings. Variables
+            without a column are hidden: learned by EM.
+        columns
+            Variable of each array column (default: all, in network order).
+        prior
+            ``"none"``: maximum likelihood; ``"bdeu"``: BDeu pseudo-counts; ``"cpt"``: the
+            current CPTs as the prior (the paper's map learning).
+        equivalent_sample_size
+            Weight of the prior in cases (``"bdeu"``, ``"cpt"``).
+        max_iterations, tol
+            EM stops after ``max_iterations`` or when the log-likelihood gains less than
+            ``tol`` per case.
+
+        Returns
+        -------
+        FitReport
+            Cases, EM iterations, log-likelihood and convergence.
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> net = BayesNet("rain")
+        >>> _ = net.add_variable("Rain", ["no", "yes"])
+        >>> _ = net.add_variable("Wet", ["no", "yes"], parents=["Rain"])
+        >>> data = pd.DataFrame(
+        ...     {"Rain": ["no", "no", "yes", "no"], "Wet": ["no", "yes", "yes", None]}
+        ... )
+        >>> report = net.fit(data)
+        >>> net.cpt("Rain").round(3).tolist(), report.iterations > 0
+        ([0.75, 0.25], True)
+        """
+        if max_iterations < 1:
+            raise ConfigError(f"max_iterations must be at least 1, got {max_iterations}")
+        table, n_cases = self._learning_table(data, columns)
+        compiled = self._engine.compiled
+        learned = [v for v in range(len(compiled.names)) if v not in compiled.sources]
+        pseudo = [pseudo_counts(compiled.cpts[v], prior, equivalent_sample_size) for v in learned]
+        if np.all(table[:, learned] >= 0):
+            cards = [tuple(compiled.cpts[v].shape) for v in learned]
+            counts = [
+                family_counts(table, (v, *compiled.parents[v]), c, None)
+                for v, c in zip(learned, cards, strict=True)
+            ]
+            tables = self._set_learned(learned, counts, pseudo)
+            log_likelihood = complete_log_likelihood(counts, tables)
+            self._keep_counts(counts, pseudo)
+            return FitReport(float(n_cases), 0, log_likelihood, True)
+        unique, weights = np.unique(table, axis=0, return_counts=True)
+        ids = list(range(len(compiled.names)))
+        previous = -math.inf
+        log_likelihood, converged, iteration = -math.inf, False, 0
+        for iteration in range(1, max_iterations + 1):  # noqa: B007 (the report says it)
+            expected, log_likelihood = self._engine.expected_counts(
+                unique, ids, weights.astype(np.float64)
+            )
+            counts = [expected[v] for v in learned]
+            self._set_learned(learned, counts, pseudo)
+            if log_likelihood - previous <= tol * n_cases:
+                converged = True
+                break
+            previous = log_likelihood
+        self._keep_counts(counts, pseudo)
+        return FitReport(float(n_cases), iteration, log_likelihood, converged)
+
+    def update(
+        self,
+        cases: Any,
+        *,
+        columns: Sequence[str] | None = None,
+        equivalent_sample_size: float = 1.0,
+    ) -> None:
+        """Online Bayesian learning: add the counts of ``cases`` and renormalise every CPT.
+
+        The counts accumulate from call to call (and from :meth:`fit`); the first update —
+        or the first after a CPT was changed by hand — starts from the current CPTs worth
+        ``equivalent_sample_size`` cases (the ``"cpt"`` prior of :meth:`fit`), so that
+        updating case by case gives the same CPTs as one Bayesian fit of all cases.
+        Missing values count by their expectation under the CPTs before the update (one
+        E-step: the sequential updating of Spiegelhalter & Lauritzen 1990).
+        ``cases`` takes the forms :meth:`fit` takes.
+        """
+        table, _ = self._learning_table(cases, columns)
+        compiled = self._engine.compiled
+        learned = [v for v in range(len(compiled.names)) if v not in compiled.sources]
+        if self._counts is None or self._counts_version != self._version:
+            self._counts = [
+                pseudo_counts(compiled.cpts[v], "cpt", equivalent_sample_size) for v in learned
+            ]
+        if np.all(table[:, learned] >= 0):
+            counts = [
+                family_counts(table, (v, *compiled.parents[v]), compiled.cpts[v].shape, None)
+                for v in learned
+            ]
+        else:
+            unique, weights = np.unique(table, axis=0, return_counts=True)
+            expected, _ = self._engine.expected_counts(
+                unique, list(range(len(compiled.names))), weights.astype(np.float64)
+            )
+            counts = [expected[v] for v in learned]
+        totals = [a + n for a, n in zip(self._counts, counts, strict=True)]
+        self._set_learned(learned, totals, [np.zeros(t.shape) for t in totals])
+        self._counts = totals
+        self._counts_version = self._version
+
+    def _learning_table(self, data: Any, columns: Sequence[str] | None) -> tuple[IntArray, int]:
+        """Cases as an ``(n_cases, n_variables)`` index array over every variable (−1 missing)."""
+        if not _is_frame(data) and not isinstance(data, list):
+            array = np.asarray(data)
+            if array.dtype.kind in "OUS":
+                import pandas as pd
+
+                data = pd.DataFrame(array, columns=list(columns or self.variables))
+                columns = None
+        if _is_frame(data):
+            table, names = case_array(self, data)
+            cols = [self._engine.compiled.id(n) for n in names]
+        else:
+            table, cols = self._engine.batch_array(data, columns)
+        if table.shape[0] == 0:
+            raise InputError("no cases to learn from")
+        full = np.full((table.shape[0], len(self)), -1, dtype=np.int64)
+        full[:, cols] = table
+        return full, table.shape[0]
+
+    def _set_learned(
+        self, learned: list[int], counts: list[FloatArray], pseudo: list[FloatArray]
+    ) -> list[CPT]:
+        names = self.variables
+        tables = []
+        for v, n, a in zip(learned, counts, pseudo, strict=True):
+            table = estimate(n, a, self.cpt(names[v]))
+            self.set_cpt(names[v], table)
+            tables.append(self.cpt(names[v]))
+        return tables
+
+    def _keep_counts(self, counts: list[FloatArray], pseudo: list[FloatArray]) -> None:
+        """Remember the fitted counts (with pseudo-counts) for later :meth:`update` calls."""
+        self._counts = [n + a for n, a in zip(counts, pseudo, strict=True)]
+        self._counts_version = self._version
+
+    def _with_soft(
+        self, evidence: Evidence | None, soft: Likelihoods
+    ) -> tuple[BayesNet, dict[str, str | int]]:
+        """The shadow network to ask (see :mod:`bayesmap.bn.soft`) and the evidence to ask it.
+
+        One shadow is kept per set of softly observed variables while the network is
+        unchanged, so repeated questions reuse its plans.
+        """
+        names = tuple(sorted(soft))
+        weights = {x: likelihood(x, self.states(x), soft[x]) for x in names}
+        shadow = self._shadows.get(names)
+        if shadow is None or shadow.version != self._version:
+            if len(self._shadows) >= _MAX_SHADOWS:
+                self._shadows.pop(next(iter(self._shadows)))
+            shadow = self._shadows[names] = Shadow(self, names)
+        return shadow.net, shadow.evidence(evidence or {}, weights)
 
     def class_ratio(
         self, variable: str, state_1: str, state_2: str, evidence: Evidence | None = None
@@ -658,6 +1007,12 @@ def cpt_from_flat(flat: npt.ArrayLike, shape: Sequence[int]) -> CPT:
             f"flat table has {values.size} values; shape {tuple(shape)} needs {int(np.prod(shape))}"
         )
     return np.asarray(values.reshape(tuple(shape), order="F"))
+
+
+def _is_frame(value: object) -> bool:
+    """Whether ``value`` is a pandas DataFrame (without importing pandas)."""
+    pandas = sys.modules.get("pandas")
+    return pandas is not None and isinstance(value, pandas.DataFrame)
 
 
 def _as_kind(kind: NodeKind | str | None, name: str) -> NodeKind | None:

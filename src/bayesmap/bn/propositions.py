@@ -5,7 +5,7 @@ disjunction ``|`` (∨) and negation ``~`` (¬)::
 
     >>> p = (V("Rain") == "yes") & ~(V("Sprinkler") == "on")
     >>> str(p)
-    '(Rain=yes & !Sprinkler=on)'
+    '(Rain=yes and not Sprinkler=on)'
 
     >>> parse("Rain=yes and not Sprinkler=on") == p
     True
@@ -88,7 +88,7 @@ class And(Proposition):
         return self.left.holds(grids, index) & self.right.holds(grids, index)
 
     def __str__(self) -> str:
-        return f"({self.left} & {self.right})"
+        return f"({self.left} and {self.right})"
 
 
 @dataclass(frozen=True, eq=True)
@@ -107,7 +107,7 @@ class Or(Proposition):
         return self.left.holds(grids, index) | self.right.holds(grids, index)
 
     def __str__(self) -> str:
-        return f"({self.left} | {self.right})"
+        return f"({self.left} or {self.right})"
 
 
 @dataclass(frozen=True, eq=True)
@@ -125,7 +125,7 @@ class Not(Proposition):
         return ~self.operand.holds(grids, index)
 
     def __str__(self) -> str:
-        return f"!{self.operand}"
+        return f"not {self.operand}"
 
 
 class V:
@@ -161,20 +161,36 @@ _KEYWORDS = {"and": "&", "or": "|", "not": "!"}
 _SYMBOLS = {"&&": "&", "∧": "&", "||": "|", "∨": "|", "~": "!", "¬": "!", "==": "="}
 
 
-def parse(text: str) -> Proposition:
-    """Parse a proposition such as ``'Rain=yes & !(Sprinkler=on | "Wet grass"=no)'``.
+def parse(text: str, *, bar: bool = True) -> Proposition:
+    """Parse a proposition such as ``'Rain=yes and not (Sprinkler=on or "Wet grass"=no)'``.
 
     Atoms are ``name = state`` (or ``==``; ``!=`` negates); names and states containing
-    spaces or operator characters are quoted with ``"`` or ``'``. Operators: ``&``/``and``/
-    ``∧``, ``|``/``or``/``∨``, ``!``/``~``/``not``/``¬``, with ``not`` binding tighter than
-    ``and``, and ``and`` tighter than ``or``; parentheses group.
+    spaces or operator characters are quoted with ``"`` or ``'``. Operators: ``and``/``&``/
+    ``∧``, ``or``/``|``/``∨``, ``not``/``!``/``~``/``¬``, with ``not`` binding tighter than
+    ``and``, and ``and`` tighter than ``or``; parentheses group. Propositions print with the
+    words, so that a printed ``P(A=x or B=y | evidence)`` cannot be misread.
+
+    Parameters
+    ----------
+    text
+        The proposition.
+    bar
+        Accept ``|`` and ``||`` for ``or``. A reader of ``P(A=x | B=y)`` sees a conditional
+        probability, so front ends that print the question (the CLI) refuse the bar and
+        take the condition separately (``given``).
 
     Raises
     ------
     InputError
         The text is not a proposition; the message gives the position.
     """
-    tokens = _tokenise(text)
+    raw_tokens = _tokenise(text)
+    if not bar and any(token == ("op", "|") and raw in ("|", "||") for token, raw in raw_tokens):
+        raise InputError(
+            f"proposition {text!r}: '|' would read as 'given'; write 'or' for a disjunction "
+            "and pass a condition separately (given=..., or --given on the command line)"
+        )
+    tokens = [token for token, _ in raw_tokens]
     position = 0
 
     def peek() -> tuple[str, str] | None:
@@ -240,8 +256,9 @@ def _quote(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def _tokenise(text: str) -> list[tuple[str, str]]:
-    tokens: list[tuple[str, str]] = []
+def _tokenise(text: str) -> list[tuple[tuple[str, str], str]]:
+    """``[((kind, value), raw text)]`` of a proposition; kind is "op" or "name"."""
+    tokens: list[tuple[tuple[str, str], str]] = []
     position = 0
     stripped = text.rstrip()
     while position < len(stripped):
@@ -251,13 +268,14 @@ def _tokenise(text: str) -> list[tuple[str, str]]:
         position = match.end()
         if match.group("op"):
             op = match.group("op")
-            tokens.append(("op", _SYMBOLS.get(op, op)))
+            tokens.append((("op", _SYMBOLS.get(op, op)), op))
         elif match.group("quoted"):
-            tokens.append(("name", re.sub(r"\\(.)", r"\1", match.group("quoted")[1:-1])))
+            quoted = match.group("quoted")
+            tokens.append((("name", re.sub(r"\\(.)", r"\1", quoted[1:-1])), quoted))
         else:
             word = match.group("word")
             keyword = _KEYWORDS.get(word.lower())
-            tokens.append(("op", keyword) if keyword else ("name", word))
+            tokens.append((("op", keyword) if keyword else ("name", word), word))
     if not tokens:
         raise InputError("empty proposition; write e.g. 'Rain=yes & Sprinkler=off'")
     return tokens

@@ -24,6 +24,7 @@ from rich.progress import (
 )
 from rich.table import Table
 from rich.text import Text
+from typer.exceptions import TyperException
 
 from bayesmap import __version__
 from bayesmap._io import terminate_as_exit
@@ -182,13 +183,29 @@ def _fmt(value: float | int | str) -> str:
 
 
 def main() -> None:
-    """Entry point of the ``bayesmap`` console script."""
+    """Entry point of the ``bayesmap`` console script.
+
+    Every error is one line on stderr: a usage mistake (unknown option, missing argument,
+    a value of the wrong type) exits with code 2, a failed command with code 1.
+    """
     try:
         with terminate_as_exit():
-            app()
+            code = app(standalone_mode=False)
+    except typer.Abort:
+        print_error("aborted", out=console)
+        raise SystemExit(130) from None
+    except TyperException as error:  # click's usage errors, as Typer ships them
+        context = getattr(error, "ctx", None)
+        where = context.command_path if context is not None else "bayesmap"
+        format_message = getattr(error, "format_message", None)
+        text = format_message() if format_message is not None else str(error)
+        if text.strip():  # empty after a help page shown for missing arguments
+            print_error(f"{' '.join(text.split())} (see '{where} --help')", out=console)
+        raise SystemExit(getattr(error, "exit_code", 2)) from None
     except BayesmapError as error:
-        print_error(error, out=console)
-        raise SystemExit(1) from error
+        print_error(" ".join(str(error).split()), out=console)
+        raise SystemExit(1) from None
+    raise SystemExit(code if isinstance(code, int) else 0)
 
 
 __all__ = ["app", "main"]

@@ -8,14 +8,7 @@ from typing import Annotated, Literal
 
 import typer
 
-from bayesmap._io import write_bytes, write_json
 from bayesmap.errors import InputError
-from bayesmap.grid.ros import write_ros_map
-from bayesmap.sonar.filter import Stage
-from bayesmap.sonar.geometry import SonarGeometry
-from bayesmap.sonar.logs import LENGTH_UNITS, LogUnits, read_sonar_log
-from bayesmap.sonar.pipeline import build_map
-from bayesmap.viz.sonar import map_png
 
 app = typer.Typer(
     help="Build occupancy maps from sonar-ring logs, with specular-reading rejection.",
@@ -75,6 +68,15 @@ def map_command(
     strict: Annotated[bool, typer.Option("--strict", help="Abort at the first bad row.")] = False,
 ) -> None:
     """Build map.png, map.yaml + map.pgm (ROS map_server) and summary.json from a sonar log."""
+    # imported here, so that other commands start without loading matplotlib and the mapper
+    from bayesmap._io import write_bytes, write_json
+    from bayesmap.grid.ros import write_ros_map
+    from bayesmap.sonar.filter import Stage
+    from bayesmap.sonar.geometry import SonarGeometry
+    from bayesmap.sonar.logs import LENGTH_UNITS, LogUnits, read_sonar_log
+    from bayesmap.sonar.pipeline import build_map
+    from bayesmap.viz.sonar import map_png
+
     angles = _angles(angles_deg)
     units = LogUnits(range_unit=range_unit, position_unit=position_unit, heading_unit=heading_unit)
     if not (math.isfinite(max_range) and max_range > 0):

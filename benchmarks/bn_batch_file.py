@@ -1,0 +1,122 @@
+"""Batches from files: a million alarm cases through ``bayesmap bn query --cases``.
+
+Cases are forward-sampled from alarm (``net.sample``), keeping the columns of the monitored
+signals (``OBSERVED``) with 20 % of the cells blank (unobserved); the command writes the
+posteriors of ``TARGETS``. It runs as a subprocess so that its peak resident memory
+(``ru_maxrss``) is its own; 100 k and 1 M cases show that memory stays bounded by the
+chunk size. The pyAgrum loop (one ``LazyPropagation``, per case ``setEvidence``,
+``makeInference`` and the targets' posteriors) is timed on ``N_PEER`` cases and
+extrapolated. Run ``python benchmarks/bn_batch_file.py``; it rewrites its section of
+docs/benchmarks.md.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import pgmpy  # noqa: E402
+import pyagrum as gum  # noqa: E402
+from benchmarks._report import machine, update_section  # noqa: E402
+from tests.bn.peers import to_pyagrum  # noqa: E402
+
+import bayesmap.bn as bn  # noqa: E402
+
+ALARM = Path(pgmpy.__file__).parent / "utils" / "example_models" / "alarm.bif.gz"
+OBSERVED = ["BP", "CVP", "HR", "HRBP", "HREKG", "HRSAT", "EXPCO2", "MINVOL", "PAP", "PCWP", "SAO2"]
+TARGETS = ["HYPOVOLEMIA", "LVFAILURE", "ANAPHYLAXIS"]
+SIZES = [100_000, 1_000_000]
+N_PEER = 2000
+BAYESMAP = str(Path(sys.executable).with_name("bayesmap"))
+
+
+def cases(net: bn.BayesNet, n: int, rng: np.random.Generator) -> pd.DataFrame:
+    draws = net.sample(n, rng=rng)
+    columns = {}
+    for name in OBSERVED:
+        states = np.array(net.states(name), dtype=object)
+        values = states[draws[:, net.variables.index(name)]]
+        values[rng.random(n) < 0.2] = None
+        columns[name] = values
+    return pd.DataFrame(columns)
+
+
+def run(cases_path: Path, out: Path) -> tuple[float, float]:
+    """Wall seconds and peak resident MiB of one ``bayesmap bn query --cases`` run."""
+    command = [BAYESMAP, "bn", "query", str(ALARM), "--cases", str(cases_path), "--out", str(out)]
+    for target in TARGETS:
+        command += ["-t", target]
+    start = time.perf_counter()
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(process.pid, 0)
+    if status != 0:
+        raise SystemExit(process.stderr.read().decode() if process.stderr else "failed")
+    return time.perf_counter() - start, usage.ru_maxrss / 1024
+
+
+def peer_seconds_per_case(net: bn.BayesNet, frame: pd.DataFrame) -> float:
+    engine = gum.LazyPropagation(to_pyagrum(net))
+    for t in TARGETS:
+        engine.addTarget(t)
+    records = frame.head(N_PEER).to_dict("records")
+    start = time.perf_counter()
+    for record in records:
+        engine.setEvidence({k: v for k, v in record.items() if isinstance(v, str)})
+        engine.makeInference()
+        for t in TARGETS:
+            engine.posterior(t)
+    return (time.perf_counter() - start) / len(records)
+
+
+def main() -> None:
+    net = bn.read(ALARM)
+    rng = np.random.default_rng(15)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for n in SIZES:
+            frame = cases(net, n, rng)
+            csv, parquet = folder / f"cases{n}.csv", folder / f"cases{n}.parquet"
+            frame.to_csv(csv, index=False)
+            frame.to_parquet(parquet, index=False)
+            for source, suffix in ((csv, ".csv"), (parquet, ".parquet")):
+                out = folder / f"answers{n}{suffix}"
+                seconds, peak = run(source, out)
+                rows.append((n, suffix, seconds, peak))
+                print(f"{n} {suffix}: {seconds:.1f} s, peak {peak:.0f} MiB", flush=True)
+        peer = peer_seconds_per_case(net, frame)
+    lines = [
+        "## Batches from files (`benchmarks/bn_batch_file.py`)",
+        "",
+        f"Machine: {machine()}, shared with other jobs. alarm, {len(OBSERVED)} observed "
+        f"columns with 20 % blanks, posteriors of {', '.join(TARGETS)} "
+        "(3 targets, 6 answer columns), default chunk of 65,536 cases, input and output in "
+        "the same format. Whole command (start, read, answer, write), one run each.",
+        "",
+        "| cases | format | wall s | µs per case | peak MiB | pyAgrum loop, extrapolated s |",
+        "|---:|---|---:|---:|---:|---:|",
+    ]
+    for n, suffix, seconds, peak in rows:
+        lines.append(
+            f"| {n:,} | {suffix} | {seconds:.1f} | {1e6 * seconds / n:.1f} | {peak:.0f} | "
+            f"{peer * n:.0f} |"
+        )
+    lines += [
+        "",
+        f"pyAgrum: {1e6 * peer:.0f} µs per case over {N_PEER} cases (one LazyPropagation, "
+        "per case setEvidence, makeInference and the three posteriors).",
+    ]
+    update_section("bn_batch_file", "\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,83 @@
+"""Start-up time of ``import bayesmap.bn`` and of the ``bayesmap`` command.
+
+Each command runs ``N_RUNS`` times in a fresh interpreter; the table gives the median wall
+time and the median CPU time (user + system, from ``os.wait4``), which a busy machine
+inflates less. ``import pyagrum`` and ``import numpy`` are the yardsticks. Targets (issue 15):
+``import bayesmap.bn`` under 0.2 s, ``bayesmap --help`` and ``bayesmap bn ...`` commands
+under 0.5 s. Run ``python benchmarks/bn_startup.py``; it rewrites its section of
+docs/benchmarks.md.
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import pgmpy  # noqa: E402
+from benchmarks._report import machine, update_section  # noqa: E402
+
+N_RUNS = 7
+PYTHON = sys.executable
+BAYESMAP = str(Path(sys.executable).with_name("bayesmap"))
+ALARM = str(Path(pgmpy.__file__).parent / "utils" / "example_models" / "alarm.bif.gz")
+COMMANDS: list[tuple[str, list[str], float | None]] = [
+    ("python -c 'import numpy'", [PYTHON, "-c", "import numpy"], None),
+    ("python -c 'import pyagrum'", [PYTHON, "-c", "import pyagrum"], None),
+    ("python -c 'import bayesmap.bn'", [PYTHON, "-c", "import bayesmap.bn"], 0.2),
+    ("bayesmap --version", [BAYESMAP, "--version"], 0.5),
+    ("bayesmap --help", [BAYESMAP, "--help"], 0.5),
+    ("bayesmap bn --help", [BAYESMAP, "bn", "--help"], 0.5),
+    ("bayesmap bn info alarm --json", [BAYESMAP, "bn", "info", ALARM, "--json"], 0.5),
+    (
+        "bayesmap bn query alarm -t HYPOVOLEMIA -e BP=LOW",
+        [BAYESMAP, "bn", "query", ALARM, "-t", "HYPOVOLEMIA", "-e", "BP=LOW"],
+        0.5,
+    ),
+]
+
+
+def run(command: list[str]) -> tuple[float, float]:
+    """Wall and CPU seconds of one run."""
+    start = time.perf_counter()
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(process.pid, 0)
+    wall = time.perf_counter() - start
+    if status != 0:
+        raise SystemExit(
+            f"{command} failed: {process.stderr.read().decode() if process.stderr else ''}"
+        )
+    return wall, usage.ru_utime + usage.ru_stime
+
+
+def main() -> None:
+    rows = []
+    for label, command, target in COMMANDS:
+        run(command)  # warm the file cache and the bytecode
+        walls, cpus = zip(*(run(command) for _ in range(N_RUNS)), strict=True)
+        wall, cpu = statistics.median(walls), statistics.median(cpus)
+        verdict = "" if target is None else ("met" if wall < target else "missed")
+        rows.append((label, wall, cpu, target, verdict))
+        print(f"{label}: wall {wall:.3f} s, cpu {cpu:.3f} s {verdict}", flush=True)
+    lines = [
+        "## Start-up (`benchmarks/bn_startup.py`)",
+        "",
+        f"Machine: {machine()}, shared with other jobs (wall times swing with its load; "
+        f"the CPU column less so). Median of {N_RUNS} fresh interpreters.",
+        "",
+        "| command | wall s | CPU s | target | |",
+        "|---|---:|---:|---:|---|",
+    ]
+    for label, wall, cpu, target, verdict in rows:
+        shown = "" if target is None else f"< {target}"
+        lines.append(f"| `{label}` | {wall:.3f} | {cpu:.3f} | {shown} | {verdict} |")
+    update_section("bn_startup", "\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,263 @@
+"""Evidence cases as tables: pandas DataFrames and CSV/Parquet files, streamed in chunks.
+
+A table of cases has one column per observed variable (named like the variable) and one
+row per case; a cell holds a state name — or a state index, in an integer column — and a
+blank (empty cell, NaN, None) means *unobserved*. :func:`posterior_frame` answers one
+table; :func:`run_batch` answers a table or a stream of tables chunk by chunk, so memory
+stays bounded by the chunk size, and is the unit of work to hand to a Dask worker (one
+partition of cases each). :func:`read_cases` and :func:`write_posteriors` stream files.
+
+pandas and pyarrow are imported on first use, so that ``import bayesmap.bn`` stays fast.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from bayesmap._io import atomic_open
+from bayesmap._typing import IntArray
+from bayesmap.bn.suggest import unknown
+from bayesmap.errors import FormatError, InputError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from bayesmap.bn.model import BayesNet
+
+Progress = Callable[[str, int, int], None]
+"""Progress hook ``(description, completed, total)``, as the experiments take."""
+
+CHUNK_ROWS = 1 << 16
+"""Cases answered per chunk by default: ~10 MB of evidence and answers for alarm."""
+
+SUFFIXES = (".csv", ".parquet")
+
+
+def column_name(target: str, state: str) -> str:
+    """The column of ``P(target = state | case)`` in an answer table: ``"target=state"``."""
+    return f"{target}={state}"
+
+
+def case_array(net: BayesNet, frame: pd.DataFrame) -> tuple[IntArray, list[str]]:
+    """The ``(n_cases, n_columns)`` state-index array of a table of cases (−1 = blank).
+
+    Raises
+    ------
+    InputError
+        A column that names no variable, or a cell that names no state of its column's
+        variable (the message gives the row label and suggests close names).
+    """
+    import pandas as pd
+
+    columns = [str(c) for c in frame.columns]
+    for c in columns:
+        if c not in net:
+            raise InputError(
+                f"cases column {c!r} is not a variable of {net.name!r}; "
+                + unknown("variable", c, net.variables)
+            )
+    table = np.full((len(frame), len(columns)), -1, dtype=np.int64)
+    for j, name in enumerate(columns):
+        values = frame.iloc[:, j]
+        states = net.states(name)
+        blank = values.isna().to_numpy(dtype=bool, copy=True)
+        if pd.api.types.is_numeric_dtype(values.dtype) and not pd.api.types.is_bool_dtype(
+            values.dtype
+        ):
+            numbers = values.to_numpy(dtype=np.float64, na_value=np.nan)
+            wrong = ~blank & ((numbers != np.round(numbers)) | (numbers < 0))
+            wrong |= ~blank & (numbers >= len(states))
+            codes = np.where(blank, -1, np.nan_to_num(numbers, nan=-1)).astype(np.int64)
+        else:
+            text = values.astype("string").str.strip()
+            blank |= (text == "").fillna(True).to_numpy(dtype=bool)
+            codes = pd.Index(list(states)).get_indexer(text.fillna("")).astype(np.int64)
+            wrong = ~blank & (codes < 0)
+        if wrong.any():
+            i = int(np.flatnonzero(wrong)[0])
+            raise InputError(
+                f"cases row {frame.index[i]!r}, column {name!r}: {values.iloc[i]!r} is not a "
+                f"state of {name!r}; " + unknown("state", values.iloc[i], states)
+            )
+        table[:, j] = np.where(blank, -1, codes)
+    return table, columns
+
+
+def posterior_frame(net: BayesNet, frame: pd.DataFrame, targets: Sequence[str]) -> pd.DataFrame:
+    """``P(target = state | case)`` for each row of ``frame``: one column per target state
+    (named by :func:`column_name`), the rows labelled like ``frame``'s."""
+    import pandas as pd
+
+    table, columns = case_array(net, frame)
+    answers: dict[str, Any] = {}
+    for target in targets:
+        values = net.posterior_batch(target, table, columns=columns)
+        for k, state in enumerate(net.states(target)):
+            answers[column_name(target, state)] = values[:, k]
+    return pd.DataFrame(answers, index=frame.index)
+
+
+def run_batch(
+    net: BayesNet,
+    cases: pd.DataFrame | Iterable[pd.DataFrame],
+    targets: Sequence[str],
+    *,
+    chunk_rows: int = CHUNK_ROWS,
+    total: int | None = None,
+    progress: Progress | None = None,
+) -> Iterator[pd.DataFrame]:
+    """Answer cases chunk by chunk: yields one :func:`posterior_frame` per chunk.
+
+    Parameters
+    ----------
+    net
+        The network.
+    cases
+        One table (cut into chunks of ``chunk_rows``) or a stream of tables, e.g.
+        :func:`read_cases` of a file.
+    targets
+        The queried variables.
+    total
+        Number of cases, for the progress hook (known for a single table).
+    progress
+        Called after each chunk with ``("cases", done, total)`` (total −1 if unknown).
+
+    Raises
+    ------
+    InputError
+        A malformed case, or evidence of probability zero; the message names the rows.
+    """
+    import pandas as pd
+
+    for t in targets:
+        net.variable(t)
+    if chunk_rows < 1:
+        raise InputError(f"chunk_rows must be at least 1, got {chunk_rows}")
+    if isinstance(cases, pd.DataFrame):
+        frame = cases
+        total = len(frame)
+        chunks: Iterable[pd.DataFrame] = (
+            frame.iloc[i : i + chunk_rows] for i in range(0, len(frame), chunk_rows)
+        )
+    else:
+        chunks = cases
+    done = 0
+    for chunk in chunks:
+        try:
+            answer = posterior_frame(net, chunk, targets)
+        except InputError as error:
+            message = str(error)
+            if message.startswith("batched evidence case"):
+                message = f"cases from row {done} on: {message}"
+            raise InputError(message) from None
+        done += len(chunk)
+        if progress is not None:
+            progress("cases", done, -1 if total is None else total)
+        yield answer
+
+
+def check_suffix(path: Path) -> str:
+    """The suffix of a cases or answers file (``.csv`` or ``.parquet``), else InputError."""
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise InputError(f"{path}: cases files are .csv or .parquet, not {suffix or 'no suffix'!r}")
+    return suffix
+
+
+def count_cases(path: str | Path) -> int:
+    """Number of cases in a CSV (data lines, by a fast line count) or Parquet file."""
+    path = Path(path)
+    if check_suffix(path) == ".parquet":
+        import pyarrow.parquet as pq
+
+        try:
+            return int(pq.ParquetFile(path).metadata.num_rows)
+        except (OSError, ValueError) as error:
+            raise FormatError(f"{path}: not a readable Parquet file ({error})") from None
+    lines = 0
+    last = b"\n"
+    try:
+        with path.open("rb") as handle:
+            while block := handle.read(1 << 20):
+                lines += block.count(b"\n")
+                last = block[-1:]
+    except OSError as error:
+        raise InputError(f"{path}: cannot read ({error.strerror})") from None
+    lines += last != b"\n"
+    return max(lines - 1, 0)
+
+
+def read_cases(path: str | Path, *, chunk_rows: int = CHUNK_ROWS) -> Iterator[pd.DataFrame]:
+    """Stream a CSV or Parquet file of cases as DataFrames of up to ``chunk_rows`` rows.
+
+    CSV cells are read as text (so ``"01"`` stays a state name); empty cells are blanks.
+    The rows are labelled by their 0-based data row in the file.
+    """
+    import pandas as pd
+
+    path = Path(path)
+    if check_suffix(path) == ".parquet":
+        import pyarrow.parquet as pq
+
+        try:
+            source = pq.ParquetFile(path)
+        except (OSError, ValueError) as error:
+            raise FormatError(f"{path}: not a readable Parquet file ({error})") from None
+        start = 0
+        for batch in source.iter_batches(batch_size=chunk_rows):
+            frame = batch.to_pandas()
+            frame.index = pd.RangeIndex(start, start + len(frame))
+            start += len(frame)
+            yield frame
+        return
+    try:
+        reader = pd.read_csv(path, dtype=str, chunksize=chunk_rows, skipinitialspace=True)
+        yield from reader
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as error:
+        detail = " ".join(str(error).split())
+        raise FormatError(f"{path}: not a readable CSV table ({detail})") from None
+
+
+def write_posteriors(
+    path: str | Path, chunks: Iterable[pd.DataFrame], columns: Sequence[str]
+) -> int:
+    """Write answer chunks to a CSV or Parquet file, atomically; returns the rows written.
+
+    ``columns`` are the answer columns (written as the header of an empty answer). The
+    file appears only when every chunk is written (a failure leaves no partial file).
+    """
+    import pandas as pd
+
+    path = Path(path)
+    empty = pd.DataFrame({c: np.empty(0) for c in columns})
+    rows = 0
+    if check_suffix(path) == ".parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        with atomic_open(path, "wb") as handle:
+            writer: Any = None
+            for chunk in chunks:
+                table = pa.Table.from_pandas(chunk, preserve_index=False)
+                if writer is None:
+                    writer = pq.ParquetWriter(handle, table.schema)
+                writer.write_table(table)
+                rows += len(chunk)
+            if writer is None:
+                pq.write_table(pa.Table.from_pandas(empty, preserve_index=False), handle)
+            else:
+                writer.close()
+        return rows
+    with atomic_open(path, "w", newline="") as handle:
+        for chunk in chunks:
+            chunk.to_csv(handle, header=rows == 0, index=False, float_format="%.17g")
+            rows += len(chunk)
+        if rows == 0:
+            empty.to_csv(handle, index=False)
+    return rows
