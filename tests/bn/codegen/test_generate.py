@@ -20,6 +20,9 @@ from bayesmap.bn.fixed_point import QFormat
 from bayesmap.errors import ConfigError, InputError
 
 TOLERANCE = {"float": 1e-6, "double": 1e-12}
+FAST_BUILD = ("-O0",)
+"""Most builds skip optimisation (gcc -O2 takes seconds on a busy machine); the asia test
+builds with -O2."""
 
 
 def _compare(net, code, native, rng, n_questions, arith):
@@ -52,7 +55,7 @@ def test_random_networks_match_the_engine(tmp_path, arith, seed):
     net = random_net(seed, n_vars=9, max_card=4, max_parents=3)
     targets, evidence, soft = pattern(net, rng, n_evidence=4, n_soft=2)
     code = generate(net, targets, evidence, arith, soft=soft, name="net")
-    native = NativeNetwork(code, tmp_path)
+    native = NativeNetwork(code, tmp_path, flags=FAST_BUILD)
     _compare(net, code, native, rng, 60, arith)
 
 
@@ -63,7 +66,7 @@ def test_asia_matches_the_engine(tmp_path, arith):
     net = bnlearn("asia")
     targets, evidence, soft = pattern(net, rng, n_evidence=4, n_soft=1)
     code = generate(net, targets, evidence, arith, soft=soft, name="asia")
-    _compare(net, code, NativeNetwork(code, tmp_path), rng, 40, arith)
+    _compare(net, code, NativeNetwork(code, tmp_path, flags=("-O2",)), rng, 40, arith)
 
 
 @needs_cc
@@ -75,7 +78,7 @@ def test_bnlearn_networks_match_the_engine(tmp_path, name, arith):
     net = bnlearn(name)
     targets, evidence, soft = pattern(net, rng, n_evidence=4, n_soft=1)
     code = generate(net, targets, evidence, arith, soft=soft, name=name)
-    native = NativeNetwork(code, tmp_path)
+    native = NativeNetwork(code, tmp_path, flags=FAST_BUILD)
     _compare(net, code, native, rng, 30, arith)
 
 
@@ -85,7 +88,7 @@ def test_impossible_evidence_is_an_error_code_where_the_engine_raises(tmp_path):
     net = random_net(11, n_vars=7, max_card=3, zero_fraction=0.4)
     targets, evidence, _ = pattern(net, rng, n_evidence=4, n_soft=0)
     code = generate(net, targets, evidence, "q16.16", name="zeros")
-    native = NativeNetwork(code, tmp_path)
+    native = NativeNetwork(code, tmp_path, flags=FAST_BUILD)
     raised = 0
     for combo in np.ndindex(*(code.states[v] for v in evidence)):
         slots = list(combo)
@@ -104,7 +107,7 @@ def test_impossible_evidence_is_an_error_code_where_the_engine_raises(tmp_path):
 def test_out_of_range_states_are_refused(tmp_path):
     net = random_net(2, n_vars=5)
     code = generate(net, ["X4"], ["X0", "X1"], "double", name="ranges")
-    native = NativeNetwork(code, tmp_path)
+    native = NativeNetwork(code, tmp_path, flags=FAST_BUILD)
     with pytest.raises(InputError, match="out of range"):
         native.posterior("X4", [code.states["X0"], -1])
 

@@ -12,12 +12,14 @@ import shutil
 import subprocess
 import tempfile
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from bayesmap import _io
 from bayesmap._typing import FloatArray
 from bayesmap.bn.codegen import CSources
 from bayesmap.bn.codegen.emit import identifier
@@ -292,3 +294,137 @@ def driver(code: CSources) -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class DriverQuestion:
+    """One question for :func:`run_driver`, numbers already in the C type (raw in Q)."""
+
+    target: str
+    evidence: Sequence[int]
+    soft: Mapping[str, npt.ArrayLike]
+    data: Mapping[str, npt.ArrayLike]
+
+
+@dataclass(frozen=True)
+class DriverResult:
+    """Statuses and answers of :func:`run_driver`, and the time per question in C."""
+
+    status: list[int]
+    answers: list[FloatArray]
+    ns_per_question: float
+
+
+def run_driver(
+    code: CSources,
+    questions: Sequence[DriverQuestion],
+    directory: str | Path,
+    *,
+    build: Sequence[str] = ("cc", "-O2"),
+    emulator: Sequence[str] = (),
+    repeat: int = 1,
+) -> DriverResult:
+    """Build :func:`driver` with ``build`` (a compiler command, e.g. a cross compiler) and
+    run the questions through it (under ``emulator``, e.g. ``qemu-arm``), ``repeat`` times.
+
+    Raises
+    ------
+    ConfigError
+        The build fails, or more than :data:`MAX_QUESTIONS` questions.
+    """
+    if len(questions) > MAX_QUESTIONS:
+        raise ConfigError(f"at most {MAX_QUESTIONS} questions per driver run")
+    folder = Path(directory)
+    _, c_file = code.write(folder)
+    main = _io.write_text(folder / f"{code.prefix}_driver.c", driver(code))
+    program = folder / f"{code.prefix}_driver"
+    command = [*build, *STRICT_FLAGS, str(c_file), str(main), "-o", str(program)]
+    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise ConfigError(f"{' '.join(command)} failed:\n{done.stderr.strip()}")
+    fixed = code.arith.q is not None
+    words = [str(len(questions)), str(repeat)]
+    for question in questions:
+        words.append(str(code.targets.index(question.target)))
+        words += [str(int(s)) for s in question.evidence]
+        for v in code.soft:
+            if v in question.soft:
+                words.append("1")
+                words += _numbers(question.soft[v], fixed)
+            else:
+                words.append("0")
+        for v in code.data:
+            words += _numbers(question.data[v], fixed)
+    ran = subprocess.run(
+        [*emulator, str(program)],
+        input=" ".join(words),
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if ran.returncode != 0:
+        raise ConfigError(f"the driver failed ({ran.returncode}): {ran.stderr.strip()}")
+    lines = ran.stdout.strip().splitlines()
+    status, answers = [], []
+    for line in lines[:-1]:
+        fields = line.split()
+        status.append(int(fields[0]))
+        answers.append(np.array([float(x) for x in fields[1:]]))
+    return DriverResult(status, answers, float(lines[-1].split()[1]))
+
+
+def _numbers(values: npt.ArrayLike, fixed: bool) -> list[str]:
+    flat = np.asarray(values).reshape(-1)
+    return [str(int(x)) for x in flat] if fixed else [repr(float(x)) for x in flat]
+
+
+@dataclass(frozen=True)
+class ObjectSize:
+    """Bytes of a compiled object: code, constant data and RAM (static work arrays)."""
+
+    code: int
+    const: int
+    ram: int
+    undefined: tuple[str, ...]
+
+
+def object_size(
+    code: CSources,
+    directory: str | Path,
+    *,
+    build: Sequence[str] = ("cc", "-O2"),
+    tools: str = "",
+) -> ObjectSize:
+    """Compile the generated source alone (``-c``) and measure it with ``{tools}size -A``.
+
+    ``code`` counts ``.text``, ``const`` ``.rodata*``, ``ram`` ``.data`` and ``.bss``;
+    ``undefined`` lists the symbols it needs from libraries (``{tools}nm -u``), e.g. the
+    compiler's 64-bit division helpers on a 32-bit core.
+    """
+    folder = Path(directory)
+    _, c_file = code.write(folder)
+    obj = folder / f"{code.prefix}.o"
+    command = [*build, *STRICT_FLAGS, "-c", str(c_file), "-o", str(obj)]
+    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise ConfigError(f"{' '.join(command)} failed:\n{done.stderr.strip()}")
+    listing = subprocess.run(
+        [f"{tools}size", "-A", str(obj)], capture_output=True, text=True, check=True
+    ).stdout
+    sizes = {"code": 0, "const": 0, "ram": 0}
+    for line in listing.splitlines():
+        fields = line.split()
+        if len(fields) < 2 or not fields[1].isdigit():
+            continue
+        section, size = fields[0], int(fields[1])
+        if section.startswith(".text"):
+            sizes["code"] += size
+        elif section.startswith(".rodata"):
+            sizes["const"] += size
+        elif section.startswith((".data", ".bss")):
+            sizes["ram"] += size
+    names = subprocess.run(
+        [f"{tools}nm", "-u", str(obj)], capture_output=True, text=True, check=True
+    ).stdout
+    undefined = tuple(line.split()[-1] for line in names.splitlines() if line.strip())
+    return ObjectSize(sizes["code"], sizes["const"], sizes["ram"], undefined)
