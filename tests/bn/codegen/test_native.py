@@ -6,12 +6,11 @@ import shutil
 
 import numpy as np
 import pytest
+from tests.bn.codegen.conftest import bnlearn, engine_answer, needs_cc, pattern, random_question
+from tests.bn.helpers import random_net
 
 from bayesmap.bn.codegen import generate, question_network
 from bayesmap.bn.codegen.native import DriverQuestion, object_size, run_driver
-
-from tests.bn.codegen.conftest import bnlearn, engine_answer, needs_cc, pattern, random_question
-from tests.bn.helpers import random_net
 
 CORTEX_M4 = ("arm-none-eabi-gcc", "-Os", "-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=soft")
 ARM_LINUX = ("arm-linux-gnueabihf-gcc", "-O1", "-static")
