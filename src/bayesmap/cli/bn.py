@@ -12,12 +12,14 @@ from rich.console import Console
 from rich.table import Table
 
 from bayesmap import bn
+from bayesmap.cli.codegen import codegen
 from bayesmap.errors import BayesmapError, InputError
 
 app = typer.Typer(
     help="Inspect, query and convert Bayesian-network files (XMLBIF, BIF, XBN).",
     no_args_is_help=True,
 )
+app.command()(codegen)
 _err = Console(stderr=True)
 
 
