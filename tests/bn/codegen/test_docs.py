@@ -9,12 +9,11 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from tests.bn.codegen.conftest import MODELS, bnlearn
 from typer.testing import CliRunner
 
 from bayesmap.bn.codegen.native import STRICT_FLAGS
 from bayesmap.cli import app
-
-from tests.bn.codegen.conftest import MODELS, bnlearn
 
 PAGE = Path(__file__).resolve().parents[3] / "docs" / "bn-codegen.md"
 
