@@ -44,7 +44,7 @@ from tests.bn.codegen.conftest import (  # noqa: E402
 )
 
 from bayesmap.bn import BayesNet  # noqa: E402
-from bayesmap.bn.codegen import CSources, generate, question_network  # noqa: E402
+from bayesmap.bn.codegen import CSources, SoftNetwork, generate  # noqa: E402
 from bayesmap.bn.codegen.native import (  # noqa: E402
     DriverQuestion,
     ObjectSize,
@@ -136,7 +136,7 @@ def one_network(name: str, rng: np.random.Generator, work: Path) -> dict[str, ob
                 tools="arm-none-eabi-",
             )
     asked, tables = questions(net, fixed, rng, draw)
-    soft_net = question_network(net, soft)
+    soft_net = SoftNetwork.build(net, soft)
     driver_questions = [
         DriverQuestion(
             question.target,

@@ -11,7 +11,7 @@ import pgmpy
 import pytest
 
 from bayesmap import bn
-from bayesmap.bn.codegen import SOFT_SUFFIX, CSources, question_network
+from bayesmap.bn.codegen import SOFT_SUFFIX, CSources
 from bayesmap.bn.codegen.program import SoftNetwork
 
 MODELS = Path(pgmpy.__file__).parent / "utils" / "example_models"
@@ -77,6 +77,3 @@ def engine_answer(
     if arith in ("float", "double"):
         return np.fromiter(soft_net.net.posterior(question.target, evidence).values(), float)
     return soft_net.net.posterior_fixed(question.target, evidence, arith).raw
-
-
-__all__ = ["question_network"]

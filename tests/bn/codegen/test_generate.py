@@ -14,7 +14,7 @@ from tests.bn.codegen.conftest import (
 )
 from tests.bn.helpers import random_net
 
-from bayesmap.bn.codegen import generate, question_network
+from bayesmap.bn.codegen import SoftNetwork, generate
 from bayesmap.bn.codegen.native import NativeNetwork
 from bayesmap.bn.fixed_point import QFormat
 from bayesmap.errors import ConfigError, InputError
@@ -26,7 +26,7 @@ builds with -O2."""
 
 
 def _compare(net, code, native, rng, n_questions, arith):
-    soft_net = question_network(net, code.soft)
+    soft_net = SoftNetwork.build(net, code.soft)
     scale = QFormat.parse(arith).scale if arith not in TOLERANCE else 1 << 16
     compared = 0
     for _ in range(n_questions):

@@ -9,7 +9,7 @@ import pytest
 from tests.bn.codegen.conftest import bnlearn, engine_answer, needs_cc, pattern, random_question
 from tests.bn.helpers import random_net
 
-from bayesmap.bn.codegen import generate, question_network
+from bayesmap.bn.codegen import SoftNetwork, generate
 from bayesmap.bn.codegen.native import DriverQuestion, object_size, run_driver
 
 CORTEX_M4 = ("arm-none-eabi-gcc", "-Os", "-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=soft")
@@ -27,7 +27,7 @@ needs_arm = pytest.mark.skipif(
 
 def _questions(net, code, rng, n):
     scale = code.arith.q.scale
-    soft_net = question_network(net, code.soft)
+    soft_net = SoftNetwork.build(net, code.soft)
     asked, expected = [], []
     while len(asked) < n:
         question = random_question(net, code, rng, scale)

@@ -47,7 +47,7 @@ from bayesmap.bn.codegen.program import (
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import ConfigError
 
-__all__ = ["SOFT_SUFFIX", "Arith", "CSources", "SoftNetwork", "generate", "question_network"]
+__all__ = ["SOFT_SUFFIX", "Arith", "CSources", "SoftNetwork", "generate"]
 
 
 @dataclass(frozen=True)
@@ -92,15 +92,6 @@ class CSources:
         h = _io.write_text(folder / f"{self.prefix}.h", self.header)
         c = _io.write_text(folder / f"{self.prefix}.c", self.source)
         return h, c
-
-
-def question_network(net: BayesNet, soft: Sequence[str] = ()) -> SoftNetwork:
-    """The network the generated code answers about: ``net`` plus virtual soft-evidence nodes.
-
-    Observe every ``X~soft`` node ``"seen"`` and :meth:`SoftNetwork.set` its likelihood,
-    and the engine's answers are the generated code's (without soft variables, a copy).
-    """
-    return SoftNetwork.build(net, soft)
 
 
 def generate(

@@ -101,10 +101,9 @@ class Eliminate:
 
 @dataclass(frozen=True)
 class Check:
-    """The question is impossible unless ``table`` at the evidence (or ``prior``) is > 0."""
+    """The question is impossible unless the entry ``view`` picks (at the evidence) is > 0."""
 
     view: View
-    prior: bool = False
 
 
 @dataclass
@@ -120,11 +119,50 @@ class Program:
 
 
 @dataclass
+class Allocator:
+    """First-fit placement of work buffers in one array, reusing the space of dead ones.
+
+    A buffer read by an instruction is freed once that instruction has its output, so an
+    output never overlaps its own inputs.
+    """
+
+    free: list[tuple[int, int]] = field(default_factory=list)
+    pending: list[tuple[int, int]] = field(default_factory=list)
+    top: int = 0
+
+    def take(self, size: int) -> int:
+        """Offset of a new buffer of ``size`` entries."""
+        self._settle()
+        for k, (start, length) in enumerate(self.free):
+            if length >= size:
+                if length == size:
+                    del self.free[k]
+                else:
+                    self.free[k] = (start + size, length - size)
+                return start
+        start = self.top
+        self.top += size
+        return start
+
+    def _settle(self) -> None:
+        self.free.extend(self.pending)
+        self.pending.clear()
+        self.free.sort()
+        merged: list[tuple[int, int]] = []
+        for start, length in self.free:
+            if merged and merged[-1][0] + merged[-1][1] == start:
+                merged[-1] = (merged[-1][0], merged[-1][1] + length)
+            else:
+                merged.append((start, length))
+        self.free = merged
+
+
+@dataclass
 class Tracer:
     """An :class:`~bayesmap.bn.elimination.Algebra` on views that records the instructions."""
 
     steps: list[Multiply | Eliminate] = field(default_factory=list)
-    allocator: Allocator = field(default_factory=lambda: Allocator())
+    allocator: Allocator = field(default_factory=Allocator)
 
     def shape(self, operand: View) -> tuple[int, ...]:
         """Sizes of the axes."""
@@ -173,45 +211,6 @@ class Tracer:
         for view in views:
             if view.table is None:
                 self.allocator.pending.append((view.work, view.size))
-
-
-@dataclass
-class Allocator:
-    """First-fit placement of work buffers in one array, reusing the space of dead ones.
-
-    A buffer read by an instruction is freed once that instruction has its output, so an
-    output never overlaps its own inputs.
-    """
-
-    free: list[tuple[int, int]] = field(default_factory=list)
-    pending: list[tuple[int, int]] = field(default_factory=list)
-    top: int = 0
-
-    def take(self, size: int) -> int:
-        """Offset of a new buffer of ``size`` entries."""
-        self._settle()
-        for k, (start, length) in enumerate(self.free):
-            if length >= size:
-                if length == size:
-                    del self.free[k]
-                else:
-                    self.free[k] = (start + size, length - size)
-                return start
-        start = self.top
-        self.top += size
-        return start
-
-    def _settle(self) -> None:
-        self.free.extend(self.pending)
-        self.pending.clear()
-        self.free.sort()
-        merged: list[tuple[int, int]] = []
-        for start, length in self.free:
-            if merged and merged[-1][0] + merged[-1][1] == start:
-                merged[-1] = (merged[-1][0], merged[-1][1] + length)
-            else:
-                merged.append((start, length))
-        self.free = merged
 
 
 @dataclass
@@ -298,7 +297,7 @@ def trace(
         raise AssertionError("a one-target plan ended with a different output")
     checks = [Check(_leaf(compiled, f, soft)) for f in plan.checks]
     checks.extend(  # as Engine._check_dropped: not at or below a data node
-        Check(View(Table("prior", v), 0, ((v, 1),), ()), prior=True)
+        Check(View(Table("prior", v), 0, ((v, 1),), ()))
         for v in plan.dropped
         if not compiled.source_mask & (compiled.ancestor_masks[v] | 1 << v)
     )
