@@ -77,3 +77,21 @@ def engine_answer(
     if arith in ("float", "double"):
         return np.fromiter(soft_net.net.posterior(question.target, evidence).values(), float)
     return soft_net.net.posterior_fixed(question.target, evidence, arith).raw
+
+
+def extreme_net(seed: int, n_vars: int = 10) -> bn.BayesNet:
+    """A random network with near-deterministic CPTs (Dirichlet(0.15) columns, entries down
+    to 1e-12): long products of tiny numbers, the hardest case for block fixed point."""
+    rng = np.random.default_rng(seed)
+    net = bn.BayesNet(f"extreme-{seed}")
+    for i in range(n_vars):
+        card = int(rng.integers(2, 4))
+        k = int(rng.integers(0, min(i, 3) + 1))
+        parents = [f"X{j}" for j in sorted(rng.choice(i, size=k, replace=False))] if k else []
+        shape = (card, *(net.cardinality(p) for p in parents))
+        table = rng.dirichlet(np.full(card, 0.15), size=shape[1:]).reshape(*shape[1:], card)
+        table = np.maximum(np.moveaxis(table, -1, 0), 1e-12)
+        net.add_variable(
+            f"X{i}", [f"s{j}" for j in range(card)], parents=parents, cpt=table / table.sum(0)
+        )
+    return net

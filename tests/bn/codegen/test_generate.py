@@ -8,6 +8,7 @@ from tests.bn.codegen.conftest import (
     BNLEARN,
     bnlearn,
     engine_answer,
+    extreme_net,
     needs_cc,
     pattern,
     random_question,
@@ -57,6 +58,19 @@ def test_random_networks_match_the_engine(tmp_path, arith, seed):
     code = generate(net, targets, evidence, arith, soft=soft, name="net")
     native = NativeNetwork(code, tmp_path, flags=FAST_BUILD)
     _compare(net, code, native, rng, 60, arith)
+
+
+@needs_cc
+@pytest.mark.parametrize(
+    "seed", [0, *(pytest.param(seed, marks=pytest.mark.slow) for seed in range(1, 10))]
+)
+@pytest.mark.parametrize("arith", ["q16.16", "q8.24"])
+def test_near_deterministic_networks_match_bit_for_bit(tmp_path, arith, seed):
+    rng = np.random.default_rng(100 + seed)
+    net = extreme_net(seed)
+    targets, evidence, soft = pattern(net, rng, n_evidence=6, n_soft=1)
+    code = generate(net, targets, evidence, arith, soft=soft, name="extreme")
+    _compare(net, code, NativeNetwork(code, tmp_path, flags=FAST_BUILD), rng, 40, arith)
 
 
 @needs_cc

@@ -247,8 +247,8 @@ class _Emitter:
 
     def __init__(self, spec: Spec) -> None:
         self.spec = spec
-        self.used: dict[tuple[str, int], FloatArray] = {}
-        self.nonzero: set[tuple[str, int]] = set()
+        self.values: dict[tuple[str, int], FloatArray] = {}
+        self.nonzero: dict[tuple[str, int], FloatArray] = {}
         self.slot = {v: k for k, v in enumerate(spec.evidence)}
         self.soft_slot = {v: k for k, v in enumerate(spec.soft)}
         self.data_slot = {v: k for k, v in enumerate(spec.data)}
@@ -266,7 +266,7 @@ class _Emitter:
         if table is None:
             return "work"
         if table.kind in ("cpt", "prior"):
-            self.used[table.kind, table.var] = self._values(table)
+            (self.nonzero if suffix else self.values)[table.kind, table.var] = self._values(table)
             return f"{table.kind}_{table.var}{suffix}"
         if table.kind == "data":
             return f"data[{self.data_slot[table.var]}]"
@@ -274,17 +274,20 @@ class _Emitter:
         return f"soft_{self.soft_slot[table.var]}"
 
     def tables(self) -> list[str]:
-        """The constant tables (CPTs, priors, their nonzero masks for the checks)."""
+        """The constant tables the functions read (CPTs, priors, 0/1 flags for checks)."""
         c, arith = self.spec.compiled, self.spec.arith
         lines: list[str] = []
-        for (kind, v), values in sorted(self.used.items(), key=lambda kv: (kv[0][1], kv[0][0])):
-            flat = np.asarray(values, dtype=np.float64).ravel()
+        for kind, v in sorted({*self.values, *self.nonzero}, key=lambda key: (key[1], key[0])):
             what = "prior marginal" if kind == "prior" else "CPT (child, *parents)"
-            lines.append(f"/* {c.names[v]}: {what} */")
-            lines.append(f"static const {arith.c_type} {kind}_{v}[{flat.size}] = {{")
-            lines += _wrap(_literals(flat, arith))
-            lines.append("};")
+            if (kind, v) in self.values:
+                flat = np.asarray(self.values[kind, v], dtype=np.float64).ravel()
+                lines.append(f"/* {c.names[v]}: {what} */")
+                lines.append(f"static const {arith.c_type} {kind}_{v}[{flat.size}] = {{")
+                lines += _wrap(_literals(flat, arith))
+                lines.append("};")
             if (kind, v) in self.nonzero:
+                flat = np.asarray(self.nonzero[kind, v], dtype=np.float64).ravel()
+                lines.append(f"/* {c.names[v]}: {what}, 1 where the entry is positive */")
                 lines.append(f"static const unsigned char {kind}_{v}_possible[{flat.size}] = {{")
                 lines += _wrap([str(int(x > 0.0)) for x in flat])
                 lines.append("};")
@@ -348,18 +351,22 @@ class _Emitter:
         return f"{self._base(view.table, suffix)}[{' + '.join(terms) or '0'}]"
 
     def _possible(self, check: Check) -> str:
+        """The C condition that the checked entry is possible (> 0 in the real table).
+
+        In fixed point a positive entry may round to raw 0; such a table gets a companion
+        ``..._possible`` array of 0/1 flags, as the engine checks the unrounded value.
+        """
         view = check.view
         none: list[str | None] = [None] * len(view.axes)
-        at = self._at(view, none)
         table = view.table
         assert table is not None
-        if table.kind in ("cpt", "prior") and self.spec.arith.q is not None:
+        q = self.spec.arith.q
+        if table.kind in ("cpt", "prior") and q is not None:
             values = self._values(table).ravel()
-            raws = np.minimum(np.rint(values * self.spec.arith.q.scale), self.spec.arith.q.max_raw)
+            raws = np.minimum(np.rint(values * q.scale), q.max_raw)
             if np.any((values > 0.0) & (raws == 0)):
-                self.nonzero.add((table.kind, table.var))
                 return self._at(view, none, "_possible")
-        return f"{at} > 0"
+        return f"{self._at(view, none)} > 0"
 
     def _loops(
         self, sizes: Sequence[int], first: int = 0, level: int = 0
