@@ -19,6 +19,8 @@ from bayesmap.bn.codegen import SoftNetwork, generate
 from bayesmap.bn.codegen.native import NativeNetwork
 from bayesmap.bn.fixed_point import QFormat
 from bayesmap.errors import ConfigError, InputError
+from bayesmap.rover.network import DecisionNetwork
+from bayesmap.rover.params import RoverParams
 
 TOLERANCE = {"float": 1e-6, "double": 1e-12}
 FAST_BUILD = ("-O0",)
@@ -146,3 +148,32 @@ def test_generated_code_has_no_allocation_recursion_or_libm():
         assert word not in text
     assert "static const int32_t cpt_" in text
     assert code.functions == 2 * 2**3
+
+
+@needs_cc
+@pytest.mark.parametrize("arith", ["q16.16", "q8.24", "double"])
+def test_the_rovers_decision_network_with_its_data_nodes_matches_the_engine(tmp_path, arith):
+    decision = DecisionNetwork(RoverParams())
+    net, m = decision.net, decision.params.n_headings
+    rangers = [v for v in net.variables if v.startswith("IR_")]
+    code = generate(net, ["Motors", "SensorFusion"], [*rangers, "ProbabilityMap"], arith)
+    assert set(code.data) == {v for v in net.variables if net.variable(v).source is not None}
+    native = NativeNetwork(code, tmp_path, flags=FAST_BUILD)
+    rng = np.random.default_rng(9)
+    for _ in range(30):
+        decision.inputs_.ranges = rng.uniform(0.05, decision.params.r_max, decision.n_sensors)
+        p_t = rng.random(m)
+        decision.inputs_.p_t = p_t / p_t.sum()
+        decision.inputs_.p_o = np.minimum(rng.random(m), 0.99)
+        evidence: dict[str, str | int] = {
+            v: int(rng.integers(2)) for v in rangers if rng.random() < 0.7
+        }
+        if rng.random() < 0.7:
+            evidence["ProbabilityMap"] = "clear"
+        target = str(rng.choice(code.targets))
+        got = native.ask(net, target, evidence)
+        if arith == "double":
+            want = np.fromiter(net.posterior(target, evidence).values(), float)
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+        else:
+            np.testing.assert_array_equal(got, net.posterior_fixed(target, evidence, arith).values)
