@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import shutil
+import subprocess
 
 import numpy as np
 import pytest
@@ -86,3 +88,27 @@ def test_cortex_m4_build_needs_no_libm_and_reports_its_memory(tmp_path, arith):
     assert size.code > 0 and size.const > 0 and size.ram > 0
     # only the compiler's own helpers (64-bit division on a 32-bit core) may be needed
     assert all(name.startswith("__aeabi_") for name in size.undefined), size.undefined
+
+
+def _m32_compiles() -> bool:
+    if shutil.which("gcc") is None:
+        return False
+    probe = subprocess.run(
+        ["gcc", "-m32", "-ffreestanding", "-x", "c", "-c", "-", "-o", os.devnull],
+        input="#include <stdint.h>\nint32_t f(void) { return 0; }\n",
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    return probe.returncode == 0
+
+
+@pytest.mark.skipif(not _m32_compiles(), reason="gcc cannot compile for -m32 here")
+@pytest.mark.parametrize("arith", ["q8.24", "float"])
+def test_the_code_builds_for_32_bit_x86(tmp_path, arith):
+    """Compile only (-ffreestanding: no 32-bit libc is needed to build it; running it here
+    would need Debian's gcc-multilib, which cannot be installed beside the ARM compilers)."""
+    net = random_net(4, n_vars=8, max_card=4)
+    code = generate(net, ["X7", "X6"], ["X0", "X3", "X5"], arith, soft=["X2"])
+    size = object_size(code, tmp_path, build=("gcc", "-m32", "-ffreestanding", "-O1"))
+    assert size.code > 0 and size.ram > 0
