@@ -124,7 +124,7 @@ def header(spec: Spec) -> str:
         lines.append(f"#define {up}_TARGET_{ident} {k}")
         lines.append(f"#define {up}_STATES_{ident} {c.card[v]}")
     signature = (
-        f"const int *evidence, const {p}_value *const *soft, "
+        f"const int *evidence, const {p}_value *const *soft,\n    "
         f"const {p}_value *const *data, {p}_value *out"
     )
     lines += [
