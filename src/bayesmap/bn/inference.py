@@ -1010,15 +1010,25 @@ class Engine:
     ) -> Fixed:
         """Unnormalised sum-product of one case, axes in ``plan.output`` order."""
         operands = self._fixed_operands(plan, ev, evidence, q)
-        path = plan.cache.get("fixed_path")
-        if path is None:
-            path = plan.cache["fixed_path"] = elimination.find_path(
-                [f.term for f in plan.factors], plan.output, [op.raw.shape for op in operands]
-            )
-        result, term, _ = elimination.run(path, operands, FixedAlgebra(q))
+        result, term, _ = elimination.run(self.fixed_path(plan), operands, FixedAlgebra(q))
         if term != plan.output:
             result = result.transpose([term.index(ch) for ch in plan.output])
         return result
+
+    def fixed_path(self, plan: Plan) -> elimination.Path:
+        """The order of a plan's one-case fixed-point sum-product (cached on the plan).
+
+        The generated C code (:mod:`bayesmap.bn.codegen`) replays this same order.
+        """
+        path = plan.cache.get("fixed_path")
+        if path is None:
+            card = self.compiled.card
+            path = plan.cache["fixed_path"] = elimination.find_path(
+                [f.term for f in plan.factors],
+                plan.output,
+                [tuple(card[v] for v in f.free) for f in plan.factors],
+            )
+        return path
 
     def _fixed_scalar(
         self, plan: Plan, ev: Mapping[int, int], algebra: FixedAlgebra

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 import typer
 
 from bayesmap.cli._console import console, print_error, print_note
+from bayesmap.cli.codegen import codegen
 from bayesmap.errors import BayesmapError
 
 if TYPE_CHECKING:
@@ -28,6 +29,7 @@ app = typer.Typer(
     no_args_is_help=True,
     rich_markup_mode=None,
 )
+app.command()(codegen)
 
 USAGE = 2
 """Exit code of a usage mistake (as click's own)."""

@@ -17,7 +17,7 @@ from bayesmap._typing import FloatArray
 from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.decisions import collision_probability, navigation_goal, wrap
 from bayesmap.rover.mapping import IRMapper, local_patch
-from bayesmap.rover.network import DecisionNetwork
+from bayesmap.rover.network import DecisionNetwork, Evaluator
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.targets import TargetRule
 
@@ -58,6 +58,9 @@ class Explorer:
         Sensor model, decision and drive parameters.
     target_rule
         The exploration rule (:class:`~bayesmap.rover.targets.EntropyTarget` is the paper's).
+    evaluator
+        How the decision network is asked (default: the Python engine); e.g.
+        :func:`bayesmap.rover.native.compiled_evaluator` runs it through generated C.
 
     Attributes
     ----------
@@ -67,11 +70,17 @@ class Explorer:
         The decision network queried every cycle.
     """
 
-    def __init__(self, grid: OccupancyGrid, params: RoverParams, target_rule: TargetRule) -> None:
+    def __init__(
+        self,
+        grid: OccupancyGrid,
+        params: RoverParams,
+        target_rule: TargetRule,
+        evaluator: Evaluator | None = None,
+    ) -> None:
         self.params = params
         self.target_rule = target_rule
         self.mapper_ = IRMapper(grid, params)
-        self.network_ = DecisionNetwork(params)
+        self.network_ = DecisionNetwork(params, evaluator)
         self._theta = np.asarray(params.headings)
 
     @property

@@ -46,6 +46,10 @@ _P_O_MAX = 1.0 - 1e-9
 MapReader = Callable[[], npt.ArrayLike]
 """Reads ``P(O | theta_m)`` for the ``M`` headings off the live probability map (eq. 42)."""
 
+Evaluator = Callable[[BayesNet, str, Mapping[str, str]], npt.ArrayLike]
+"""Answers ``P(target | evidence)`` on the network, e.g. through generated C code
+(:func:`bayesmap.rover.native.compiled_evaluator`); the default asks the Python engine."""
+
 
 @dataclass
 class CycleInputs:
@@ -76,8 +80,9 @@ class DecisionNetwork:
         The current cycle's inputs, read by the nodes' sources at query time.
     """
 
-    def __init__(self, params: RoverParams) -> None:
+    def __init__(self, params: RoverParams, evaluator: Evaluator | None = None) -> None:
         self.params = params
+        self.evaluator = evaluator
         self.inputs_ = CycleInputs()
         self.n_sensors = len(params.sensor_angles)
         self.net = self._build()
@@ -218,9 +223,12 @@ class DecisionNetwork:
         )
         for k, o in enumerate(np.asarray(contacts).astype(bool)):
             self._evidence[f"IR_{k}"] = "contact" if o else "no_contact"
-        distribution = np.fromiter(
-            self.net.posterior("Motors", self._evidence).values(), dtype=float
-        )
+        if self.evaluator is not None:
+            distribution = np.asarray(self.evaluator(self.net, "Motors", self._evidence), float)
+        else:
+            distribution = np.fromiter(
+                self.net.posterior("Motors", self._evidence).values(), dtype=float
+            )
         return int(np.argmax(distribution)), distribution
 
     def fused(self, contacts: npt.ArrayLike, ranges: npt.ArrayLike) -> float:
