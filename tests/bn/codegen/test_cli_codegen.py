@@ -52,7 +52,7 @@ def test_codegen_writes_header_and_source(rain_file, tmp_path):
     assert "#define RAIN_EV_WET 0" in header and "#define RAIN_EV_SPRINKLER 1" in header
     assert "RAIN_FRAC_BITS 24" in header
     assert "int rain_posterior_Rain(" in (out / "rain.c").read_text()
-    assert "4 pattern functions" in result.stdout
+    assert "4 pattern functions" in result.output
 
 
 def test_codegen_name_and_soft_evidence(rain_file, tmp_path):
