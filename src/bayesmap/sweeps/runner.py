@@ -103,7 +103,7 @@ def _record(out_dir: Path, task: Task, outcome: TaskOutcome) -> None:
 
 
 @contextlib.contextmanager
-def _client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
+def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
     """A Dask client on the scheduler at ``scheduler`` or on a new local cluster."""
     from distributed import Client, LocalCluster
 
@@ -182,7 +182,7 @@ def run_sweep(
         for task in pending:
             finish(run_task(task, str(out_dir)))
     else:
-        with _client(scheduler, workers) as client:
+        with dask_client(scheduler, workers) as client:
             _run_on(client, pending, out_dir, finish)
     failures = out_dir / FAILURES
     if failed:
