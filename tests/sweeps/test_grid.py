@@ -127,3 +127,27 @@ def test_blackboard_generates_and_loads_worlds(tmp_path):
         blackboard.load_world(path)
     plan = expand("blackboard", blackboard, worlds=2, seeds=1, root_seed=0)
     assert len({p.world for p in plan.points}) == 2
+
+
+def test_rover_runs_without_random_init_ignore_delta_h():
+    rover = load("rover")
+    plan = expand(
+        "rover",
+        rover,
+        worlds=None,
+        seeds=2,
+        root_seed=0,
+        settings={"runs": ["obstacles-flat"]},
+        conditions={"a": {}, "b": {"delta_h": 0.05}},
+    )
+    assert len(plan.tasks) == 2
+    plan = expand(
+        "rover",
+        rover,
+        worlds=None,
+        seeds=2,
+        root_seed=0,
+        settings={"runs": ["obstacles-random"]},
+        conditions={"a": {}, "b": {"delta_h": 0.05}},
+    )
+    assert len(plan.tasks) == 4

@@ -107,7 +107,8 @@ def posterior_batch(
     )
     with dask_client(scheduler, workers) as client:
         n = partitions or 2 * max(len(client.scheduler_info()["workers"]), 1)
-        frame = dd.from_pandas(cases, npartitions=max(1, min(n, len(cases) or 1)), sort=False)
+        pieces = max(1, min(n, len(cases) or 1))
+        frame = dd.from_pandas(cases, npartitions=pieces, sort=False)  # type: ignore[no-untyped-call]
         answer: Any = frame.map_partitions(_answer, network, target, meta=meta)
         result: pd.DataFrame = client.compute(answer).result()
     return result
