@@ -105,7 +105,7 @@ class Config(BaseModel):
             name: (v["sigma_r"], v["sigma_theta"], v["sigma_tau"]) for name, v in CONDITIONS.items()
         }
     )
-    mapper: dict[str, float] = Field(default_factory=dict)
+    mapper: dict[str, int | float] = Field(default_factory=dict)
     snapshot_pose: int | None = None
     position_tol: float = Field(0.2, gt=0)
     angle_tol: float = Field(float(np.pi / 12), gt=0)
@@ -482,3 +482,7 @@ def metric_rows(result: ExperimentResult) -> list[dict[str, Any]]:
         row.update({f"recall_by_legs_{k}": v for k, v in by_legs.items() if k.isdigit()})
         rows.append(row)
     return rows
+
+
+KEY_FIGURES = ("ground_truth.png", "*/montage.png", "snapshot_high.png", "snapshot_low.png")
+"""The figures a sweep report shows of one run (:mod:`bayesmap.sweeps.protocol`)."""

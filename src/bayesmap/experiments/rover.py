@@ -429,3 +429,12 @@ def metric_rows(result: ExperimentResult) -> list[dict[str, Any]]:
         for run_name, by_explorer in runs.items()
         for explorer_name, m in by_explorer.items()
     ]
+
+
+KEY_FIGURES = (
+    "coverage.png",
+    "obstacles-*/path.png",
+    "frontier/obstacles-*/path.png",
+    "*/path.png",
+)
+"""The figures a sweep report shows of one run (:mod:`bayesmap.sweeps.protocol`)."""

@@ -370,3 +370,7 @@ def metric_rows(result: ExperimentResult) -> list[dict[str, Any]]:
         for variant, scores in record["variants"].items():
             rows.append({"unit": unit, "method": variant, **scores})
     return rows
+
+
+KEY_FIGURES = ("maps_*.png",)
+"""The figures a sweep report shows of one run (:mod:`bayesmap.sweeps.protocol`)."""

@@ -28,6 +28,7 @@ from bayesmap._rng import RNGLike, as_generator
 from bayesmap.errors import FormatError
 from bayesmap.sweeps import protocol
 from bayesmap.sweeps.grid import SweepPlan
+from bayesmap.sweeps.protocol import BUILT_IN
 from bayesmap.sweeps.runner import task_folder
 
 __all__ = [
@@ -67,10 +68,12 @@ def tidy(plan: SweepPlan, out_dir: Path) -> pd.DataFrame:
             rows_of[key] = protocol.read_task_record(folder)["rows"]
     for point in plan.points:
         for row in rows_of.get(point.task, []):
+            # a run on its built-in world may name it (the rover's runs use two)
+            world = row.get("world", point.world) if point.world == BUILT_IN else point.world
             ids = {
                 "experiment": plan.experiment,
                 "condition": point.condition,
-                "world": point.world,
+                "world": str(world),
                 "world_index": point.world_index,
                 "seed_index": point.seed_index,
                 "seed": point.seed,

@@ -22,6 +22,9 @@ experiment module may expose:
     and seed are paired. Without it, every flat metrics JSON the run lists becomes a row.
 ``KEY_METRICS: tuple[str, ...]``
     The metrics the report draws and tabulates per world (default: every metric).
+``KEY_FIGURES: tuple[str, ...]``
+    Glob patterns, relative to the run's folder, of the figures the report shows
+    (default: the first PNGs found).
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ __all__ = [
     "TASK_RECORD",
     "WORLD_FIELD",
     "canonical",
+    "key_figures",
     "key_metrics",
     "metric_rows",
     "read_task_record",
@@ -54,6 +58,9 @@ WORLD_FIELD = "world"
 
 TASK_RECORD = "task.json"
 """The file the sweep writes, last, into a finished task's folder."""
+
+BUILT_IN = "built-in"
+"""The world name of grid points that use the experiment's own world."""
 
 WORLD_SUFFIXES = (".json", ".yaml", ".yml")
 """Files of a ``--worlds DIR`` folder that are read as worlds."""
@@ -76,7 +83,7 @@ def sweep_worlds(
 ) -> list[tuple[str, dict[str, Any] | None]]:
     """The sweep's worlds as ``(name, data)``; ``data`` is ``None`` for the built-in world."""
     if worlds is None:
-        return [("built-in", None)]
+        return [(BUILT_IN, None)]
     if not supports_worlds(module):
         raise ConfigError(
             f"experiment {experiment!r} cannot take --worlds: its module needs "
@@ -112,6 +119,17 @@ def key_metrics(module: ModuleType) -> tuple[str, ...] | None:
     """The experiment's ``KEY_METRICS``, or ``None`` for all."""
     keys = getattr(module, "KEY_METRICS", None)
     return tuple(keys) if keys else None
+
+
+def key_figures(module: ModuleType, folder: Path, limit: int) -> list[Path]:
+    """Up to ``limit`` PNG figures of the run in ``folder``, the experiment's key ones first."""
+    folder = Path(folder)
+    found: list[Path] = []
+    for pattern in getattr(module, "KEY_FIGURES", ()):
+        found += [p for p in sorted(folder.glob(pattern)) if p.suffix == ".png"]
+    if not found:
+        found = sorted(folder.rglob("*.png"))
+    return list(dict.fromkeys(found))[:limit]
 
 
 def metric_rows(module: ModuleType, result: ExperimentResult) -> list[dict[str, Any]]:

@@ -16,6 +16,7 @@ import platform
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import jinja2
@@ -37,7 +38,7 @@ MAX_RUN_FIGURES = 8
 """Figures of one run shown per experiment (the first task's, or the run's)."""
 
 MAX_PAIRED_METRICS = 8
-"""Metrics shown in the paired-comparison table (the key metrics first)."""
+"""Metrics shown in the paired-comparison table when the experiment names no key metrics."""
 
 
 @dataclass
@@ -69,7 +70,7 @@ def sections_from_sweep(sweep_dir: Path) -> list[Section]:
     failures_path = sweep_dir / FAILURES
     failures = json.loads(failures_path.read_text()) if failures_path.exists() else {}
     first = next((k for k in plan.tasks if protocol.task_complete(task_folder(sweep_dir, k))), None)
-    figures = _run_figures(task_folder(sweep_dir, first)) if first else []
+    figures = _run_figures(module, task_folder(sweep_dir, first)) if first else []
     base = module.Config().model_dump(mode="json")
     return [
         Section(
@@ -103,14 +104,13 @@ def section_from_run(name: str, result: ExperimentResult, config: dict[str, Any]
         for r in rows
     ]
     table = pd.DataFrame.from_records(records)
-    figures = [(p.relative_to(result.out_dir).as_posix(), p) for p in result.figures]
     return Section(
         name,
         _first_line(module.__doc__),
         table,
         config,
         {"seeds": 1, "worlds": None},
-        [(label, path) for label, path in figures if path.suffix == ".png"][:MAX_RUN_FIGURES],
+        _run_figures(module, result.out_dir),
         {},
         protocol.key_metrics(module),
     )
@@ -120,8 +120,8 @@ def _first_line(doc: str | None) -> str:
     return (doc or "").strip().splitlines()[0] if doc else ""
 
 
-def _run_figures(folder: Path) -> list[tuple[str, Path]]:
-    paths = sorted(folder.rglob("*.png"))[:MAX_RUN_FIGURES]
+def _run_figures(module: ModuleType, folder: Path) -> list[tuple[str, Path]]:
+    paths = protocol.key_figures(module, folder, MAX_RUN_FIGURES)
     return [(p.relative_to(folder).as_posix(), p) for p in paths]
 
 
@@ -188,7 +188,7 @@ def _context(section: Section) -> dict[str, Any]:
                 )
             if any(cells):
                 summary_rows.append({"metric": metric, "unit": unit, "cells": cells})
-    paired_metrics = (key + [m for m in metrics if m not in key])[:MAX_PAIRED_METRICS]
+    paired_metrics = key or metrics[:MAX_PAIRED_METRICS]
     paired_rows = [
         {
             "a": row["arm_a"],
