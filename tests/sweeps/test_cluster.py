@@ -144,6 +144,8 @@ def test_a_sweep_through_a_scheduler_and_two_workers_equals_a_serial_run(
     got = _without_timings(aggregate.tidy(plan, tmp_path / "remote"))
     pd.testing.assert_frame_equal(got, expected)
     assert got["world"].nunique() == worlds and got["seed"].nunique() == seeds
+    if experiment == "blackboard":  # the run mapped the generated layout it was given
+        assert (got["scenario"] == got["world"]).all()
 
 
 def test_a_local_cluster_gives_the_serial_numbers(tmp_path):

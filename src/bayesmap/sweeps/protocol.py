@@ -122,7 +122,7 @@ def key_metrics(module: ModuleType) -> tuple[str, ...] | None:
 
 
 def key_figures(module: ModuleType, folder: Path, limit: int) -> list[Path]:
-    """Up to ``limit`` PNG figures of the run in ``folder``, the experiment's key ones first."""
+    """Up to ``limit`` PNG figures of the run in ``folder``: its ``KEY_FIGURES``, or any."""
     folder = Path(folder)
     found: list[Path] = []
     for pattern in getattr(module, "KEY_FIGURES", ()):
