@@ -115,7 +115,14 @@ def arm(table: pd.DataFrame) -> pd.Series:
 def bootstrap_ci(
     values: np.ndarray, rng: np.random.Generator, level: float = 0.95
 ) -> tuple[float, float]:
-    """Percentile-bootstrap interval of the mean of ``values`` (NaN below two values)."""
+    """Percentile-bootstrap interval of the mean of ``values`` (NaN below two values).
+
+    Examples
+    --------
+    >>> low, high = bootstrap_ci(np.array([1.0, 2.0, 3.0, 4.0]), np.random.default_rng(0))
+    >>> bool(1.0 <= low < 2.5 < high <= 4.0)
+    True
+    """
     values = np.asarray(values, dtype=np.float64)
     if values.size < 2:
         return math.nan, math.nan

@@ -113,7 +113,15 @@ class SweepPlan:
 
 
 def parse_setting(text: str, *, where: str = "--set") -> tuple[str, Any]:
-    """``"KEY=VALUE"`` → ``(KEY, value)``; the value is read as YAML (``40``, ``[normal]``)."""
+    """``"KEY=VALUE"`` → ``(KEY, value)``; the value is read as YAML (``40``, ``[normal]``).
+
+    Examples
+    --------
+    >>> parse_setting("conditions=[normal, noisy]")
+    ('conditions', ['normal', 'noisy'])
+    >>> parse_setting("mapper.n_temperatures=10")
+    ('mapper.n_temperatures', 10)
+    """
     key, sep, raw = text.partition("=")
     key = key.strip()
     if not sep or not key:
