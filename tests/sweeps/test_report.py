@@ -66,3 +66,18 @@ def test_the_report_renders_in_chromium(sweep, tmp_path):
     for _, row in _summary_cells(plan, out).iterrows():
         assert f"{row['mean']:.4g} ± {row['sd']:.4g}" in summary_table
     assert page.screenshot[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_single_run_report_shows_its_values_and_figures(tmp_path, monkeypatch):
+    from bayesmap import experiments
+    from bayesmap.sweeps.report import section_from_run
+
+    monkeypatch.setitem(experiments.EXPERIMENTS, "toy", "sweeps.toy")
+    config = toy.Config(seed=4, world={"name": "w", "offset": 1.0})
+    result = toy.run(config, tmp_path / "toy")
+    section = section_from_run("toy", result, config.model_dump(mode="json"))
+    assert list(section.table["method"]) == ["a", "b"]
+    text = write_report([section], tmp_path / "report.html", title="reproduce").read_text()
+    for value in section.table["value"]:
+        assert f"{value:.4g}<span" in text  # one run: the value alone, no spread
+    assert text.count("data:image/png;base64,") == 2
