@@ -54,3 +54,22 @@ def test_reproduce_summary_names_folders_and_headlines_in_a_narrow_terminal():
     text = console.export_text()
     assert str(out_dir) in text and "summary.md" in text and "12.3 s" in text
     assert "blackboard: scenario whisker-tables-v1, normal_precision 0.416" in text
+
+
+def test_the_stage_eta_follows_the_current_stage_pace():
+    import re
+    import time
+
+    from rich.progress import Progress
+
+    from bayesmap.cli import _StageRemaining
+
+    column = _StageRemaining()
+    progress = Progress(column)
+    task_id = progress.add_task("stage 2", total=100, stage_start=(time.monotonic() - 20.0, 50))
+    progress.update(task_id, completed=60)  # 10 units in 20 s since the stage began: 80 s left
+    task = progress.tasks[0]
+    seconds = re.fullmatch(r"stage ETA (\d+):(\d\d)", column.render(task).plain)
+    assert seconds and 78 <= 60 * int(seconds[1]) + int(seconds[2]) <= 82
+    progress.update(task_id, stage_start=(time.monotonic(), 60))
+    assert column.render(progress.tasks[0]).plain == "stage ETA –:––"

@@ -30,6 +30,7 @@ from bayesmap import __version__
 from bayesmap._io import terminate_as_exit
 from bayesmap.cli import bn as bn_commands
 from bayesmap.cli import sonar as sonar_commands
+from bayesmap.cli import sweep as sweep_commands
 from bayesmap.cli._console import console as make_console
 from bayesmap.cli._console import print_error, styled
 from bayesmap.errors import BayesmapError
@@ -44,6 +45,8 @@ app = typer.Typer(
 )
 app.add_typer(bn_commands.app, name="bn")
 app.add_typer(sonar_commands.app, name="sonar")
+app.command()(sweep_commands.sweep)
+app.command()(sweep_commands.report)
 console = make_console(stderr=True)
 
 
@@ -100,26 +103,32 @@ def reproduce(
         )
         raise typer.Exit(2)
     results: list[tuple[ExperimentResult, float]] = []
+    configs: dict[str, dict[str, object]] = {}
     with Progress(
         TextColumn("{task.fields[experiment]}", style="bold", markup=False),
         TextColumn("{task.description}", markup=False),
         BarColumn(),
         MofNCompleteColumn(),
         _ExperimentTime(),
+        _StageRemaining(),
         console=console,
         transient=False,
     ) as progress:
         for name in names:
             module = load(name)
-            task = progress.add_task("starting", total=None, experiment=name)
+            config = module.Config()
+            task = progress.add_task("starting", total=None, experiment=name, stage_start=None)
 
             def hook(description: str, completed: int, total: int, _task: TaskID = task) -> None:
+                current = progress.tasks[progress.task_ids.index(_task)]
+                if current.description != description or current.fields["stage_start"] is None:
+                    progress.update(_task, stage_start=(time.monotonic(), completed))
                 progress.update(_task, description=description, completed=completed, total=total)
 
             started = time.perf_counter()
             try:
                 result = module.run(
-                    module.Config(),
+                    config,
                     out / name,
                     progress=hook,
                     command=shlex.join(["bayesmap", "reproduce", name, "--out", str(out)]),
@@ -128,9 +137,15 @@ def reproduce(
                 print_error(error, label=f"error in {name}", out=console)
                 raise typer.Exit(1) from error
             results.append((result, time.perf_counter() - started))
-            progress.update(task, description="done")
+            configs[name] = config.model_dump(mode="json")
+            progress.update(task, description="done", stage_start=None)
             progress.stop_task(task)
     _print_summary(results)
+    from bayesmap.sweeps.report import section_from_run, write_report  # Jinja2 on demand
+
+    sections = [section_from_run(r.name, r, configs[r.name]) for r, _ in results]
+    report = write_report(sections, out / "report.html", title="bayesmap reproduce")
+    console.print(Text(f"report: {report}"))
 
 
 class _ExperimentTime(ProgressColumn):
@@ -144,6 +159,25 @@ class _ExperimentTime(ProgressColumn):
     def render(self, task: Task) -> Text:
         seconds = int(task.elapsed or 0)
         return Text(f"{seconds // 60}:{seconds % 60:02d}", style="progress.elapsed")
+
+
+class _StageRemaining(ProgressColumn):
+    """Estimated time left in the current stage, from that stage's own pace.
+
+    Stages (runs, conditions) count up to their own totals, so an estimate over the whole
+    experiment's history would mix paces; this one restarts with every stage.
+    """
+
+    def render(self, task: Task) -> Text:
+        start = task.fields.get("stage_start")
+        if start is None or not task.total or task.finished:
+            return Text("")
+        since, first = start
+        done = task.completed - first
+        if done <= 0:
+            return Text("stage ETA –:––", style="progress.remaining")
+        seconds = int((time.monotonic() - since) * (task.total - task.completed) / done)
+        return Text(f"stage ETA {seconds // 60}:{seconds % 60:02d}", style="progress.remaining")
 
 
 def _print_summary(

@@ -28,11 +28,23 @@ EXPERIMENTS: dict[str, str] = {
 
 
 def load(name: str) -> ModuleType:
-    """Import the module of experiment ``name``; raise :class:`ConfigError` if unknown."""
-    if name not in EXPERIMENTS:
-        known = ", ".join(EXPERIMENTS) or "none"
-        raise ConfigError(f"unknown experiment {name!r}; choose from: {known}")
-    return importlib.import_module(EXPERIMENTS[name])
+    """Import the module of experiment ``name``; raise :class:`ConfigError` if unknown.
+
+    ``name`` is a key of :data:`EXPERIMENTS` or, for an experiment outside bayesmap, the
+    dotted path of an importable module exposing ``Config`` and ``run``.
+    """
+    known = ", ".join(EXPERIMENTS) or "none"
+    if name in EXPERIMENTS:
+        return importlib.import_module(EXPERIMENTS[name])
+    if "." in name:
+        try:
+            module = importlib.import_module(name)
+        except ImportError as error:
+            raise ConfigError(f"cannot import experiment module {name!r}: {error}") from None
+        if callable(getattr(module, "run", None)) and hasattr(module, "Config"):
+            return module
+        raise ConfigError(f"module {name!r} is not an experiment: it needs Config and run")
+    raise ConfigError(f"unknown experiment {name!r}; choose from: {known} (or a module path)")
 
 
 __all__ = ["EXPERIMENTS", "ExperimentResult", "ProgressHook", "load", "run_in_folder"]

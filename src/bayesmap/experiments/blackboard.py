@@ -20,6 +20,8 @@ pose of the ``normal`` run; ``summary.md``.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -27,11 +29,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap.blackboard import BlackboardParams, Snapshot, TableMapper
-from bayesmap.errors import ConfigError
+from bayesmap.errors import ConfigError, FormatError
 from bayesmap.experiments._common import (
     ExperimentResult,
     ProgressHook,
@@ -39,7 +42,7 @@ from bayesmap.experiments._common import (
     run_in_folder,
 )
 from bayesmap.experiments.table_metrics import MatchTolerance, recall_by_support, score_run
-from bayesmap.sim.tables_world import TablesWorld, initial, pose_sequence, scenario
+from bayesmap.sim.tables_world import TablesWorld, build, initial, pose_sequence, scenario
 from bayesmap.sim.whiskers import CONDITIONS, WhiskerParams, h, observe
 from bayesmap.viz.tables import (
     TableShape,
@@ -50,7 +53,7 @@ from bayesmap.viz.tables import (
     snapshot_figure,
 )
 
-__all__ = ["Config", "run"]
+__all__ = ["KEY_METRICS", "Config", "generate_world", "load_world", "metric_rows", "run"]
 
 PAPER = {
     "contacts": "4.2 ± 1.7",
@@ -90,6 +93,10 @@ class Config(BaseModel):
     loose_position_tol, loose_angle_tol
         Looser tolerances [m], [rad] for the secondary ``precision_loose`` and
         ``recall_loose`` ("roughly the right place", as the paper judges its Fig. 7).
+    world
+        A given layout ``{"name", "scenario", "tables": [[x, y, theta], ...]}`` (from
+        :func:`generate_world` or :func:`load_world`) used instead of drawing the
+        scenario's tables from ``seed``.
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
@@ -103,13 +110,19 @@ class Config(BaseModel):
             name: (v["sigma_r"], v["sigma_theta"], v["sigma_tau"]) for name, v in CONDITIONS.items()
         }
     )
-    mapper: dict[str, float] = Field(default_factory=dict)
+    mapper: dict[str, int | float] = Field(default_factory=dict)
     snapshot_pose: int | None = None
     position_tol: float = Field(0.2, gt=0)
     angle_tol: float = Field(float(np.pi / 12), gt=0)
     gospa_c: float = Field(0.5, gt=0)
     loose_position_tol: float = Field(0.5, gt=0)
     loose_angle_tol: float = Field(float(np.pi / 6), gt=0)
+    world: dict[str, Any] | None = None
+
+    @field_validator("world")
+    @classmethod
+    def _valid_world(cls, value: dict[str, Any] | None) -> dict[str, Any] | None:
+        return None if value is None else _checked_world(value, "Config.world")
 
     @field_validator("conditions")
     @classmethod
@@ -327,9 +340,16 @@ def _run(
     progress = progress or no_progress
     out_dir = Path(out_dir)
     seeds = np.random.SeedSequence(config.seed).spawn(1 + 2 * len(CONDITIONS))
-    world = initial(
-        np.random.default_rng(seeds[0]), scenario(config.scenario), name=config.scenario
-    )
+    if config.world is None:
+        world = initial(
+            np.random.default_rng(seeds[0]), scenario(config.scenario), name=config.scenario
+        )
+    else:
+        world = build(
+            np.asarray(config.world["tables"], dtype=np.float64),
+            scenario(config.world["scenario"]),
+            name=config.world["name"],
+        )
     poses = pose_sequence(world.params)[: config.poses]
     shape = TableShape(world.params.table_length, world.params.table_width, world.params.leg_width)
     snapshot_at = config.snapshot_pose
@@ -410,3 +430,87 @@ def run(
         lambda folder: _run(config, folder, progress=progress),
         command=command,
     )
+
+
+KEY_METRICS = ("precision", "recall", "gospa_mean", "position_error_mean", "phantoms")
+"""The metrics a sweep report draws per world (:mod:`bayesmap.sweeps.protocol`)."""
+
+
+def generate_world(
+    rng: np.random.Generator, scenario_name: str = "whisker-tables-v1"
+) -> dict[str, Any]:
+    """A new table layout of ``scenario_name`` drawn from ``rng``, as ``Config.world`` data."""
+    world = initial(rng, scenario(scenario_name), name=scenario_name)
+    tables = world.tables.round(6)
+    digest = hashlib.sha256(tables.tobytes()).hexdigest()[:8]
+    return {
+        "name": f"{scenario_name}-{digest}",
+        "scenario": scenario_name,
+        "tables": tables.tolist(),
+    }
+
+
+def load_world(path: Path) -> dict[str, Any]:
+    """Read a table layout (JSON or YAML, the shape of :func:`generate_world`'s output).
+
+    Raises
+    ------
+    FormatError
+        If the file cannot be read or its layout is malformed (naming the file and field).
+    """
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as error:
+        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise FormatError(f"cannot read the world file: {first}", path=path) from None
+    if not isinstance(data, dict):
+        raise FormatError("a world file holds a mapping with 'tables'", path=path)
+    data.setdefault("name", path.stem)
+    try:
+        return _checked_world(data, "world")
+    except ConfigError as error:
+        raise FormatError(str(error), path=path) from None
+
+
+def _checked_world(data: dict[str, Any], where: str) -> dict[str, Any]:
+    """``data`` with its scenario filled in, if its tables are ``[[x, y, theta], ...]``."""
+    out = {"scenario": "whisker-tables-v1", **data}
+    unknown = sorted(set(out) - {"name", "scenario", "tables"})
+    if unknown:
+        raise ConfigError(f"{where}: unknown field(s) {unknown}; expected name, scenario, tables")
+    params = scenario(str(out["scenario"]))
+    try:
+        tables = np.asarray(out.get("tables"), dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{where}.tables: expected a list of [x, y, theta] numbers") from None
+    if tables.ndim != 2 or tables.shape[1] != 3 or not np.isfinite(tables).all():
+        raise ConfigError(f"{where}.tables: expected a list of finite [x, y, theta] numbers")
+    inside = (tables[:, :2] >= 0) & (tables[:, :2] <= params.arena_size)
+    if not inside.all():
+        raise ConfigError(
+            f"{where}.tables: table centres must lie in the {params.arena_size} m arena"
+        )
+    return {
+        "name": str(out.get("name", "world")),
+        "scenario": out["scenario"],
+        "tables": tables.tolist(),
+    }
+
+
+def metric_rows(result: ExperimentResult) -> list[dict[str, Any]]:
+    """One tidy row per sensor condition (its ``method``), scalars only."""
+    rows = []
+    for path in result.metrics:
+        if path.name != "metrics.json":
+            continue
+        metrics = json.loads(path.read_text(encoding="utf-8"))
+        by_legs = metrics.pop("recall_by_legs_in_memory", {})
+        row = {"method": path.parent.name, **metrics}
+        row.update({f"recall_by_legs_{k}": v for k, v in by_legs.items() if k.isdigit()})
+        rows.append(row)
+    return rows
+
+
+KEY_FIGURES = ("ground_truth.png", "*/montage.png", "snapshot_high.png", "snapshot_low.png")
+"""The figures a sweep report shows of one run (:mod:`bayesmap.sweeps.protocol`)."""

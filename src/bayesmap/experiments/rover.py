@@ -10,6 +10,8 @@ name (``rover-field-empty-v1`` / ``rover-field-obstacles-v1``).
 
 from __future__ import annotations
 
+import copy
+import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -186,6 +188,32 @@ def simulate(
     return trace
 
 
+def _init_cannot_steer_frontier(config: Config) -> bool:
+    """Whether the frontier explorer decides alike under flat and random entropy init.
+
+    It reads the entropy layer only through ``H >= H_desired`` (its goals and the stop
+    rule), and a cell's entropy is the minimum of its initial value and every ``H(p)`` it
+    has had (``OccupancyGrid.update``). If every initial value, at least ``1 − δ_h``, is at
+    least ``H_desired``, each threshold test comes out the same under both inits.
+    """
+    return 1.0 - config.delta_h >= config.h_desired
+
+
+def _frontier_with_random_init(flat: Trace, world: BoxWorld, config: Config) -> Trace:
+    """The frontier run under random entropy init, derived exactly from its flat-init run.
+
+    The decisions, path and probability layer are the flat run's (see
+    :func:`_init_cannot_steer_frontier`); the entropy layer is the flat run's, which is the
+    running minimum of ``H(p)``, lowered further to the random initial values where those
+    are smaller — what :func:`simulate` would compute, without driving the run again.
+    """
+    init_rng = spawn(config.seed, 3)[0]
+    initial = _initial_grid(world, config, True, init_rng).entropy
+    derived = copy.deepcopy(flat)
+    np.minimum(derived.explorer.grid.entropy, initial, out=derived.explorer.grid.entropy)
+    return derived
+
+
 def _run_metrics(
     trace: Trace, world: BoxWorld, config: Config, explorer_name: str
 ) -> dict[str, Any]:
@@ -345,12 +373,21 @@ def _run(
     figures: list[Path] = []
     metric_files: list[Path] = []
     curves: dict[str, list[tuple[float, float]]] = {}
+    frontier_flat: dict[str, Trace] = {}
     for name in config.runs:
         world = box_world(RUNS[name][0])
         results[name] = {}
         for explorer_name in explorers:
             stage = name if explorer_name == "entropy" else f"{name} (frontier)"
-            trace = simulate(world, config, explorer_name, RUNS[name][1], hook, stage)
+            randomised = RUNS[name][1]
+            flat = frontier_flat.get(world.name) if explorer_name == "frontier" else None
+            if randomised and flat is not None and _init_cannot_steer_frontier(config):
+                trace = _frontier_with_random_init(flat, world, config)
+                hook(stage, config.max_steps, config.max_steps)
+            else:
+                trace = simulate(world, config, explorer_name, randomised, hook, stage)
+            if explorer_name == "frontier" and not randomised:
+                frontier_flat[world.name] = trace
             metrics = _run_metrics(trace, world, config, explorer_name)
             folder = out / name if explorer_name == "entropy" else out / "frontier" / name
             title = name if explorer_name == "entropy" else f"{name}, frontier explorer"
@@ -393,3 +430,39 @@ def run(
         lambda folder: _run(config, folder, progress=progress),
         command=command,
     )
+
+
+KEY_METRICS = ("coverage", "path_length_m", "collisions", "roc_auc", "distance_to_90")
+"""The metrics a sweep report draws per world (:mod:`bayesmap.sweeps.protocol`)."""
+
+
+def canonical_config(config: Config) -> Config:
+    """``config`` with ``delta_h`` at its default when no run uses the random entropy init,
+    so sweeps compute such runs once whatever ``delta_h`` they were given."""
+    if any(RUNS[name][1] for name in config.runs if name in RUNS):
+        return config
+    return config.model_copy(update={"delta_h": Config.model_fields["delta_h"].default})
+
+
+def metric_rows(result: ExperimentResult) -> list[dict[str, Any]]:
+    """One tidy row per run (its ``unit``) and explorer (its ``method``), scalars only."""
+    path = result.out_dir / "metrics.json"
+    runs: dict[str, dict[str, dict[str, Any]]] = json.loads(path.read_text(encoding="utf-8"))
+    return [
+        {
+            "unit": run_name,
+            "method": explorer_name,
+            **{k: v for k, v in m.items() if k != "coverage_curve"},
+        }
+        for run_name, by_explorer in runs.items()
+        for explorer_name, m in by_explorer.items()
+    ]
+
+
+KEY_FIGURES = (
+    "coverage.png",
+    "obstacles-*/path.png",
+    "frontier/obstacles-*/path.png",
+    "*/path.png",
+)
+"""The figures a sweep report shows of one run (:mod:`bayesmap.sweeps.protocol`)."""

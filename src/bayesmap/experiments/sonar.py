@@ -10,6 +10,7 @@ which readings were specular.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -376,3 +377,28 @@ def run(
         lambda folder: _run(config, folder, progress=progress),
         command=command,
     )
+
+
+KEY_METRICS = (
+    "kappa",
+    "accuracy",
+    "false_obstacle_rate",
+    "rejection_precision",
+    "rejection_recall",
+)
+"""The metrics a sweep report draws per world (:mod:`bayesmap.sweeps.protocol`)."""
+
+
+def metric_rows(result: ExperimentResult) -> list[dict[str, Any]]:
+    """One tidy row per run (its ``unit``: world, ring, run) and mapping variant (``method``)."""
+    data = json.loads((result.out_dir / "metrics.json").read_text(encoding="utf-8"))
+    rows = []
+    for record in data["runs"]:
+        unit = f"{record['world']} {record['ring']} run {record['run']}"
+        for variant, scores in record["variants"].items():
+            rows.append({"unit": unit, "method": variant, **scores})
+    return rows
+
+
+KEY_FIGURES = ("maps_*.png",)
+"""The figures a sweep report shows of one run (:mod:`bayesmap.sweeps.protocol`)."""

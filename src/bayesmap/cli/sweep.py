@@ -1,0 +1,158 @@
+"""``bayesmap sweep`` and ``bayesmap report``: experiment grids on Dask, and their HTML page."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
+from rich.text import Text
+
+from bayesmap.cli._console import console as make_console
+from bayesmap.cli._console import print_error
+from bayesmap.errors import BayesmapError
+from bayesmap.experiments import load
+
+console = make_console(stderr=True)
+
+
+def _error(message: str) -> typer.Exit:
+    print_error(" ".join(message.split()))
+    return typer.Exit(1)
+
+
+def _worlds(text: str | None) -> int | Path | None:
+    if text is None:
+        return None
+    return int(text) if text.strip().isdigit() else Path(text)
+
+
+def sweep(
+    experiment: Annotated[str, typer.Argument(help="Experiment to sweep (see reproduce --list).")],
+    out: Annotated[Path, typer.Option("--out", help="The sweep's folder (resumed if present).")],
+    worlds: Annotated[
+        str | None,
+        typer.Option(
+            "--worlds", help="N generated worlds, or a folder of world files (default: built-in)."
+        ),
+    ] = None,
+    seeds: Annotated[int, typer.Option("--seeds", help="Run seeds per world and condition.")] = 1,
+    condition: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--condition",
+            help="NAME or NAME:KEY=VALUE, repeatable; each name is one arm of the comparison.",
+        ),
+    ] = None,
+    set_: Annotated[
+        list[str] | None,
+        typer.Option("--set", help="KEY=VALUE (YAML value) applied to every run; repeatable."),
+    ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786."),
+    ] = None,
+    workers: Annotated[
+        int | None,
+        typer.Option("--workers", help="Local worker processes (default: one per core)."),
+    ] = None,
+    serial: Annotated[
+        bool, typer.Option("--serial", help="Run every task in this process, without Dask.")
+    ] = False,
+    root_seed: Annotated[
+        int, typer.Option("--root-seed", help="Seed of the worlds and of every run's seed.")
+    ] = 0,
+) -> None:
+    """Run an experiment over worlds × seeds × conditions; write tables and report.html."""
+    # Dask, pandas and the report load only when a sweep runs, so `bayesmap --help` is quick.
+    from bayesmap.sweeps import aggregate, expand, run_sweep
+    from bayesmap.sweeps.grid import parse_condition, parse_setting
+    from bayesmap.sweeps.report import sections_from_sweep, write_report
+
+    try:
+        module = load(experiment)
+        settings = dict(parse_setting(item) for item in set_ or [])
+        conditions: dict[str, dict[str, object]] = {}
+        for item in condition or []:
+            name, setting = parse_condition(item)
+            conditions.setdefault(name, {})
+            if setting is not None:
+                conditions[name][setting[0]] = setting[1]
+        plan = expand(
+            experiment,
+            module,
+            worlds=_worlds(worlds),
+            seeds=seeds,
+            root_seed=root_seed,
+            settings=settings,
+            conditions=conditions or None,
+        )
+        where = "in this process" if serial else (scheduler or "a local cluster")
+        console.print(
+            Text(
+                f"{experiment}: {len(plan.points)} grid point(s), {len(plan.tasks)} distinct "
+                f"run(s), on {where}"
+            )
+        )
+        with Progress(
+            TextColumn("[bold]runs[/bold]"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.description}"),
+            TimeElapsedColumn(),
+            TextColumn("ETA"),
+            TimeRemainingColumn(),
+            console=console,
+        ) as progress:
+            bar = progress.add_task("0 failed", total=len(plan.tasks))
+
+            def hook(description: str, completed: int, total: int) -> None:
+                progress.update(bar, description=description, completed=completed, total=total)
+
+            outcome = run_sweep(
+                plan, out, scheduler=scheduler, workers=workers, serial=serial, progress=hook
+            )
+        table = aggregate.tidy(plan, out)
+        aggregate.write_tables(table, out)
+        report = write_report(
+            sections_from_sweep(out), out / "report.html", title=f"{experiment} sweep"
+        )
+    except BayesmapError as error:
+        raise _error(str(error)) from error
+    console.print(
+        Text(
+            f"ran {len(outcome.ran)}, skipped {len(outcome.skipped)} already complete, "
+            f"failed {len(outcome.failed)} in {outcome.seconds:.1f} s"
+        )
+    )
+    for key, message in outcome.failed.items():
+        console.print(Text.assemble(("failed ", "red"), f"{key}: {message}"))
+    console.print(Text(f"tables: {out / 'tidy.parquet'}, summary.parquet, paired.parquet (+ CSV)"))
+    console.print(Text(f"report: {report}"))
+    if outcome.failed:
+        raise typer.Exit(1)
+
+
+def report(
+    sweep_dir: Annotated[Path, typer.Argument(help="A sweep's folder (bayesmap sweep --out).")],
+    out: Annotated[Path, typer.Option("--out", help="The HTML file to write.")] = Path(
+        "report.html"
+    ),
+) -> None:
+    """Write one self-contained HTML page of a sweep's tables and figures."""
+    from bayesmap.sweeps.report import sections_from_sweep, write_report
+
+    try:
+        sections = sections_from_sweep(sweep_dir)
+        path = write_report(sections, out, title=f"{sections[0].experiment} sweep")
+    except BayesmapError as error:
+        raise _error(str(error)) from error
+    console.print(Text(f"wrote {path}"))

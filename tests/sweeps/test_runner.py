@@ -1,0 +1,71 @@
+"""Running a sweep in this process: resume, failures that do not stop the others, tables."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from bayesmap.sweeps import aggregate, expand, run_sweep
+from bayesmap.sweeps.protocol import TASK_RECORD, task_complete
+from bayesmap.sweeps.runner import task_folder
+
+from . import toy
+
+
+def _plan(**kwargs):
+    args = {"worlds": 2, "seeds": 3, "root_seed": 1} | kwargs
+    return expand("sweeps.toy", toy, **args)
+
+
+def test_runs_every_task_once_and_resumes(tmp_path):
+    plan = _plan(conditions={"base": {}, "same": {"ignored": 1}, "double": {"scale": 2.0}})
+    calls = []
+    outcome = run_sweep(plan, tmp_path, serial=True, progress=lambda *a: calls.append(a))
+    assert len(outcome.ran) == len(plan.tasks) == 2 * 3 * 2 and not outcome.failed
+    assert calls[-1] == ("0 failed", len(plan.tasks), len(plan.tasks))
+    assert all(task_complete(task_folder(tmp_path, key)) for key in plan.tasks)
+    again = run_sweep(plan, tmp_path, serial=True)
+    assert again.ran == () and set(again.skipped) == set(plan.tasks)
+    victim = next(iter(plan.tasks))
+    (task_folder(tmp_path, victim) / TASK_RECORD).write_text("{not json")
+    assert run_sweep(plan, tmp_path, serial=True).ran == (victim,)
+
+
+def test_a_failed_task_is_reported_and_the_others_finish(tmp_path):
+    plan = _plan(conditions={"ok": {}, "broken": {"fail": True}})
+    outcome = run_sweep(plan, tmp_path, serial=True)
+    broken = {p.task for p in plan.points if p.condition == "broken"}
+    assert set(outcome.failed) == broken
+    assert all(
+        "InputError: the toy experiment was told to fail" in e for e in outcome.failed.values()
+    )
+    assert json.loads((tmp_path / "failures.json").read_text()) == outcome.failed
+    table = aggregate.tidy(plan, tmp_path)
+    assert set(table["condition"]) == {"ok"} and len(table) == 2 * 3 * 2
+
+
+def test_the_tidy_table_holds_every_point_and_the_known_values(tmp_path):
+    plan = _plan(conditions={"base": {}, "same": {"ignored": 1}})
+    run_sweep(plan, tmp_path, serial=True)
+    table = aggregate.tidy(plan, tmp_path)
+    assert len(table) == len(plan.points) * 2
+    for _, row in table.iterrows():
+        offset = plan.tasks[row["task"]].config["world"]["offset"]
+        noise = np.random.default_rng(int(row["seed"])).normal()
+        assert math.isclose(row["value"], noise + offset + (row["method"] == "b"))
+    written = aggregate.write_tables(table, tmp_path)
+    assert aggregate.read_table(written["tidy"]).equals(table)
+    assert (tmp_path / "summary.csv").read_text().startswith("experiment,arm,unit,metric")
+
+
+def test_paired_differences_are_exact_when_the_methods_differ_by_a_constant(tmp_path):
+    plan = _plan()
+    run_sweep(plan, tmp_path, serial=True)
+    pairs = aggregate.paired(aggregate.tidy(plan, tmp_path))
+    row = pairs.set_index("metric").loc["value"]
+    assert (row["arm_a"], row["arm_b"], row["n"]) == ("default / a", "default / b", 6)
+    assert row["mean"] == pytest.approx(-1.0)
+    assert row["ci_low"] == pytest.approx(-1.0) and row["ci_high"] == pytest.approx(-1.0)

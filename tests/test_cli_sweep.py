@@ -1,0 +1,65 @@
+"""``bayesmap sweep`` and ``bayesmap report`` from the command line: files, errors, resume."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+from typer.testing import CliRunner
+
+from bayesmap.cli import app
+
+runner = CliRunner()
+
+
+def _sweep(out, *extra):
+    args = ["sweep", "sweeps.toy", "--worlds", "2", "--seeds", "2", "--serial", "--out", str(out)]
+    return runner.invoke(app, [*args, *extra])
+
+
+def test_a_sweep_writes_tables_and_a_report_and_resumes(tmp_path):
+    result = _sweep(tmp_path, "--condition", "base", "--condition", "twice:scale=2")
+    assert result.exit_code == 0, result.output
+    assert "8 grid point(s), 8 distinct run(s)" in result.output
+    assert "ran 8, skipped 0" in result.output
+    tidy = pd.read_parquet(tmp_path / "tidy.parquet")
+    assert len(tidy) == 16 and set(tidy["condition"]) == {"base", "twice"}
+    assert pd.read_csv(tmp_path / "tidy.csv").shape == tidy.shape
+    assert (tmp_path / "report.html").read_text().count("data:image/png;base64,") == 2
+    again = _sweep(tmp_path, "--condition", "base", "--condition", "twice:scale=2")
+    assert again.exit_code == 0 and "ran 0, skipped 8" in again.output
+    out = tmp_path / "elsewhere.html"
+    report = runner.invoke(app, ["report", str(tmp_path), "--out", str(out)])
+    assert report.exit_code == 0 and out.read_text().startswith("<!DOCTYPE html>")
+
+
+def test_failures_are_listed_and_the_exit_status_says_so(tmp_path):
+    result = _sweep(tmp_path, "--condition", "ok", "--condition", "bad:fail=true")
+    assert result.exit_code == 1
+    assert result.output.count("failed ") >= 4
+    assert "the toy experiment was told to fail" in result.output
+    assert len(json.loads((tmp_path / "failures.json").read_text())) == 4
+    assert len(pd.read_parquet(tmp_path / "tidy.parquet")) == 8
+
+
+def test_bad_requests_get_one_line_errors_and_write_nothing(tmp_path):
+    cases = [
+        (["--set", "nope=1"], "unknown setting(s) nope"),
+        (["--set", "scale"], "expected KEY=VALUE"),
+        (["--set", "scale=[1"], "not valid YAML"),
+        (["--condition", "x:scale=[big]"], "condition 'x'"),
+    ]
+    for extra, message in cases:
+        result = _sweep(tmp_path / "out", *extra)
+        assert result.exit_code == 1, extra
+        assert message in result.output and "Traceback" not in result.output
+        assert not (tmp_path / "out").exists()
+    result = runner.invoke(app, ["sweep", "sonar", "--worlds", "3", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 1 and "cannot take --worlds" in result.output
+    result = runner.invoke(app, ["sweep", "nosuch", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 1 and "unknown experiment 'nosuch'" in result.output
+
+
+def test_messages_print_user_text_literally(tmp_path):
+    result = _sweep(tmp_path / "out", "--set", "[red]x[/red]=1")
+    assert result.exit_code == 1 and "[red]x[/red]" in result.output
