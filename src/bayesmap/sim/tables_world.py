@@ -247,7 +247,11 @@ def _segments(
     """
     k = len(tables)
     legs = rectangle_corners(
-        tables[:, 0], tables[:, 1], tables[:, 2], sizes[:, 0] - sizes[:, 2], sizes[:, 1] - sizes[:, 2]
+        tables[:, 0],
+        tables[:, 1],
+        tables[:, 2],
+        sizes[:, 0] - sizes[:, 2],
+        sizes[:, 1] - sizes[:, 2],
     )
     theta = np.repeat(tables[:, 2], 4)
     side = np.repeat(sizes[:, 2], 4)
@@ -352,9 +356,7 @@ def build_mixed(
     tables[:, 2] = np.mod(tables[:, 2], np.pi)
     sizes = np.array(sizes, dtype=np.float64).reshape(-1, 3)
     textures = np.asarray(textures, dtype=np.float64).reshape(-1)
-    segments, normal, texture, table, leg = _segments(
-        tables, sizes, textures, arena, wall_texture
-    )
+    segments, normal, texture, table, leg = _segments(tables, sizes, textures, arena, wall_texture)
     params = WorldParams(
         arena_size=max(arena),
         n_tables=len(tables),

@@ -203,7 +203,9 @@ class WorldFile:
 
 
 def _table_polygons(tables: FloatArray) -> list[shapely.Polygon]:
-    corners = rectangle_corners(tables[:, 0], tables[:, 1], tables[:, 2], tables[:, 3], tables[:, 4])
+    corners = rectangle_corners(
+        tables[:, 0], tables[:, 1], tables[:, 2], tables[:, 3], tables[:, 4]
+    )
     return [shapely.Polygon(c) for c in corners]
 
 
@@ -217,7 +219,9 @@ def _leg_polygons(tables: FloatArray) -> list[shapely.Polygon]:
     )
     polygons = []
     for row, centres in zip(tables, legs, strict=True):
-        squares = rectangle_corners(centres[:, 0], centres[:, 1], np.full(4, row[2]), row[5], row[5])
+        squares = rectangle_corners(
+            centres[:, 0], centres[:, 1], np.full(4, row[2]), row[5], row[5]
+        )
         polygons += [shapely.Polygon(s) for s in squares]
     return polygons
 
@@ -365,7 +369,9 @@ class StressOptions:
 
     def __post_init__(self) -> None:
         if not 0 < self.arena_range[0] <= self.arena_range[1]:
-            raise ConfigError(f"StressOptions.arena_range must be increasing, > 0: {self.arena_range}")
+            raise ConfigError(
+                f"StressOptions.arena_range must be increasing, > 0: {self.arena_range}"
+            )
         if not 0 <= self.tables_range[0] <= self.tables_range[1]:
             raise ConfigError(f"StressOptions.tables_range must be increasing: {self.tables_range}")
         if not self.sizes:
