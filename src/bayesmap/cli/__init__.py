@@ -25,6 +25,7 @@ from rich.table import Table
 from rich.text import Text
 
 from bayesmap import __version__
+from bayesmap.cli import blackboard as blackboard_commands
 from bayesmap.cli import bn as bn_commands
 from bayesmap.cli import sonar as sonar_commands
 from bayesmap.errors import BayesmapError
@@ -38,6 +39,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 app.add_typer(bn_commands.app, name="bn")
+app.add_typer(blackboard_commands.app, name="blackboard")
 app.add_typer(sonar_commands.app, name="sonar")
 console = Console(stderr=True)
 

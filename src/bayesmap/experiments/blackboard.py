@@ -117,10 +117,15 @@ class Config(BaseModel):
         return value
 
 
-def _mapper_params(config: Config, world: TablesWorld, sensor: WhiskerParams) -> BlackboardParams:
-    """Blackboard constants for one condition: the world's table size, the sensor's σ's."""
+def paper_params(
+    world: TablesWorld, sensor: WhiskerParams, overrides: dict[str, float] | None = None
+) -> BlackboardParams:
+    """Blackboard constants for one condition: the world's table size, the sensor's σ's.
+
+    A world of several table sizes gives the paper's one-size model its largest table.
+    """
     geometry = world.params
-    overrides: dict[str, Any] = dict(config.mapper)
+    overrides = dict(overrides or {})
     try:
         base = replace(
             BlackboardParams(),
@@ -151,6 +156,11 @@ def _snapshot_pose(world: TablesWorld, poses: np.ndarray, whiskers: WhiskerParam
     return 0
 
 
+def _sensor(config: Config, name: str) -> WhiskerParams:
+    sigma_r, sigma_theta, sigma_tau = config.sigmas.get(name, tuple(CONDITIONS[name].values()))
+    return WhiskerParams(sigma_r=sigma_r, sigma_theta=sigma_theta, sigma_tau=sigma_tau)
+
+
 def _run_condition(
     name: str,
     config: Config,
@@ -162,11 +172,37 @@ def _run_condition(
 ) -> dict[str, Any]:
     """One condition's 400-pose run: MAP tables per pose, timings, contacts, snapshots."""
     k = list(CONDITIONS).index(name)
-    sensor_rng = np.random.default_rng(seeds[1 + 2 * k])
-    chain_rng = np.random.default_rng(seeds[2 + 2 * k])
-    sigma_r, sigma_theta, sigma_tau = config.sigmas.get(name, tuple(CONDITIONS[name].values()))
-    sensor = WhiskerParams(sigma_r=sigma_r, sigma_theta=sigma_theta, sigma_tau=sigma_tau)
-    mapper = TableMapper(_mapper_params(config, world, sensor))
+    sensor = _sensor(config, name)
+    return run_paper(
+        world,
+        poses,
+        sensor,
+        paper_params(world, sensor, config.mapper),
+        np.random.default_rng(seeds[1 + 2 * k]),
+        np.random.default_rng(seeds[2 + 2 * k]),
+        label=name,
+        snapshot_at=snapshot_at,
+        progress=progress,
+    )
+
+
+def run_paper(
+    world: TablesWorld,
+    poses: np.ndarray,
+    sensor: WhiskerParams,
+    params: BlackboardParams,
+    sensor_rng: np.random.Generator,
+    chain_rng: np.random.Generator,
+    *,
+    label: str,
+    snapshot_at: int = -1,
+    progress: ProgressHook = no_progress,
+) -> dict[str, Any]:
+    """The paper's per-pose mapper over a tour: MAP tables per pose, timings, contacts.
+
+    ``snapshot_at``: the pose whose annealing is recorded (−1: none).
+    """
+    mapper = TableMapper(params)
     maps, touched, support, contacts, step_s = [], [], [], [], []
     memory = np.zeros((0, 2), dtype=np.int64)
     snapshots: list[Snapshot] = []
@@ -187,7 +223,7 @@ def _run_condition(
         contacts.append(int((reading.table >= 0).sum()))
         if index == snapshot_at:
             whisker_points = reading.contacts.point
-        progress(name, index + 1, len(poses))
+        progress(label, index + 1, len(poses))
     return {
         "maps": maps,
         "touched": touched,
@@ -201,7 +237,8 @@ def _run_condition(
     }
 
 
-def _metrics(run: dict[str, Any], config: Config, world: TablesWorld) -> dict[str, Any]:
+def per_pose_metrics(run: dict[str, Any], config: Config, world: TablesWorld) -> dict[str, Any]:
+    """The per-pose metrics of a run (docs/blackboard-results.md, "Metrics")."""
     tol = MatchTolerance(
         position_tol=config.position_tol,
         angle_tol=config.angle_tol,
@@ -341,7 +378,7 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
     snap_run = None
     for name in config.conditions:
         result = _run_condition(name, config, world, poses, seeds, snapshot_at, progress)
-        metrics[name] = _metrics(result, config, world)
+        metrics[name] = per_pose_metrics(result, config, world)
         metric_files.append(write_json(out_dir / name / "metrics.json", metrics[name]))
         title = (
             f"{name}: MAP tables of {len(poses)} poses (σ_r = {result['sensor'].sigma_r:g} m, "
