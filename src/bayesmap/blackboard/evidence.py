@@ -207,4 +207,4 @@ class EvidenceStore:
             return np.zeros(0, dtype=np.int64)
         ids = np.asarray(found, dtype=np.int64)
         keep = (points[ids, 0] - x) ** 2 + (points[ids, 1] - y) ** 2 <= radius**2
-        return ids[keep]
+        return np.asarray(ids[keep], dtype=np.int64)

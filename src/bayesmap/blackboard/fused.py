@@ -179,7 +179,7 @@ def _same_object(a: FloatArray, b: FloatArray, xy: float, theta: float, square: 
         return False
     period = 0.5 * math.pi if square else math.pi
     d = (a[2] - b[2]) % period
-    return min(d, period - d) <= theta
+    return bool(min(d, period - d) <= theta)
 
 
 class FusedMapper:

@@ -125,14 +125,14 @@ def paper_params(
     A world of several table sizes gives the paper's one-size model its largest table.
     """
     geometry = world.params
-    overrides = dict(overrides or {})
+    fields: dict[str, Any] = dict(overrides or {})
     try:
         base = replace(
             BlackboardParams(),
             table_length=geometry.table_length,
             table_width=geometry.table_width,
             leg_width=geometry.leg_width,
-            **overrides,
+            **fields,
         )
     except TypeError as error:
         raise ConfigError(

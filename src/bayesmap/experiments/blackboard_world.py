@@ -170,11 +170,11 @@ def fused_metrics(run: dict[str, Any], world: TablesWorld, tol: MatchTolerance) 
 
 def _per_pose(run: dict[str, Any], world: TablesWorld) -> dict[str, Any]:
     """The paper experiment's per-pose metrics of a run (paper or fused)."""
-    return paper.per_pose_metrics(run, paper.Config(), world)
+    return paper.per_pose_metrics(run, paper.Config.model_validate({}), world)
 
 
 def _tolerance(world: TablesWorld) -> MatchTolerance:
-    config = paper.Config()
+    config = paper.Config.model_validate({})
     return MatchTolerance(
         position_tol=config.position_tol,
         angle_tol=config.angle_tol,
@@ -253,7 +253,7 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
         else "paper, last pose's MAP"
     )
     figure = map_figure(world, objects, title)
-    headline = {
+    headline: dict[str, float | int | str] = {
         k: metrics[k]
         for k in ("fused_precision", "fused_recall", "precision", "recall")
         if k in metrics
