@@ -12,8 +12,13 @@ condition ``k`` (its position in :data:`~bayesmap.sim.whiskers.CONDITIONS`) draw
 sensor noise from child ``1 + 2k`` and runs its chain on child ``2 + 2k`` — so a condition's
 result does not depend on which other conditions run.
 
+Past the paper, each condition's readings also go to the fused mapper, which keeps every
+sweep and builds one map of the room (``fused_*`` metrics; its chain runs on child
+``1 + 2·3 + k``).
+
 Outputs under ``out_dir``: ``ground_truth.png`` (Fig. 4); per condition
-``<condition>/montage.png`` (Figs. 5–7) and ``<condition>/metrics.json``;
+``<condition>/montage.png`` (Figs. 5–7), ``<condition>/fused_map.png`` and
+``<condition>/metrics.json``;
 ``snapshot_high.png`` and ``snapshot_low.png`` (Figs. 1–2) and ``annealing.gif`` for one
 pose of the ``normal`` run; ``summary.md``.
 """
@@ -31,8 +36,10 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap.blackboard import BlackboardParams, Snapshot, TableMapper
+from bayesmap.blackboard.sweep_model import ObjectType
 from bayesmap.errors import ConfigError
 from bayesmap.experiments._common import ExperimentResult, ProgressHook, no_progress
+from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused
 from bayesmap.experiments.table_metrics import MatchTolerance, recall_by_support, score_run
 from bayesmap.sim.tables_world import TablesWorld, initial, pose_sequence, scenario
 from bayesmap.sim.whiskers import CONDITIONS, WhiskerParams, h, observe
@@ -40,6 +47,7 @@ from bayesmap.viz.tables import (
     TableShape,
     annealing_gif,
     figure_png,
+    fused_map_figure,
     ground_truth_figure,
     montage_figure,
     snapshot_figure,
@@ -85,6 +93,12 @@ class Config(BaseModel):
     loose_position_tol, loose_angle_tol
         Looser tolerances [m], [rad] for the secondary ``precision_loose`` and
         ``recall_loose`` ("roughly the right place", as the paper judges its Fig. 7).
+    fused
+        Also run the fused mapper (:class:`~bayesmap.blackboard.fused.FusedMapper`) on each
+        condition's readings — the same readings the paper's mapper saw — and add its map
+        (``<condition>/fused_map.png``) and ``fused_*`` metrics.
+    fused_mapper
+        Overrides of :class:`~bayesmap.blackboard.fused.FusedParams` fields.
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
@@ -105,6 +119,8 @@ class Config(BaseModel):
     gospa_c: float = Field(0.5, gt=0)
     loose_position_tol: float = Field(0.5, gt=0)
     loose_angle_tol: float = Field(float(np.pi / 6), gt=0)
+    fused: bool = True
+    fused_mapper: dict[str, int | float] = Field(default_factory=dict)
 
     @field_validator("conditions")
     @classmethod
@@ -311,6 +327,32 @@ def _summary(metrics: dict[str, dict[str, Any]], world: TablesWorld, config: Con
         ),
         ("wall time [s]", lambda m: f"{m['wall_s']:.1f}"),
     ]
+    if all("fused_precision" in m for m in metrics.values()):
+        rows += [
+            (
+                "fused map: precision / recall",
+                lambda m: f"{m['fused_precision']:.3f} / {m['fused_recall']:.3f}",
+            ),
+            (
+                "fused map: objects / wall phantoms",
+                lambda m: f"{m['fused_objects']} / {m['fused_wall_phantoms']}",
+            ),
+            (
+                "fused map: position / angle error",
+                lambda m: (
+                    f"{m['fused_position_error_mean']:.3f} m / "
+                    f"{np.degrees(m['fused_angle_error_mean']):.1f}°"
+                ),
+            ),
+            ("fused map: GOSPA [m]", lambda m: f"{m['fused_gospa']:.3f}"),
+            (
+                "fused: per-pose ms median / p95, whole run [s]",
+                lambda m: (
+                    f"{m['fused_per_pose_ms_median']:.1f} / "
+                    f"{m['fused_per_pose_ms_p95']:.1f}, {m['fused_wall_s']:.1f}"
+                ),
+            ),
+        ]
     names = list(metrics)
     lines = [
         "# Blackboard experiment (Fox & Prescott 2011)",
@@ -356,7 +398,7 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
     """
     progress = progress or no_progress
     out_dir = Path(out_dir)
-    seeds = np.random.SeedSequence(config.seed).spawn(1 + 2 * len(CONDITIONS))
+    seeds = np.random.SeedSequence(config.seed).spawn(1 + 3 * len(CONDITIONS))
     world = initial(
         np.random.default_rng(seeds[0]), scenario(config.scenario), name=config.scenario
     )
@@ -392,15 +434,76 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
                 ),
             )
         )
+        if config.fused:
+            figures.append(
+                _fused_condition(name, config, world, poses, seeds, metrics, progress, out_dir)
+            )
+            metric_files[-1] = write_json(out_dir / name / "metrics.json", metrics[name])
         if snap_run is None or name == "normal":
             snap_run = result
     if snap_run is not None and snap_run["snapshots"]:
         figures += _snapshot_figures(snap_run, world, shape, poses[snapshot_at], out_dir)
     metric_files.append(write_text(out_dir / "summary.md", _summary(metrics, world, config)))
     headline: dict[str, float | int | str] = {"scenario": world.name}
+    keys = ("precision", "recall", "gospa_mean", "fused_precision", "fused_recall")
     for name, values in metrics.items():
-        headline.update({f"{name}_{k}": values[k] for k in ("precision", "recall", "gospa_mean")})
+        headline.update({f"{name}_{k}": values[k] for k in keys if k in values})
     return ExperimentResult("blackboard", out_dir, tuple(figures), tuple(metric_files), headline)
+
+
+def _fused_condition(
+    name: str,
+    config: Config,
+    world: TablesWorld,
+    poses: np.ndarray,
+    seeds: list[np.random.SeedSequence],
+    metrics: dict[str, dict[str, Any]],
+    progress: ProgressHook,
+    out_dir: Path,
+) -> Path:
+    """The fused mapper on the condition's readings: metrics into ``metrics[name]``, figure."""
+    k = list(CONDITIONS).index(name)
+    sensor = _sensor(config, name)
+    p = world.params
+    catalogue = (ObjectType("table", p.table_length, p.table_width, p.leg_width),)
+    result = run_fused(
+        world,
+        poses,
+        catalogue,
+        sensor,
+        fused_params(sensor, config.fused_mapper),
+        np.random.default_rng(seeds[1 + 2 * k]),
+        np.random.default_rng(seeds[1 + 2 * len(CONDITIONS) + k]),
+        label=f"{name} fused",
+        progress=progress,
+    )
+    tol = MatchTolerance(config.position_tol, config.angle_tol, p.table_length / 2, config.gospa_c)
+    metrics[name].update(fused_metrics(result, world, tol))
+    metrics[name].update(
+        {
+            "fused_per_pose_ms_median": float(np.median(result["step_ms"])),
+            "fused_per_pose_ms_p95": float(np.percentile(result["step_ms"], 95)),
+            "fused_wall_s": float(result["wall_s"]),
+        }
+    )
+    fused = result["fused"]
+    sizes = np.tile([p.table_length, p.table_width, p.leg_width], (len(fused.tables), 1))
+    m = metrics[name]
+    title = (
+        f"{name}: fused map of {len(poses)} poses — precision {m['fused_precision']:.2f}, "
+        f"recall {m['fused_recall']:.2f}"
+    )
+    figure = fused_map_figure(
+        world.tables,
+        world.table_sizes,
+        fused.tables[:, :3],
+        sizes,
+        fused.existence,
+        ["table"] * len(fused.tables),
+        world.bounds,
+        title,
+    )
+    return write_bytes(out_dir / name / "fused_map.png", figure_png(figure))
 
 
 def _snapshot_figures(
