@@ -10,6 +10,7 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from bayesmap.errors import BayesmapError
 from bayesmap.experiments import blackboard_world
 from bayesmap.sim.world_files import StressOptions, generate_world, save_world
 
@@ -49,9 +50,16 @@ def run_command(
         def hook(description: str, completed: int, total: int) -> None:
             bar.update(task, completed=completed, total=total)
 
-        result = blackboard_world.run(config, out, progress=hook)
+        try:
+            result = blackboard_world.run(config, out, progress=hook)
+        except BayesmapError as error:
+            bar.stop()
+            console.print(f"error: {error}", markup=False, soft_wrap=True)
+            raise typer.Exit(1) from error
     numbers = ", ".join(f"{k} {v:.3f}" for k, v in result.headline.items() if isinstance(v, float))
-    console.print(f"wrote {out}/metrics.json, map.json, map.png: {numbers}", markup=False)
+    console.print(
+        f"wrote {out}/metrics.json, map.json, map.png: {numbers}", markup=False, soft_wrap=True
+    )
 
 
 @app.command("world")
