@@ -18,8 +18,10 @@ Examples
 >>> from bayesmap.blackboard.sweep_model import ObjectType
 >>> mapper = FusedMapper((ObjectType("desk", 1.2, 0.8, 0.1),), (6.0, 6.0), FusedParams())
 >>> nothing = np.array([[1.0, 0.0, 1.0, np.nan, np.nan, np.nan]])  # swept, touched nothing
->>> mapper.step(np.array([3.0, 3.0, 0.0]), nothing, rng=0).tables.shape
-(0, 4)
+>>> for _ in range(3):  # the same view three times: one stored row, counted three times
+...     step = mapper.step(np.array([3.0, 3.0, 0.0]), nothing, rng=0)
+>>> len(mapper.store_), mapper.store_.counts_.tolist(), step.tables.shape[1]
+(1, [3.0], 4)
 """
 
 from __future__ import annotations
