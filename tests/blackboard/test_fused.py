@@ -374,3 +374,19 @@ def test_step_is_deterministic_for_a_seed() -> None:
         return tables
 
     assert np.array_equal(tour(7), tour(7))
+
+
+def test_the_documented_example_runs_and_finds_the_stool() -> None:
+    """docs/blackboard.md's fused-mapper example gives what its comment says."""
+    import re
+    from pathlib import Path
+
+    doc = Path(__file__).resolve().parents[2] / "docs" / "blackboard.md"
+    text = doc.read_text(encoding="utf-8").split("# Past the paper")[1]
+    block = re.findall(r"```python\n(.*?)```", text, re.DOTALL)[0]
+    namespace: dict[str, object] = {}
+    exec(compile(block, str(doc), "exec"), namespace)
+    objects = namespace["room"].objects()  # type: ignore[attr-defined]
+    assert len(objects) == 1 and objects[0]["type"] == "stool"
+    assert math.hypot(objects[0]["x"] - 2.0, objects[0]["y"] - 1.5) < 0.03
+    assert objects[0]["existence_probability"] > 0.9
