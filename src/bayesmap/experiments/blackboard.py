@@ -516,9 +516,13 @@ def _snapshot_figures(
     points = run["whisker_points"]
     args = (shape, world.tables, pose, points, world.bounds)
     return [
-        write_bytes(out_dir / "snapshot_high.png", figure_png(snapshot_figure(busiest, *args))),
         write_bytes(
-            out_dir / "snapshot_low.png", figure_png(snapshot_figure(snapshots[-1], *args))
+            out_dir / "snapshot_high.png",
+            figure_png(snapshot_figure(busiest, *args, label="high temperature")),
+        ),
+        write_bytes(
+            out_dir / "snapshot_low.png",
+            figure_png(snapshot_figure(snapshots[-1], *args, label="low temperature")),
         ),
         write_bytes(out_dir / "annealing.gif", annealing_gif(snapshots, *args)),
     ]
