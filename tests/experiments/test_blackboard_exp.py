@@ -13,7 +13,15 @@ from bayesmap.errors import ConfigError
 from bayesmap.experiments import blackboard
 
 POSES = 12
-TIMINGS = ("per_pose_ms_median", "per_pose_ms_p95", "wall_s")
+QUICK = {"burn_in": 50, "samples": 100, "anneal": 50}
+TIMINGS = (
+    "per_pose_ms_median",
+    "per_pose_ms_p95",
+    "wall_s",
+    "fused_per_pose_ms_median",
+    "fused_per_pose_ms_p95",
+    "fused_wall_s",
+)
 
 
 def _scores(out_dir, condition):
@@ -26,7 +34,7 @@ def _scores(out_dir, condition):
 def reduced(tmp_path_factory):
     out = tmp_path_factory.mktemp("blackboard")
     calls = []
-    config = blackboard.Config(poses=POSES)
+    config = blackboard.Config(poses=POSES, fused_mapper=QUICK)
     result = blackboard.run(config, out, progress=lambda *a: calls.append(a))
     return out, result, calls
 
@@ -38,6 +46,7 @@ def test_writes_every_file(reduced):
     assert (out / "annealing.gif").read_bytes()[:6] == b"GIF89a"
     for condition in ("normal", "noiseless", "noisy"):
         assert (out / condition / "montage.png").stat().st_size > 1000
+        assert (out / condition / "fused_map.png").stat().st_size > 1000
         assert (out / condition / "metrics.json") in result.metrics
     summary = (out / "summary.md").read_text()
     assert "| precision |" in summary and "4.2 ± 1.7" in summary
@@ -46,7 +55,8 @@ def test_writes_every_file(reduced):
 
 def test_metrics_are_sane(reduced):
     out, _, calls = reduced
-    assert calls[-1] == ("noisy", POSES, POSES)
+    assert ("noisy", POSES, POSES) in calls
+    assert calls[-1] == ("noisy fused", POSES + 1, POSES + 1)
     assert [c[1] for c in calls if c[0] == "normal"] == list(range(1, POSES + 1))
     contacts = None
     for condition in ("normal", "noiseless", "noisy"):
@@ -72,7 +82,8 @@ def test_metrics_are_sane(reduced):
 
 def test_same_seed_same_result_and_independent_streams(reduced, tmp_path):
     out, _, _ = reduced
-    blackboard.run(blackboard.Config(poses=POSES, conditions=("noisy",)), tmp_path)
+    config = blackboard.Config(poses=POSES, conditions=("noisy",), fused_mapper=QUICK)
+    blackboard.run(config, tmp_path)
     # a condition's streams do not depend on which other conditions run
     assert _scores(tmp_path, "noisy") == _scores(out, "noisy")
 

@@ -128,3 +128,31 @@ def test_recall_by_support_splits_pairs_by_legs_in_memory():
     assert math.isnan(r["4"])
     with pytest.raises(ValueError, match="align"):
         recall_by_support(maps[:1], touched[:1], [np.array([3])], truth)
+
+
+def test_fused_scores_respect_square_symmetry_types_and_walls():
+    from bayesmap.experiments.table_metrics import fused_scores
+
+    truth = np.array([[2.0, 2.0, 0.1], [4.0, 2.0, 0.3]])
+    truth_sizes = np.array([[1.2, 0.8], [0.8, 0.8]])
+    mapped = np.array(
+        [
+            [2.05, 2.0, 0.1 + np.pi],  # the desk, half a turn round: a match
+            [4.0, 2.02, 0.3 + np.pi / 2],  # the square stool, a quarter turn round: a match
+            [0.5, 3.0, 0.0],  # a phantom with a corner 0.1 m from the wall x = 0
+            [3.0, 3.8, 0.0],  # a phantom crossing the wall y = 4
+            [3.0, 1.0, 0.0],  # a phantom in the open
+        ]
+    )
+    sizes = np.array([[1.2, 0.8], [1.2, 0.8], [0.8, 0.8], [1.2, 0.8], [0.8, 0.8]])
+    scores = fused_scores(mapped, sizes, truth, truth_sizes, (0.0, 0.0, 6.0, 4.0))
+    assert scores["fused_matched"] == 2 and scores["fused_recall"] == 1.0
+    assert scores["fused_precision"] == pytest.approx(2 / 5)
+    assert scores["fused_wall_phantoms"] == 2
+    assert scores["type_accuracy"] == 0.5  # the stool was mapped as a desk
+    assert scores["fused_angle_error_mean"] == pytest.approx(0.0, abs=1e-12)
+    # a rectangle a quarter turn round is not the same table
+    turned = fused_scores(
+        truth[:1] + [0, 0, np.pi / 2], truth_sizes[:1], truth[:1], truth_sizes[:1], (0, 0, 6, 4)
+    )
+    assert turned["fused_matched"] == 0

@@ -28,6 +28,7 @@ from typer.exceptions import TyperException
 
 from bayesmap import __version__
 from bayesmap._io import terminate_as_exit
+from bayesmap.cli import blackboard as blackboard_commands
 from bayesmap.cli import bn as bn_commands
 from bayesmap.cli import sonar as sonar_commands
 from bayesmap.cli import sweep as sweep_commands
@@ -44,6 +45,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 app.add_typer(bn_commands.app, name="bn")
+app.add_typer(blackboard_commands.app, name="blackboard")
 app.add_typer(sonar_commands.app, name="sonar")
 app.command()(sweep_commands.sweep)
 app.command()(sweep_commands.report)

@@ -12,8 +12,13 @@ condition ``k`` (its position in :data:`~bayesmap.sim.whiskers.CONDITIONS`) draw
 sensor noise from child ``1 + 2k`` and runs its chain on child ``2 + 2k`` — so a condition's
 result does not depend on which other conditions run.
 
+Past the paper, each condition's readings also go to the fused mapper, which keeps every
+sweep and builds one map of the room (``fused_*`` metrics; its chain runs on child
+``1 + 2·3 + k``).
+
 Outputs under ``out_dir``: ``ground_truth.png`` (Fig. 4); per condition
-``<condition>/montage.png`` (Figs. 5–7) and ``<condition>/metrics.json``;
+``<condition>/montage.png`` (Figs. 5–7), ``<condition>/fused_map.png`` and
+``<condition>/metrics.json``;
 ``snapshot_high.png`` and ``snapshot_low.png`` (Figs. 1–2) and ``annealing.gif`` for one
 pose of the ``normal`` run; ``summary.md``.
 """
@@ -34,6 +39,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap.blackboard import BlackboardParams, Snapshot, TableMapper
+from bayesmap.blackboard.sweep_model import ObjectType
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.experiments._common import (
     ExperimentResult,
@@ -41,6 +47,7 @@ from bayesmap.experiments._common import (
     no_progress,
     run_in_folder,
 )
+from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused
 from bayesmap.experiments.table_metrics import MatchTolerance, recall_by_support, score_run
 from bayesmap.sim.tables_world import TablesWorld, build, initial, pose_sequence, scenario
 from bayesmap.sim.whiskers import CONDITIONS, WhiskerParams, h, observe
@@ -48,6 +55,7 @@ from bayesmap.viz.tables import (
     TableShape,
     annealing_gif,
     figure_png,
+    fused_map_figure,
     ground_truth_figure,
     montage_figure,
     snapshot_figure,
@@ -97,6 +105,12 @@ class Config(BaseModel):
         A given layout ``{"name", "scenario", "tables": [[x, y, theta], ...]}`` (from
         :func:`generate_world` or :func:`load_world`) used instead of drawing the
         scenario's tables from ``seed``.
+    fused
+        Also run the fused mapper (:class:`~bayesmap.blackboard.fused.FusedMapper`) on each
+        condition's readings — the same readings the paper's mapper saw — and add its map
+        (``<condition>/fused_map.png``) and ``fused_*`` metrics.
+    fused_mapper
+        Overrides of :class:`~bayesmap.blackboard.fused.FusedParams` fields.
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
@@ -124,6 +138,9 @@ class Config(BaseModel):
     def _valid_world(cls, value: dict[str, Any] | None) -> dict[str, Any] | None:
         return None if value is None else _checked_world(value, "Config.world")
 
+    fused: bool = True
+    fused_mapper: dict[str, int | float] = Field(default_factory=dict)
+
     @field_validator("conditions")
     @classmethod
     def _known_conditions(cls, value: tuple[str, ...]) -> tuple[str, ...]:
@@ -135,17 +152,22 @@ class Config(BaseModel):
         return value
 
 
-def _mapper_params(config: Config, world: TablesWorld, sensor: WhiskerParams) -> BlackboardParams:
-    """Blackboard constants for one condition: the world's table size, the sensor's σ's."""
+def paper_params(
+    world: TablesWorld, sensor: WhiskerParams, overrides: dict[str, float] | None = None
+) -> BlackboardParams:
+    """Blackboard constants for one condition: the world's table size, the sensor's σ's.
+
+    A world of several table sizes gives the paper's one-size model its largest table.
+    """
     geometry = world.params
-    overrides: dict[str, Any] = dict(config.mapper)
+    fields: dict[str, Any] = dict(overrides or {})
     try:
         base = replace(
             BlackboardParams(),
             table_length=geometry.table_length,
             table_width=geometry.table_width,
             leg_width=geometry.leg_width,
-            **overrides,
+            **fields,
         )
     except TypeError as error:
         raise ConfigError(
@@ -169,6 +191,11 @@ def _snapshot_pose(world: TablesWorld, poses: np.ndarray, whiskers: WhiskerParam
     return 0
 
 
+def _sensor(config: Config, name: str) -> WhiskerParams:
+    sigma_r, sigma_theta, sigma_tau = config.sigmas.get(name, tuple(CONDITIONS[name].values()))
+    return WhiskerParams(sigma_r=sigma_r, sigma_theta=sigma_theta, sigma_tau=sigma_tau)
+
+
 def _run_condition(
     name: str,
     config: Config,
@@ -180,11 +207,37 @@ def _run_condition(
 ) -> dict[str, Any]:
     """One condition's 400-pose run: MAP tables per pose, timings, contacts, snapshots."""
     k = list(CONDITIONS).index(name)
-    sensor_rng = np.random.default_rng(seeds[1 + 2 * k])
-    chain_rng = np.random.default_rng(seeds[2 + 2 * k])
-    sigma_r, sigma_theta, sigma_tau = config.sigmas.get(name, tuple(CONDITIONS[name].values()))
-    sensor = WhiskerParams(sigma_r=sigma_r, sigma_theta=sigma_theta, sigma_tau=sigma_tau)
-    mapper = TableMapper(_mapper_params(config, world, sensor))
+    sensor = _sensor(config, name)
+    return run_paper(
+        world,
+        poses,
+        sensor,
+        paper_params(world, sensor, config.mapper),
+        np.random.default_rng(seeds[1 + 2 * k]),
+        np.random.default_rng(seeds[2 + 2 * k]),
+        label=name,
+        snapshot_at=snapshot_at,
+        progress=progress,
+    )
+
+
+def run_paper(
+    world: TablesWorld,
+    poses: np.ndarray,
+    sensor: WhiskerParams,
+    params: BlackboardParams,
+    sensor_rng: np.random.Generator,
+    chain_rng: np.random.Generator,
+    *,
+    label: str,
+    snapshot_at: int = -1,
+    progress: ProgressHook = no_progress,
+) -> dict[str, Any]:
+    """The paper's per-pose mapper over a tour: MAP tables per pose, timings, contacts.
+
+    ``snapshot_at``: the pose whose annealing is recorded (−1: none).
+    """
+    mapper = TableMapper(params)
     maps, touched, support, contacts, step_s = [], [], [], [], []
     memory = np.zeros((0, 2), dtype=np.int64)
     snapshots: list[Snapshot] = []
@@ -205,7 +258,7 @@ def _run_condition(
         contacts.append(int((reading.table >= 0).sum()))
         if index == snapshot_at:
             whisker_points = reading.contacts.point
-        progress(name, index + 1, len(poses))
+        progress(label, index + 1, len(poses))
     return {
         "maps": maps,
         "touched": touched,
@@ -219,7 +272,8 @@ def _run_condition(
     }
 
 
-def _metrics(run: dict[str, Any], config: Config, world: TablesWorld) -> dict[str, Any]:
+def per_pose_metrics(run: dict[str, Any], config: Config, world: TablesWorld) -> dict[str, Any]:
+    """The per-pose metrics of a run (docs/blackboard-results.md, "Metrics")."""
     tol = MatchTolerance(
         position_tol=config.position_tol,
         angle_tol=config.angle_tol,
@@ -292,6 +346,32 @@ def _summary(metrics: dict[str, dict[str, Any]], world: TablesWorld, config: Con
         ),
         ("wall time [s]", lambda m: f"{m['wall_s']:.1f}"),
     ]
+    if all("fused_precision" in m for m in metrics.values()):
+        rows += [
+            (
+                "fused map: precision / recall",
+                lambda m: f"{m['fused_precision']:.3f} / {m['fused_recall']:.3f}",
+            ),
+            (
+                "fused map: objects / wall phantoms",
+                lambda m: f"{m['fused_objects']} / {m['fused_wall_phantoms']}",
+            ),
+            (
+                "fused map: position / angle error",
+                lambda m: (
+                    f"{m['fused_position_error_mean']:.3f} m / "
+                    f"{np.degrees(m['fused_angle_error_mean']):.1f}°"
+                ),
+            ),
+            ("fused map: GOSPA [m]", lambda m: f"{m['fused_gospa']:.3f}"),
+            (
+                "fused: per-pose ms median / p95, whole run [s]",
+                lambda m: (
+                    f"{m['fused_per_pose_ms_median']:.1f} / "
+                    f"{m['fused_per_pose_ms_p95']:.1f}, {m['fused_wall_s']:.1f}"
+                ),
+            ),
+        ]
     names = list(metrics)
     lines = [
         "# Blackboard experiment (Fox & Prescott 2011)",
@@ -339,7 +419,7 @@ def _run(
     """
     progress = progress or no_progress
     out_dir = Path(out_dir)
-    seeds = np.random.SeedSequence(config.seed).spawn(1 + 2 * len(CONDITIONS))
+    seeds = np.random.SeedSequence(config.seed).spawn(1 + 3 * len(CONDITIONS))
     if config.world is None:
         world = initial(
             np.random.default_rng(seeds[0]), scenario(config.scenario), name=config.scenario
@@ -368,7 +448,7 @@ def _run(
     snap_run = None
     for name in config.conditions:
         result = _run_condition(name, config, world, poses, seeds, snapshot_at, progress)
-        metrics[name] = _metrics(result, config, world)
+        metrics[name] = per_pose_metrics(result, config, world)
         metric_files.append(write_json(out_dir / name / "metrics.json", metrics[name]))
         title = (
             f"{name}: MAP tables of {len(poses)} poses (σ_r = {result['sensor'].sigma_r:g} m, "
@@ -382,15 +462,76 @@ def _run(
                 ),
             )
         )
+        if config.fused:
+            figures.append(
+                _fused_condition(name, config, world, poses, seeds, metrics, progress, out_dir)
+            )
+            metric_files[-1] = write_json(out_dir / name / "metrics.json", metrics[name])
         if snap_run is None or name == "normal":
             snap_run = result
     if snap_run is not None and snap_run["snapshots"]:
         figures += _snapshot_figures(snap_run, world, shape, poses[snapshot_at], out_dir)
     metric_files.append(write_text(out_dir / "summary.md", _summary(metrics, world, config)))
     headline: dict[str, float | int | str] = {"scenario": world.name}
+    keys = ("precision", "recall", "gospa_mean", "fused_precision", "fused_recall")
     for name, values in metrics.items():
-        headline.update({f"{name}_{k}": values[k] for k in ("precision", "recall", "gospa_mean")})
+        headline.update({f"{name}_{k}": values[k] for k in keys if k in values})
     return ExperimentResult("blackboard", out_dir, tuple(figures), tuple(metric_files), headline)
+
+
+def _fused_condition(
+    name: str,
+    config: Config,
+    world: TablesWorld,
+    poses: np.ndarray,
+    seeds: list[np.random.SeedSequence],
+    metrics: dict[str, dict[str, Any]],
+    progress: ProgressHook,
+    out_dir: Path,
+) -> Path:
+    """The fused mapper on the condition's readings: metrics into ``metrics[name]``, figure."""
+    k = list(CONDITIONS).index(name)
+    sensor = _sensor(config, name)
+    p = world.params
+    catalogue = (ObjectType("table", p.table_length, p.table_width, p.leg_width),)
+    result = run_fused(
+        world,
+        poses,
+        catalogue,
+        sensor,
+        fused_params(sensor, config.fused_mapper),
+        np.random.default_rng(seeds[1 + 2 * k]),
+        np.random.default_rng(seeds[1 + 2 * len(CONDITIONS) + k]),
+        label=f"{name} fused",
+        progress=progress,
+    )
+    tol = MatchTolerance(config.position_tol, config.angle_tol, p.table_length / 2, config.gospa_c)
+    metrics[name].update(fused_metrics(result, world, tol))
+    metrics[name].update(
+        {
+            "fused_per_pose_ms_median": float(np.median(result["step_ms"])),
+            "fused_per_pose_ms_p95": float(np.percentile(result["step_ms"], 95)),
+            "fused_wall_s": float(result["wall_s"]),
+        }
+    )
+    fused = result["fused"]
+    sizes = np.tile([p.table_length, p.table_width, p.leg_width], (len(fused.tables), 1))
+    m = metrics[name]
+    title = (
+        f"{name}: fused map of {len(poses)} poses — precision {m['fused_precision']:.2f}, "
+        f"recall {m['fused_recall']:.2f}"
+    )
+    figure = fused_map_figure(
+        world.tables,
+        world.table_sizes,
+        fused.tables[:, :3],
+        sizes,
+        fused.existence,
+        ["table"] * len(fused.tables),
+        world.bounds,
+        title,
+    )
+    return write_bytes(out_dir / name / "fused_map.png", figure_png(figure))
 
 
 def _snapshot_figures(
@@ -403,9 +544,13 @@ def _snapshot_figures(
     points = run["whisker_points"]
     args = (shape, world.tables, pose, points, world.bounds)
     return [
-        write_bytes(out_dir / "snapshot_high.png", figure_png(snapshot_figure(busiest, *args))),
         write_bytes(
-            out_dir / "snapshot_low.png", figure_png(snapshot_figure(snapshots[-1], *args))
+            out_dir / "snapshot_high.png",
+            figure_png(snapshot_figure(busiest, *args, label="high temperature")),
+        ),
+        write_bytes(
+            out_dir / "snapshot_low.png",
+            figure_png(snapshot_figure(snapshots[-1], *args, label="low temperature")),
         ),
         write_bytes(out_dir / "annealing.gif", annealing_gif(snapshots, *args)),
     ]

@@ -35,8 +35,10 @@ __all__ = [
     "gospa",
     "match_tables",
     "near_wall",
+    "fused_scores",
     "pose_distance",
     "score_run",
+    "symmetry_period",
 ]
 
 
@@ -74,49 +76,80 @@ def _poses(tables: FloatArray, what: str) -> FloatArray:
     return array[:, :3]
 
 
-def angle_difference(a: FloatArray, b: FloatArray) -> FloatArray:
-    """Symmetric angle difference [rad] in [0, π/2] of rectangles at angles ``a``, ``b``."""
-    d = np.mod(np.asarray(a) - np.asarray(b), np.pi)
-    return np.asarray(np.minimum(d, np.pi - d))
+def angle_difference(
+    a: FloatArray, b: FloatArray, period: float | FloatArray = np.pi
+) -> FloatArray:
+    """Symmetric angle difference [rad] of rectangles at angles ``a``, ``b``.
+
+    ``period`` is the shape's rotational symmetry: π for a rectangle (difference in
+    [0, π/2]), π/2 for a square (in [0, π/4]); one value or an array that broadcasts.
+    """
+    d = np.mod(np.asarray(a) - np.asarray(b), period)
+    return np.asarray(np.minimum(d, period - d))
 
 
-def pose_distance(a: FloatArray, b: FloatArray, angle_scale: float = 0.6) -> FloatArray:
-    """``(k, m)`` pose distances [m] between tables ``a`` (k, ≥3) and ``b`` (m, ≥3)."""
+def symmetry_period(sizes: FloatArray) -> FloatArray:
+    """``(n,)`` rotational symmetry [rad] of rectangles ``(n, ≥2)`` ``length, width``."""
+    sizes = np.asarray(sizes, dtype=np.float64).reshape(
+        -1, sizes.shape[-1] if np.ndim(sizes) else 2
+    )
+    return np.where(np.isclose(sizes[:, 0], sizes[:, 1]), np.pi / 2, np.pi)
+
+
+def pose_distance(
+    a: FloatArray, b: FloatArray, angle_scale: float = 0.6, periods: FloatArray | None = None
+) -> FloatArray:
+    """``(k, m)`` pose distances [m] between tables ``a`` (k, ≥3) and ``b`` (m, ≥3).
+
+    ``periods`` (m,): the symmetry of each table of ``b`` (default π, rectangles).
+    """
     a, b = _poses(a, "a"), _poses(b, "b")
     dxy = np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1])
-    dtheta = angle_difference(a[:, None, 2], b[None, :, 2])
+    period = np.pi if periods is None else np.asarray(periods)[None, :]
+    dtheta = angle_difference(a[:, None, 2], b[None, :, 2], period)
     return np.asarray(np.hypot(dxy, angle_scale * dtheta))
 
 
 def match_tables(
-    estimated: FloatArray, truth: FloatArray, tol: MatchTolerance = MatchTolerance()
+    estimated: FloatArray,
+    truth: FloatArray,
+    tol: MatchTolerance = MatchTolerance(),
+    periods: FloatArray | None = None,
 ) -> tuple[IntArray, IntArray]:
     """One-to-one matches of mapped to true tables within the tolerances.
 
-    Returns index arrays ``(i, j)``: ``estimated[i[k]]`` matches ``truth[j[k]]``.
+    ``periods`` (n,): the rotational symmetry of each true table (default π; π/2 for a
+    square). Returns index arrays ``(i, j)``: ``estimated[i[k]]`` matches ``truth[j[k]]``.
     """
     est, tru = _poses(estimated, "estimated"), _poses(truth, "truth")
     if not len(est) or not len(tru):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     dxy = np.hypot(est[:, None, 0] - tru[None, :, 0], est[:, None, 1] - tru[None, :, 1])
+    period = np.pi if periods is None else np.asarray(periods)[None, :]
     ok = (dxy <= tol.position_tol) & (
-        angle_difference(est[:, None, 2], tru[None, :, 2]) <= tol.angle_tol
+        angle_difference(est[:, None, 2], tru[None, :, 2], period) <= tol.angle_tol
     )
-    cost = np.where(ok, pose_distance(est, tru, tol.angle_scale), 1e6)
+    cost = np.where(ok, pose_distance(est, tru, tol.angle_scale, periods), 1e6)
     rows, cols = linear_sum_assignment(cost)
     keep = ok[rows, cols]
     return rows[keep].astype(np.int64), cols[keep].astype(np.int64)
 
 
 def gospa(
-    estimated: FloatArray, truth: FloatArray, tol: MatchTolerance = MatchTolerance()
+    estimated: FloatArray,
+    truth: FloatArray,
+    tol: MatchTolerance = MatchTolerance(),
+    periods: FloatArray | None = None,
 ) -> float:
-    """GOSPA distance [m] (α = 2) between two sets of tables (Rahmathullah et al. 2017)."""
+    """GOSPA distance [m] (α = 2) between two sets of tables (Rahmathullah et al. 2017).
+
+    ``periods``: the true tables' symmetries, as in :func:`match_tables`.
+    """
     est, tru = _poses(estimated, "estimated"), _poses(truth, "truth")
     c, p = tol.c, tol.p
     unassigned = (len(est) + len(tru)) * c**p / 2.0
     if len(est) and len(tru):
-        d = np.minimum(pose_distance(est, tru, tol.angle_scale), c) ** p
+        d = np.minimum(pose_distance(est, tru, tol.angle_scale, periods), c) ** p
         rows, cols = linear_sum_assignment(d - c**p)
         paired = d[rows, cols]
         unassigned -= c**p * len(rows)
@@ -252,3 +285,89 @@ def recall_by_support(
         result[str(k)] = float(found[k] / pairs[k]) if pairs[k] else float("nan")
         result[f"pairs_{k}"] = int(pairs[k])
     return result
+
+
+def fused_scores(
+    estimated: FloatArray,
+    estimated_sizes: FloatArray,
+    truth: FloatArray,
+    truth_sizes: FloatArray,
+    bounds: tuple[float, float, float, float],
+    tol: MatchTolerance = MatchTolerance(),
+    wall_margin: float = 0.3,
+) -> dict[str, float]:
+    """Score one fused map of the whole room against the true tables.
+
+    Parameters
+    ----------
+    estimated, truth
+        ``(k, ≥3)`` and ``(n, ≥3)`` tables ``x, y, theta``.
+    estimated_sizes, truth_sizes
+        ``(k, 2)`` and ``(n, 2)`` their ``length, width`` [m]; a true square table matches
+        modulo π/2 (the rectangle's symmetry), others modulo π.
+    bounds
+        Arena ``(xmin, ymin, xmax, ymax)`` [m].
+    wall_margin
+        An unmatched mapped table with a corner within this distance [m] of a wall, or
+        beyond one, is a wall phantom.
+
+    Returns
+    -------
+    dict
+        ``fused_precision``, ``fused_recall``, ``fused_wall_phantoms``, ``fused_gospa`` [m],
+        ``fused_position_error_mean`` [m], ``fused_angle_error_mean`` [rad],
+        ``type_accuracy`` (matched tables whose size is right to 1 cm), ``fused_objects``,
+        ``fused_matched``.
+    """
+    est, tru = _poses(estimated, "estimated"), _poses(truth, "truth")
+    est_sizes = np.asarray(estimated_sizes, dtype=np.float64).reshape(-1, 2)
+    tru_sizes = np.asarray(truth_sizes, dtype=np.float64).reshape(-1, 2)
+    if len(est_sizes) != len(est) or len(tru_sizes) != len(tru):
+        raise InputError("fused_scores: one size row per table is needed")
+    periods = symmetry_period(tru_sizes)
+    i, j = match_tables(est, tru, tol, periods)
+    phantom = np.ones(len(est), bool)
+    phantom[i] = False
+    corners = rectangle_outline(est, est_sizes)
+    xmin, ymin, xmax, ymax = bounds
+    gap = (
+        np.minimum.reduce(
+            [
+                corners[..., 0] - xmin,
+                corners[..., 1] - ymin,
+                xmax - corners[..., 0],
+                ymax - corners[..., 1],
+            ]
+        ).min(axis=1)
+        if len(est)
+        else np.zeros(0)
+    )
+    nan = float("nan")
+    right_type = np.all(np.abs(est_sizes[i] - tru_sizes[j]) <= 0.01, axis=1)
+    return {
+        "fused_objects": len(est),
+        "fused_matched": len(i),
+        "fused_precision": len(i) / len(est) if len(est) else nan,
+        "fused_recall": len(j) / len(tru) if len(tru) else nan,
+        "fused_wall_phantoms": int((phantom & (gap <= wall_margin)).sum()),
+        "fused_gospa": gospa(est, tru, tol, periods),
+        "fused_position_error_mean": float(np.hypot(*(est[i, :2] - tru[j, :2]).T).mean())
+        if len(i)
+        else nan,
+        "fused_angle_error_mean": float(angle_difference(est[i, 2], tru[j, 2], periods[j]).mean())
+        if len(i)
+        else nan,
+        "type_accuracy": float(right_type.mean()) if len(i) else nan,
+    }
+
+
+def rectangle_outline(tables: FloatArray, sizes: FloatArray) -> FloatArray:
+    """``(k, 4, 2)`` corners [m] of tables ``(k, ≥3)`` with sizes ``(k, 2)`` length, width."""
+    tables = _poses(tables, "tables")
+    half = 0.5 * np.asarray(sizes, dtype=np.float64).reshape(-1, 2)
+    signs = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
+    local = signs[None] * half[:, None, :]
+    c, s = np.cos(tables[:, 2])[:, None], np.sin(tables[:, 2])[:, None]
+    x = tables[:, :1] + c * local[..., 0] - s * local[..., 1]
+    y = tables[:, 1:2] + s * local[..., 0] + c * local[..., 1]
+    return np.stack([x, y], axis=-1)

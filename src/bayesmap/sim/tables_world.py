@@ -32,6 +32,7 @@ __all__ = [
     "TablesWorld",
     "WorldParams",
     "build",
+    "build_mixed",
     "initial",
     "leg_centres",
     "pose_sequence",
@@ -142,25 +143,43 @@ class TablesWorld:
     texture: FloatArray = field(repr=False)
     table: IntArray = field(repr=False)
     leg: IntArray = field(repr=False)
+    sizes: FloatArray | None = field(default=None, repr=False)
+    arena: tuple[float, float] | None = None
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
         """``(xmin, ymin, xmax, ymax)`` [m] of the arena."""
+        if self.arena is not None:
+            return (0.0, 0.0, self.arena[0], self.arena[1])
         return (0.0, 0.0, self.params.arena_size, self.params.arena_size)
+
+    @property
+    def table_sizes(self) -> FloatArray:
+        """``(n_tables, 3)`` size of each table: ``length, width, leg_width`` [m]."""
+        if self.sizes is not None:
+            return self.sizes
+        p = self.params
+        return np.tile([p.table_length, p.table_width, p.leg_width], (len(self.tables), 1))
 
 
 def rectangle_corners(
-    x: FloatArray, y: FloatArray, theta: FloatArray, length: float, width: float
+    x: FloatArray,
+    y: FloatArray,
+    theta: FloatArray,
+    length: float | FloatArray,
+    width: float | FloatArray,
 ) -> FloatArray:
     """Corners of rectangles centred at ``(x, y)``, long side along ``theta``.
 
-    Returns ``(..., 4, 2)`` corners [m] in counter-clockwise order, starting at the
+    ``length`` and ``width`` are one size for all or one per rectangle. Returns
+    ``(..., 4, 2)`` corners [m] in counter-clockwise order, starting at the
     ``(+length/2, +width/2)`` corner of the rectangle's own frame.
     """
-    local = 0.5 * np.array([[length, width], [-length, width], [-length, -width], [length, -width]])
+    half_l = 0.5 * np.asarray(length, dtype=np.float64)[..., None] * np.array([1, -1, -1, 1])
+    half_w = 0.5 * np.asarray(width, dtype=np.float64)[..., None] * np.array([1, 1, -1, -1])
     c, s = np.cos(theta)[..., None], np.sin(theta)[..., None]
-    xs = np.asarray(x)[..., None] + c * local[:, 0] - s * local[:, 1]
-    ys = np.asarray(y)[..., None] + s * local[:, 0] + c * local[:, 1]
+    xs = np.asarray(x)[..., None] + c * half_l - s * half_w
+    ys = np.asarray(y)[..., None] + s * half_l + c * half_w
     return np.stack([xs, ys], axis=-1)
 
 
@@ -215,23 +234,36 @@ def _fits(
 
 
 def _segments(
-    tables: FloatArray, params: WorldParams
+    tables: FloatArray,
+    sizes: FloatArray,
+    textures: FloatArray,
+    arena: tuple[float, float],
+    wall_texture: float,
 ) -> tuple[FloatArray, FloatArray, FloatArray, IntArray, IntArray]:
-    """Leg faces and walls as segments with normals, textures and labels."""
-    legs = leg_centres(tables, params.table_length, params.table_width, params.leg_width)
+    """Leg faces and walls as segments with normals, textures and labels.
+
+    ``sizes`` holds each table's ``length, width, leg_width`` [m], ``textures`` its legs'
+    texture, ``arena`` the ``width, height`` [m] of the walled rectangle.
+    """
     k = len(tables)
-    theta = np.repeat(tables[:, 2], 4)
-    squares = rectangle_corners(
-        legs[..., 0].ravel(), legs[..., 1].ravel(), theta, params.leg_width, params.leg_width
+    legs = rectangle_corners(
+        tables[:, 0],
+        tables[:, 1],
+        tables[:, 2],
+        sizes[:, 0] - sizes[:, 2],
+        sizes[:, 1] - sizes[:, 2],
     )
+    theta = np.repeat(tables[:, 2], 4)
+    side = np.repeat(sizes[:, 2], 4)
+    squares = rectangle_corners(legs[..., 0].ravel(), legs[..., 1].ravel(), theta, side, side)
     leg_segments = np.concatenate([squares, np.roll(squares, -1, axis=1)], axis=-1).reshape(-1, 4)
-    size = params.arena_size
-    box = np.array([[0.0, 0.0], [0.0, size], [size, size], [size, 0.0]])
+    width, height = arena
+    box = np.array([[0.0, 0.0], [0.0, height], [width, height], [width, 0.0]])
     wall_segments = np.concatenate([box, np.roll(box, -1, axis=0)], axis=-1)
     segments = np.concatenate([leg_segments, wall_segments])
     direction = segments[:, 2:] - segments[:, :2]
     normal = np.arctan2(-direction[:, 0], direction[:, 1])
-    texture = np.concatenate([np.full(16 * k, params.leg_texture), np.full(4, params.wall_texture)])
+    texture = np.concatenate([np.repeat(textures, 16), np.full(4, wall_texture)])
     table = np.concatenate([np.repeat(np.arange(k), 16), np.full(4, WALL)]).astype(np.int64)
     leg = np.concatenate([np.tile(np.repeat(np.arange(4), 4), k), np.full(4, WALL)]).astype(
         np.int64
@@ -296,8 +328,47 @@ def build(
     """A tables world holding the given ``(k, 3)`` tables ``x, y, theta`` (no checks of gaps)."""
     tables = np.array(tables, dtype=np.float64).reshape(-1, 3)
     tables[:, 2] = np.mod(tables[:, 2], np.pi)
-    segments, normal, texture, table, leg = _segments(tables, params)
+    sizes = np.tile([params.table_length, params.table_width, params.leg_width], (len(tables), 1))
+    textures = np.full(len(tables), params.leg_texture)
+    arena = (params.arena_size, params.arena_size)
+    segments, normal, texture, table, leg = _segments(
+        tables, sizes, textures, arena, params.wall_texture
+    )
     return TablesWorld(name, params, tables, segments, normal, texture, table, leg)
+
+
+def build_mixed(
+    tables: FloatArray,
+    sizes: FloatArray,
+    textures: FloatArray,
+    arena: tuple[float, float],
+    *,
+    wall_texture: float = 0.3,
+    name: str = "whisker-tables-file",
+) -> TablesWorld:
+    """A tables world of tables of several sizes in a ``width × height`` [m] arena.
+
+    ``tables`` are ``(k, 3)`` rows ``x, y, theta``, ``sizes`` ``(k, 3)`` rows ``length,
+    width, leg_width`` [m] and ``textures`` ``(k,)`` leg textures (no checks of gaps; see
+    :mod:`bayesmap.sim.world_files` for validated worlds).
+    """
+    tables = np.array(tables, dtype=np.float64).reshape(-1, 3)
+    tables[:, 2] = np.mod(tables[:, 2], np.pi)
+    sizes = np.array(sizes, dtype=np.float64).reshape(-1, 3)
+    textures = np.asarray(textures, dtype=np.float64).reshape(-1)
+    segments, normal, texture, table, leg = _segments(tables, sizes, textures, arena, wall_texture)
+    params = WorldParams(
+        arena_size=max(arena),
+        n_tables=len(tables),
+        table_length=float(sizes[:, 0].max()) if len(sizes) else 1.2,
+        table_width=float(sizes[:, 1].max()) if len(sizes) else 0.8,
+        leg_width=float(sizes[:, 2].max()) if len(sizes) else 0.1,
+        wall_texture=wall_texture,
+        grid_margin=min(0.48, 0.25 * min(arena)),
+    )
+    return TablesWorld(
+        name, params, tables, segments, normal, texture, table, leg, sizes, (arena[0], arena[1])
+    )
 
 
 SCENARIOS: dict[str, WorldParams] = {"whisker-tables-v1": WorldParams()}

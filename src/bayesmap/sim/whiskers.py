@@ -18,6 +18,17 @@ with i.i.d. zero-mean Gaussian ε of standard deviations ``sigma_r`` [m], ``sigm
 ``S(x, y, θ, τ)``: the point ``r̂`` along the whisker's direction at contact, with
 ``θ = φ̂`` (wrapped to (−π, π]) and ``τ = τ̂`` (clipped into (0, 1), its domain).
 
+A whisker cannot feel a contact behind its own root, so the reported distance is folded
+at the root: ``r̂ = |r + ε_r|``. Its density is ``N(r̂; r, σ_r) + N(−r̂; r, σ_r)`` for
+``r̂ ≥ 0`` (the fused mapper's likelihood uses exactly this); the fold only changes draws
+with ``r + ε_r < 0``, which at the ``normal`` noise (σ_r = 2 cm, contacts ≥ 0.15 m away)
+never happen.
+
+Every whisker also reports its *sweep* (:data:`SWEEP_COLUMNS`), contact or not: the world
+angle it started from, the angle where it stopped (at the contact, or fully protracted when
+it touched nothing), its length, and r̂, φ̂, τ̂ (NaN when it touched nothing). This is the
+fused mapper's input: a sweep that touched nothing is evidence of free space.
+
 σ_r is in metres. The whiskers of ``"whisker-tables-v1"`` are 1 m long, so the paper's
 "very noisy" σ_r = 0.5 is also half a whisker length: both readings of its unit agree.
 
@@ -41,6 +52,7 @@ from bayesmap.sim.tables_world import TablesWorld
 
 __all__ = [
     "CONDITIONS",
+    "SWEEP_COLUMNS",
     "Contacts",
     "WhiskerParams",
     "WhiskerReading",
@@ -167,12 +179,21 @@ class WhiskerReading(NamedTuple):
         :data:`WALL` (−1) for a wall. For metrics only; the mapper never sees them.
     contacts
         The noiseless :class:`Contacts` behind the readings (for figures).
+    sweeps
+        ``(w, 6)`` one row per whisker, columns :data:`SWEEP_COLUMNS`.
     """
 
     shapelets: FloatArray
     table: IntArray
     leg: IntArray
     contacts: Contacts
+    sweeps: FloatArray
+
+
+SWEEP_COLUMNS = ("start", "stop", "length", "range", "normal", "texture")
+"""Columns of a sweep row: start and stop world angles [rad] of the whisker, its length
+[m], the reported distance r̂ [m], normal φ̂ [rad] and texture τ̂ (the last three NaN when the
+sweep touched nothing)."""
 
 
 NO_CONTACT = -2
@@ -302,7 +323,7 @@ def observe(
     contacts = h(world, pose, params)
     n = len(contacts.hit)
     noise = rng.standard_normal((3, n))
-    r_hat = contacts.r + params.sigma_r * noise[0]
+    r_hat = np.abs(contacts.r + params.sigma_r * noise[0])
     phi_hat = _wrap(contacts.normal + params.sigma_theta * noise[1])
     tau_hat = np.clip(contacts.texture + params.sigma_tau * noise[2], 1e-3, 1.0 - 1e-3)
     origin = np.asarray(pose, dtype=np.float64)[:2]
@@ -310,9 +331,24 @@ def observe(
         [np.cos(contacts.direction), np.sin(contacts.direction)]
     )
     shapelets = np.column_stack([xy, phi_hat, tau_hat])[contacts.hit]
+    side = np.sign(np.asarray(params.rest_angles))
+    heading = float(np.asarray(pose, dtype=np.float64)[2])
+    start = _wrap(heading + np.asarray(params.rest_angles) + side * params.sweep)
+    missing = np.where(contacts.hit, 1.0, np.nan)
+    sweeps = np.column_stack(
+        [
+            start,
+            contacts.direction,
+            np.full(n, params.whisker_length),
+            r_hat * missing,
+            phi_hat * missing,
+            tau_hat * missing,
+        ]
+    )
     return WhiskerReading(
         shapelets=np.ascontiguousarray(shapelets, dtype=np.float64),
         table=contacts.table[contacts.hit],
         leg=contacts.leg[contacts.hit],
         contacts=contacts,
+        sweeps=sweeps,
     )

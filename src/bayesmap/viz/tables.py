@@ -28,6 +28,7 @@ __all__ = [
     "TableShape",
     "annealing_gif",
     "figure_png",
+    "fused_map_figure",
     "ground_truth_figure",
     "montage_figure",
     "snapshot_figure",
@@ -178,16 +179,44 @@ def montage_figure(
     The fill's opacity falls with the number of tables drawn, so that where many poses
     agree on a table the map is dark and a lone table stays faint.
     """
-    fig = Figure(figsize=(5.2, 5.2))
+    fig = Figure(figsize=(5.2, 6.0))
     ax = fig.subplots()
     stacked = [np.asarray(m)[:, :3] for m in maps if np.size(m)]
-    if stacked:
-        every = np.concatenate(stacked)
+    every = np.concatenate(stacked) if stacked else np.zeros((0, 3))
+    if len(every):
         alpha = float(np.clip(12.0 / len(every), 0.025, 0.3))
         draw_tables(ax, every, shape, color=MAP_COLOR, alpha=alpha)
     draw_tables(ax, truth, shape, color=TRUTH_COLOR, alpha=1.0, filled=False, linewidth=1.4)
     _arena(ax, bounds)
     ax.set_title(title, fontsize=9)
+    corners = _rectangles(every, shape.length, shape.width)
+    xmin, ymin, xmax, ymax = bounds
+    outside = (
+        (corners[..., 0] < xmin)
+        | (corners[..., 0] > xmax)
+        | (corners[..., 1] < ymin)
+        | (corners[..., 1] > ymax)
+    ).any(axis=1)
+    ax.legend(
+        handles=[
+            Patch(facecolor="none", edgecolor=TRUTH_COLOR, lw=1.4, label="true table"),
+            Patch(
+                facecolor=MAP_COLOR,
+                alpha=0.35,
+                label="MAP tables of all poses (darker: more agree)",
+            ),
+        ],
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.1),
+        ncol=1,
+        fontsize=7,
+        frameon=False,
+        title=(
+            f"{int(outside.sum())} of {len(every)} MAP tables cross a wall: the paper's model has "
+            "no walls, so wall contacts become table legs"
+        ),
+        title_fontsize=7,
+    )
     return fig
 
 
@@ -200,14 +229,17 @@ def snapshot_figure(
     bounds: tuple[float, float, float, float],
     *,
     radius: float = 2.0,
+    label: str = "",
 ) -> Figure:
     """Figs. 1–2: one blackboard around the robot.
 
     True tables filled pink; hypothesised tables and legs as wire frames; shapelets as
     small yellow bars along the touched surface with a tick along their normal; the robot
-    as a cone and its whiskers as lines to their contacts (or protracted tips).
+    as a cone and its whiskers as lines to their contacts (or protracted tips). ``label``
+    starts the title (e.g. "high temperature"); a bar under the title shows how far through
+    the schedule the board is. The legend sits below the axes, never over a table.
     """
-    fig = Figure(figsize=(4.6, 4.6))
+    fig = Figure(figsize=(4.8, 5.4))
     ax = fig.subplots()
     draw_tables(ax, truth, shape, color=TRUTH_COLOR, alpha=0.45)
     draw_tables(ax, board.tables, shape, color="tab:blue", alpha=0.9, filled=False, linewidth=0.8)
@@ -243,18 +275,27 @@ def snapshot_figure(
             Patch(facecolor="none", edgecolor="tab:green", label="leg hypothesis"),
             Line2D([], [], color="gold", lw=3, label="shapelet (tick: normal)"),
         ],
-        loc="upper left",
-        fontsize=6,
-        framealpha=0.85,
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.13),
+        ncol=2,
+        fontsize=7,
+        frameon=False,
     )
     _arena(ax, bounds, pad=0.3)
     ax.set_xlim(max(bounds[0] - 0.3, x - radius), min(bounds[2] + 0.3, x + radius))
     ax.set_ylim(max(bounds[1] - 0.3, y - radius), min(bounds[3] + 0.3, y + radius))
+    prefix = f"{label}: " if label else ""
     ax.set_title(
-        f"temperature {board.index + 1}/{board.n_temperatures}, β = {board.beta:.3g}: "
-        f"{len(np.asarray(board.tables).reshape(-1, 5))} tables, {len(legs)} legs",
-        fontsize=8,
+        f"{prefix}step {board.index + 1} of {board.n_temperatures} temperatures, "
+        f"β = {board.beta:.3g}\n"
+        f"{len(np.asarray(board.tables).reshape(-1, 5))} tables, {len(legs)} legs on the board",
+        fontsize=9,
     )
+    done = (board.index + 1) / max(board.n_temperatures, 1)
+    bar = ax.inset_axes((0.0, 1.005, 1.0, 0.012))
+    bar.barh([0], [done], color="tab:red", height=1.0)
+    bar.set_xlim(0, 1)
+    bar.set_axis_off()
     return fig
 
 
@@ -268,19 +309,85 @@ def annealing_gif(
     *,
     frame_ms: int = 150,
 ) -> bytes:
-    """A GIF of one pose's annealing: one :func:`snapshot_figure` frame per temperature."""
+    """A GIF of one pose's annealing: one :func:`snapshot_figure` frame per temperature.
+
+    Every frame differs (its title and the schedule bar move on) even when the board has
+    settled, so the animation never looks stuck; the last frame is held for two seconds.
+    """
     frames = []
     for board in boards:
         fig = snapshot_figure(board, shape, truth, pose, whisker_points, bounds)
-        fig.subplots_adjust(left=0.12, right=0.97, bottom=0.1, top=0.93)
-        png = figure_png(fig, dpi=80, tight=False)
+        fig.subplots_adjust(left=0.13, right=0.97, bottom=0.24, top=0.88)
+        png = figure_png(fig, dpi=100, tight=False)
         frames.append(Image.open(io.BytesIO(png)).convert("P", palette=Image.Palette.ADAPTIVE))
     if not frames:
         return b""
     size = frames[0].size
     frames = [f if f.size == size else f.resize(size) for f in frames]
     buffer = io.BytesIO()
+    durations = [frame_ms] * (len(frames) - 1) + [2000]
     frames[0].save(
-        buffer, format="GIF", save_all=True, append_images=frames[1:], duration=frame_ms, loop=0
+        buffer, format="GIF", save_all=True, append_images=frames[1:], duration=durations, loop=0
     )
     return buffer.getvalue()
+
+
+def _draw_sized(
+    ax: Axes,
+    tables: FloatArray,
+    sizes: FloatArray,
+    *,
+    color: str,
+    alpha: float,
+    filled: bool,
+    linewidth: float = 0.8,
+) -> None:
+    """Draw tables of several sizes (``sizes`` rows ``length, width, leg``)."""
+    tables = np.asarray(tables, dtype=np.float64).reshape(-1, 3)
+    sizes = np.asarray(sizes, dtype=np.float64).reshape(-1, 3)
+    for size in np.unique(sizes, axis=0):
+        same = np.all(sizes == size, axis=1)
+        shape = TableShape(float(size[0]), float(size[1]), float(size[2]))
+        draw_tables(
+            ax, tables[same], shape, color=color, alpha=alpha, filled=filled, linewidth=linewidth
+        )
+
+
+def fused_map_figure(
+    truth: FloatArray,
+    truth_sizes: FloatArray,
+    objects: FloatArray,
+    object_sizes: FloatArray,
+    existence: FloatArray,
+    labels: Sequence[str],
+    bounds: tuple[float, float, float, float],
+    title: str,
+) -> Figure:
+    """The fused map over the truth: true tables filled, mapped objects outlined.
+
+    Each mapped object is labelled with its type and existence probability; the legend
+    sits below the arena so it never hides a table.
+    """
+    fig = Figure(figsize=(5.6, 6.2))
+    ax = fig.subplots()
+    _draw_sized(ax, truth, truth_sizes, color=TRUTH_COLOR, alpha=0.45, filled=True)
+    _draw_sized(ax, objects, object_sizes, color=MAP_COLOR, alpha=1.0, filled=False, linewidth=1.4)
+    for (x, y, _), p, label in zip(
+        np.asarray(objects).reshape(-1, 3), existence, labels, strict=True
+    ):
+        ax.text(x, y, f"{label}\np={p:.2f}", ha="center", va="center", fontsize=6, color=MAP_COLOR)
+    _arena(ax, bounds)
+    ax.set_title(title, fontsize=9)
+    ax.legend(
+        handles=[
+            Patch(facecolor=TRUTH_COLOR, alpha=0.45, label="true table"),
+            Line2D([], [], color=MAP_COLOR, lw=1.4, label="fused map (type, existence p)"),
+            Line2D([], [], color="k", lw=1.5, label="arena walls"),
+        ],
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.1),
+        ncol=3,
+        fontsize=7,
+        frameon=False,
+    )
+    return fig

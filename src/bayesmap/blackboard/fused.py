@@ -1,0 +1,339 @@
+"""The fused, persistent table mapper: one posterior over the whole room from every sweep.
+
+Where :class:`~bayesmap.blackboard.TableMapper` (the paper's Algorithm 1) forgets all but
+seven contacts and answers each pose on its own, :class:`FusedMapper` keeps every sweep in
+an :class:`~bayesmap.blackboard.evidence.EvidenceStore` and runs one reversible-jump chain
+(:mod:`~bayesmap.blackboard.rjmcmc`) on the posterior of
+:mod:`~bayesmap.blackboard.sweep_model` — contacts, free space, walls, several object
+types — across poses. Each :meth:`FusedMapper.step` stores a pose's sweeps and moves the
+chain a little inside a window around the robot (data-driven births from the legs seen
+there); :meth:`FusedMapper.finish` runs the chain over the whole arena: a tempered
+burn-in, sampling at β = 1 (each object's existence probability is the fraction of samples
+holding it), then annealing only to read off the MAP map. See docs/blackboard.md.
+
+Examples
+--------
+>>> import numpy as np
+>>> from bayesmap.blackboard.fused import FusedMapper, FusedParams
+>>> from bayesmap.blackboard.sweep_model import ObjectType
+>>> mapper = FusedMapper((ObjectType("desk", 1.2, 0.8, 0.1),), (6.0, 6.0), FusedParams())
+>>> nothing = np.array([[1.0, 0.0, 1.0, np.nan, np.nan, np.nan]])  # swept, touched nothing
+>>> for _ in range(3):  # the same view three times: one stored row, counted three times
+...     step = mapper.step(np.array([3.0, 3.0, 0.0]), nothing, rng=0)
+>>> len(mapper.store_), mapper.store_.counts_.tolist(), step.tables.shape[1]
+(1, [3.0], 4)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bayesmap._rng import RNGLike, as_generator
+from bayesmap._typing import FloatArray
+from bayesmap.blackboard.data_driven import BirthProposal, LegVotes, table_candidates
+from bayesmap.blackboard.evidence import EvidenceStore, check_sweeps
+from bayesmap.blackboard.rjmcmc import ChainState, Context, MoveRates, run
+from bayesmap.blackboard.sweep_model import ObjectType, SweepModel, check_catalogue
+from bayesmap.errors import ConfigError
+
+__all__ = ["FusedMap", "FusedMapper", "FusedParams", "FusedStep"]
+
+
+@dataclass(frozen=True)
+class FusedParams:
+    """Constants of the fused mapper (defaults and their reasons: docs/blackboard.md).
+
+    Parameters
+    ----------
+    sigma_r, sigma_perp, sigma_phi
+        Contact noise along the whisker [m], across it [m], of the normal [rad].
+    clutter
+        κ, density of contacts from no modelled surface [m⁻² rad⁻¹].
+    p_miss
+        Probability that a whisker sweeps through a leg without reporting it.
+    intensity
+        λ, prior density of tables of each type [m⁻² rad⁻¹].
+    log_overlap
+        log ε_c of the paper's overlap factor (eq. 16) per overlapping pair [nats].
+    uniform_share
+        Share of births drawn uniformly rather than from leg pairs.
+    birth_sigma_xy, birth_sigma_theta
+        Jitter of a data-driven birth about its candidate [m], [rad].
+    min_votes
+        Contacts' worth of votes a leg candidate needs.
+    spacing_tol
+        Tolerance [m] on leg spacings when pairing legs into tables.
+    step_moves
+        Chain moves per :meth:`FusedMapper.step`.
+    burn_in, samples, anneal
+        Moves of :meth:`FusedMapper.finish`: tempered burn-in (β rising from
+        ``beta_start`` to 1), sampling at β = 1, annealing (β from 1 to ``beta_end``).
+    record_every
+        Keep one sample of every this many sampling moves.
+    beta_start, beta_end
+        Inverse temperatures at the start of the burn-in and the end of annealing.
+    match_xy, match_theta
+        A sample holds a MAP object if it has one of the same type this close [m], [rad].
+    rates
+        Move probabilities and random-walk scales.
+    """
+
+    sigma_r: float = 0.02
+    sigma_perp: float = 0.01
+    sigma_phi: float = 0.1
+    clutter: float = 0.05
+    p_miss: float = 0.05
+    intensity: float = 0.02
+    log_overlap: float = -math.inf
+    uniform_share: float = 0.1
+    birth_sigma_xy: float = 0.02
+    birth_sigma_theta: float = 0.03
+    min_votes: float = 1.5
+    spacing_tol: float = 0.06
+    step_moves: int = 20
+    burn_in: int = 800
+    samples: int = 1500
+    anneal: int = 500
+    record_every: int = 5
+    beta_start: float = 0.2
+    beta_end: float = 10.0
+    match_xy: float = 0.1
+    match_theta: float = 0.175
+    rates: MoveRates = field(default_factory=MoveRates)
+
+    def __post_init__(self) -> None:
+        positive = (
+            "sigma_r sigma_perp sigma_phi clutter intensity birth_sigma_xy birth_sigma_theta "
+            "spacing_tol min_votes beta_start beta_end match_xy match_theta"
+        )
+        for name in positive.split():
+            if not getattr(self, name) > 0:
+                raise ConfigError(f"FusedParams.{name} must be > 0, got {getattr(self, name)!r}")
+        if not self.log_overlap < 0:
+            raise ConfigError(f"FusedParams.log_overlap must be < 0, got {self.log_overlap}")
+        if not 0 < self.p_miss < 1 or not 0 < self.uniform_share <= 1:
+            raise ConfigError("FusedParams: p_miss must lie in (0, 1) and uniform_share in (0, 1]")
+        for name in ("step_moves", "burn_in", "samples", "anneal", "record_every"):
+            if getattr(self, name) < 0 or (name == "record_every" and self.record_every < 1):
+                raise ConfigError(f"FusedParams.{name} must be >= 0 (record_every >= 1)")
+        if not self.beta_start <= 1.0 <= self.beta_end:
+            raise ConfigError("FusedParams: need beta_start <= 1 <= beta_end")
+
+
+@dataclass(frozen=True)
+class FusedStep:
+    """The map after one step: ``tables`` ``(n, 4)`` rows ``x, y, θ, type index``; counters."""
+
+    tables: FloatArray
+    info: dict[str, int]
+
+
+@dataclass(frozen=True)
+class FusedMap:
+    """The fused map of the whole run.
+
+    Attributes
+    ----------
+    tables
+        ``(n, 4)`` MAP objects ``x, y`` [m], ``θ`` [rad] in [0, π), type index.
+    existence
+        ``(n,)`` each object's existence probability: the fraction of the β = 1 samples
+        holding an object of its type within ``match_xy`` and ``match_theta``.
+    catalogue
+        The object types the indices refer to.
+    log_posterior
+        log π of the MAP map (up to the constant of the posterior).
+    info
+        Counters of the final pass.
+    """
+
+    tables: FloatArray
+    existence: FloatArray
+    catalogue: tuple[ObjectType, ...]
+    log_posterior: float
+    info: dict[str, int]
+
+    def objects(self) -> list[dict[str, float | str]]:
+        """The map as records ``type, length, width, x, y, theta, existence_probability``."""
+        out: list[dict[str, float | str]] = []
+        for row, p in zip(self.tables, self.existence, strict=True):
+            kind = self.catalogue[int(row[3])]
+            out.append(
+                {
+                    "type": kind.name,
+                    "length": kind.length,
+                    "width": kind.width,
+                    "leg": kind.leg,
+                    "x": float(row[0]),
+                    "y": float(row[1]),
+                    "theta": float(row[2]),
+                    "existence_probability": float(p),
+                }
+            )
+        return out
+
+
+def _same_object(a: FloatArray, b: FloatArray, xy: float, theta: float, square: bool) -> bool:
+    if int(a[3]) != int(b[3]) or math.hypot(a[0] - b[0], a[1] - b[1]) > xy:
+        return False
+    period = 0.5 * math.pi if square else math.pi
+    d = (a[2] - b[2]) % period
+    return bool(min(d, period - d) <= theta)
+
+
+class FusedMapper:
+    """One persistent posterior over the tables of a room, from every whisker sweep.
+
+    Parameters
+    ----------
+    catalogue
+        The object types the room may hold (at least one).
+    arena
+        ``(width, height)`` [m] of the walled arena (corner at the origin): walls explain
+        contacts, and no table may cross one.
+    params
+        The constants.
+
+    Attributes
+    ----------
+    store_
+        Every sweep so far.
+    state_
+        The chain's current map and caches.
+    """
+
+    def __init__(
+        self,
+        catalogue: tuple[ObjectType, ...],
+        arena: tuple[float, float],
+        params: FusedParams = FusedParams(),
+    ) -> None:
+        self.catalogue = check_catalogue(tuple(catalogue))
+        if not (len(arena) == 2 and min(arena) > 0 and all(math.isfinite(v) for v in arena)):
+            raise ConfigError(f"arena must be (width, height) > 0 [m], got {arena!r}")
+        self.arena = (float(arena[0]), float(arena[1]))
+        self.params = params
+        self.model = SweepModel(
+            params.sigma_r,
+            params.sigma_perp,
+            params.sigma_phi,
+            params.clutter,
+            params.p_miss,
+            params.intensity,
+            params.log_overlap,
+            self.arena,
+        )
+        self.store_ = EvidenceStore(cell=1.0)
+        self.state_ = ChainState()
+        self._ctx = Context(self.catalogue, self.model, self.store_)
+        self._votes = LegVotes(self.arena, params.sigma_r, 0.5 * min(t.leg for t in self.catalogue))
+
+    def _proposal(self, box: tuple[float, float, float, float]) -> BirthProposal:
+        grow = self._ctx.half_diagonal + self.params.spacing_tol
+        legs = self._votes.peaks(
+            (box[0] - grow, box[1] - grow, box[2] + grow, box[3] + grow), self.params.min_votes
+        )
+        tables, weights = table_candidates(
+            legs, self.catalogue, self.arena, self.params.spacing_tol
+        )
+        keep = (
+            (tables[:, 0] >= box[0])
+            & (tables[:, 0] <= box[2])
+            & (tables[:, 1] >= box[1])
+            & (tables[:, 1] <= box[3])
+        )
+        p = self.params
+        return BirthProposal(
+            box,
+            tables[keep],
+            weights[keep],
+            len(self.catalogue),
+            p.uniform_share,
+            p.birth_sigma_xy,
+            p.birth_sigma_theta,
+        )
+
+    def step(self, pose: FloatArray, sweeps: FloatArray, *, rng: RNGLike = None) -> FusedStep:
+        """Store one pose's sweeps and move the chain around the robot.
+
+        Parameters
+        ----------
+        pose
+            ``(3,)`` robot pose ``x, y`` [m], heading [rad]: every whisker's root.
+        sweeps
+            ``(w, 6)`` one row per whisker sweep (columns
+            :data:`~bayesmap.blackboard.evidence.SWEEP_FIELDS`), contact or not.
+        rng
+            Seed or generator of the chain.
+        """
+        generator = as_generator(rng)
+        pose, sweeps = check_sweeps(pose, sweeps)
+        ids = self.store_.add(pose, sweeps)
+        hit = np.isfinite(sweeps[:, 3])
+        if hit.any():
+            contacts = sweeps[hit]
+            self._votes.add(
+                np.tile(pose[:2], (len(contacts), 1)),
+                contacts[:, 1],
+                contacts[:, 3],
+                np.ones(len(contacts)),
+            )
+        self._ctx.update_near(self.state_, ids, float(pose[0]), float(pose[1]))
+        reach = self._ctx.reach + self._ctx.half_diagonal
+        box = (
+            max(0.0, pose[0] - reach),
+            max(0.0, pose[1] - reach),
+            min(self.arena[0], pose[0] + reach),
+            min(self.arena[1], pose[1] + reach),
+        )
+        betas = np.ones(self.params.step_moves)
+        _, _, _, info = run(
+            generator, self.state_, self._ctx, self._proposal(box), self.params.rates, betas
+        )
+        return FusedStep(self.state_.tables.copy(), info)
+
+    def finish(self, *, rng: RNGLike = None) -> FusedMap:
+        """Run the chain over the whole arena and return the fused map (MAP + existence)."""
+        generator = as_generator(rng)
+        p = self.params
+        self._ctx.refresh(self.state_)
+        proposal = self._proposal((0.0, 0.0, *self.arena))
+        betas = np.concatenate(
+            [
+                np.geomspace(p.beta_start, 1.0, p.burn_in) if p.burn_in else np.zeros(0),
+                np.ones(p.samples),
+                np.geomspace(1.0, p.beta_end, p.anneal) if p.anneal else np.zeros(0),
+            ]
+        )
+        best, best_log_pi, samples, info = run(
+            generator,
+            self.state_,
+            self._ctx,
+            proposal,
+            p.rates,
+            betas,
+            record_every=p.record_every,
+        )
+        squares = [abs(t.length - t.width) < 1e-9 for t in self.catalogue]
+        existence = np.array(
+            [
+                np.mean(
+                    [
+                        any(
+                            _same_object(
+                                row, other, p.match_xy, p.match_theta, squares[int(row[3])]
+                            )
+                            for other in sample
+                        )
+                        for sample in samples
+                    ]
+                )
+                if samples
+                else float("nan")
+                for row in best
+            ]
+        )
+        return FusedMap(best, existence.reshape(-1), self.catalogue, best_log_pi, info)

@@ -1,0 +1,485 @@
+"""World files for the whiskered table mapper: JSON Schema, load/save, stress-world generator.
+
+A world file (``WORLD.json``) describes a walled rectangular arena, the tables in it (each
+with its own size, so rooms can mix desks and stools) and where the robot stops::
+
+    {"arena": {"width": 7.0, "height": 7.0},
+     "tables": [{"x": 1.59, "y": 0.58, "theta": 0.01,
+                 "length": 1.2, "width": 0.8, "leg": 0.1, "texture": 0.3}],
+     "poses": {"grid": 10, "margin": 0.45, "headings": 4}}
+
+``x, y`` are a table's centre [m], ``theta`` its long side's angle from the x axis [rad],
+``leg`` the side of its square legs [m] (flush with the corners). The walls are the
+arena's four sides. ``poses`` is a grid (``grid`` × ``grid`` positions ``margin`` [m] from
+the walls, visited row by row in serpentine order, ``headings`` equally spaced headings
+from east, counter-clockwise) or a list of ``[x, y, heading]``; grid positions inside a
+table or closer than :data:`POSE_CLEARANCE` to a leg are skipped. An optional
+``catalogue`` lists the object types the mapper may use (``name, length, width, leg``);
+without it the catalogue is the distinct table sizes of the file. The mapper is told the
+arena and the catalogue, never the tables.
+
+:data:`WORLD_SCHEMA` is the JSON Schema (draft 2020-12) checked by :func:`load_world`;
+geometric checks (tables inside the arena, not overlapping, legs narrower than half the
+table) follow it. Every failure is a :class:`~bayesmap.errors.FormatError` naming the file
+and the element.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+import numpy as np
+import shapely
+
+from bayesmap._io import write_json
+from bayesmap._typing import FloatArray, Poses
+from bayesmap.errors import ConfigError, FormatError
+from bayesmap.sim.tables_world import TablesWorld, build_mixed, rectangle_corners
+
+__all__ = [
+    "POSE_CLEARANCE",
+    "WORLD_SCHEMA",
+    "StressOptions",
+    "WorldFile",
+    "generate_world",
+    "load_world",
+    "parse_world",
+    "save_world",
+]
+
+POSE_CLEARANCE = 0.15
+"""Grid positions closer than this [m] to a leg's outline (or inside a table) are skipped."""
+
+_NUMBER = {"type": "number"}
+_POSITIVE = {"type": "number", "exclusiveMinimum": 0}
+WORLD_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "bayesmap whisker tables world",
+    "type": "object",
+    "required": ["arena", "tables", "poses"],
+    "additionalProperties": False,
+    "properties": {
+        "arena": {
+            "type": "object",
+            "required": ["width", "height"],
+            "additionalProperties": False,
+            "properties": {
+                "width": _POSITIVE,
+                "height": _POSITIVE,
+                "wall_texture": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 1},
+            },
+        },
+        "tables": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "required": ["x", "y", "theta", "length", "width", "leg"],
+                "additionalProperties": False,
+                "properties": {
+                    "x": _NUMBER,
+                    "y": _NUMBER,
+                    "theta": _NUMBER,
+                    "length": _POSITIVE,
+                    "width": _POSITIVE,
+                    "leg": _POSITIVE,
+                    "texture": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 1},
+                },
+            },
+        },
+        "poses": {
+            "oneOf": [
+                {
+                    "type": "object",
+                    "required": ["grid"],
+                    "additionalProperties": False,
+                    "properties": {
+                        "grid": {"type": "integer", "minimum": 1},
+                        "margin": _POSITIVE,
+                        "headings": {"type": "integer", "minimum": 1},
+                    },
+                },
+                {
+                    "type": "array",
+                    "minItems": 1,
+                    "items": {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3},
+                },
+            ]
+        },
+        "catalogue": {
+            "type": "array",
+            "minItems": 1,
+            "items": {
+                "type": "object",
+                "required": ["length", "width", "leg"],
+                "additionalProperties": False,
+                "properties": {
+                    "name": {"type": "string"},
+                    "length": _POSITIVE,
+                    "width": _POSITIVE,
+                    "leg": _POSITIVE,
+                },
+            },
+        },
+    },
+}
+"""JSON Schema of a world file."""
+
+_DEFAULT_TEXTURE = 0.3
+
+
+@dataclass(frozen=True)
+class WorldFile:
+    """A world file's content.
+
+    Attributes
+    ----------
+    arena
+        ``(width, height)`` [m]; the walls are its four sides.
+    tables
+        ``(k, 7)`` rows ``x, y, theta, length, width, leg, texture`` [m, m, rad, m, m, m, –].
+    poses
+        ``(n, 3)`` robot poses ``x, y, heading``, or ``None`` for a grid.
+    grid
+        ``(grid, margin, headings)`` of a pose grid (ignored when ``poses`` is given).
+    catalogue
+        Object types ``(name, length, width, leg)`` the mapper may use.
+    wall_texture
+        Texture of the walls.
+    """
+
+    arena: tuple[float, float]
+    tables: FloatArray
+    poses: Poses | None = None
+    grid: tuple[int, float, int] = (10, 0.45, 4)
+    catalogue: tuple[tuple[str, float, float, float], ...] = ()
+    wall_texture: float = _DEFAULT_TEXTURE
+
+    def to_json(self) -> dict[str, Any]:
+        """The file's JSON object (the inverse of :func:`parse_world`)."""
+        keys = ("x", "y", "theta", "length", "width", "leg", "texture")
+        poses: Any = (
+            {"grid": self.grid[0], "margin": self.grid[1], "headings": self.grid[2]}
+            if self.poses is None
+            else np.asarray(self.poses).tolist()
+        )
+        return {
+            "arena": {
+                "width": self.arena[0],
+                "height": self.arena[1],
+                "wall_texture": self.wall_texture,
+            },
+            "tables": [dict(zip(keys, map(float, row), strict=True)) for row in self.tables],
+            "poses": poses,
+            "catalogue": [
+                {"name": n, "length": a, "width": b, "leg": c} for n, a, b, c in self.catalogue
+            ],
+        }
+
+    def world(self, name: str = "whisker-tables-file") -> TablesWorld:
+        """The simulator's :class:`~bayesmap.sim.tables_world.TablesWorld` of this file."""
+        t = self.tables
+        return build_mixed(
+            t[:, :3], t[:, 3:6], t[:, 6], self.arena, wall_texture=self.wall_texture, name=name
+        )
+
+    def robot_poses(self) -> Poses:
+        """The robot's poses: the given list, or the grid without blocked positions."""
+        if self.poses is not None:
+            return np.asarray(self.poses, dtype=np.float64)
+        count, margin, headings = self.grid
+        xs = np.linspace(margin, self.arena[0] - margin, count)
+        ys = np.linspace(margin, self.arena[1] - margin, count)
+        rows = []
+        for row, y in enumerate(ys):
+            for x in xs if row % 2 == 0 else xs[::-1]:
+                if _position_free(float(x), float(y), self.tables):
+                    rows += [(x, y, k * 2 * math.pi / headings) for k in range(headings)]
+        return np.asarray(rows, dtype=np.float64).reshape(-1, 3)
+
+
+def _table_polygons(tables: FloatArray) -> list[shapely.Polygon]:
+    corners = rectangle_corners(
+        tables[:, 0], tables[:, 1], tables[:, 2], tables[:, 3], tables[:, 4]
+    )
+    return [shapely.Polygon(c) for c in corners]
+
+
+def _leg_polygons(tables: FloatArray) -> list[shapely.Polygon]:
+    legs = rectangle_corners(
+        tables[:, 0],
+        tables[:, 1],
+        tables[:, 2],
+        tables[:, 3] - tables[:, 5],
+        tables[:, 4] - tables[:, 5],
+    )
+    polygons = []
+    for row, centres in zip(tables, legs, strict=True):
+        squares = rectangle_corners(
+            centres[:, 0], centres[:, 1], np.full(4, row[2]), row[5], row[5]
+        )
+        polygons += [shapely.Polygon(s) for s in squares]
+    return polygons
+
+
+def _position_free(x: float, y: float, tables: FloatArray) -> bool:
+    if not len(tables):
+        return True
+    point = shapely.Point(x, y)
+    if any(p.contains(point) for p in _table_polygons(tables)):
+        return False
+    return all(p.distance(point) >= POSE_CLEARANCE for p in _leg_polygons(tables))
+
+
+def _fail(source: str, where: str, what: str) -> FormatError:
+    return FormatError(f"{source}: {where}: {what}")
+
+
+def parse_world(obj: Any, source: str = "world") -> WorldFile:
+    """Check a world file's JSON object against :data:`WORLD_SCHEMA` and the geometry.
+
+    Raises
+    ------
+    FormatError
+        Naming ``source`` and the offending element, e.g. ``tables[2]: crosses the wall``.
+    """
+    try:
+        jsonschema.validate(obj, WORLD_SCHEMA)
+    except jsonschema.ValidationError as error:
+        where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path)
+        raise _fail(source, where.lstrip(".") or "top level", error.message) from None
+    arena = (float(obj["arena"]["width"]), float(obj["arena"]["height"]))
+    rows = [
+        [t["x"], t["y"], t["theta"], t["length"], t["width"], t["leg"], t.get("texture", 0.3)]
+        for t in obj["tables"]
+    ]
+    tables = np.asarray(rows, dtype=np.float64).reshape(-1, 7)
+    if not np.isfinite(tables).all():
+        raise _fail(source, "tables", "every number must be finite")
+    for i, row in enumerate(tables):
+        if not 2 * row[5] < min(row[3], row[4]):
+            raise _fail(source, f"tables[{i}]", "each leg must be narrower than half the table")
+    polygons = _table_polygons(tables)
+    box = shapely.box(0.0, 0.0, *arena)
+    for i, polygon in enumerate(polygons):
+        if not box.contains(polygon):
+            raise _fail(source, f"tables[{i}]", "the table crosses a wall of the arena")
+        for j in range(i):
+            if polygon.intersects(polygons[j]):
+                raise _fail(source, f"tables[{i}]", f"the table overlaps tables[{j}]")
+    poses_obj = obj["poses"]
+    poses: Poses | None = None
+    grid = (10, 0.45, 4)
+    if isinstance(poses_obj, list):
+        poses = np.asarray(poses_obj, dtype=np.float64)
+        outside = (poses[:, 0] <= 0) | (poses[:, 0] >= arena[0])
+        outside |= (poses[:, 1] <= 0) | (poses[:, 1] >= arena[1])
+        if outside.any() or not np.isfinite(poses).all():
+            first = int(np.flatnonzero(outside | ~np.isfinite(poses).all(axis=1))[0])
+            raise _fail(source, f"poses[{first}]", "a pose must be finite and inside the arena")
+    else:
+        grid = (
+            int(poses_obj["grid"]),
+            float(poses_obj.get("margin", 0.45)),
+            int(poses_obj.get("headings", 4)),
+        )
+        if 2 * grid[1] >= min(arena):
+            raise _fail(source, "poses.margin", "must be below half the arena's smaller side")
+    if "catalogue" in obj:
+        catalogue = tuple(
+            (str(c.get("name", f"type{k}")), float(c["length"]), float(c["width"]), float(c["leg"]))
+            for k, c in enumerate(obj["catalogue"])
+        )
+    else:
+        sizes = sorted({(float(r[3]), float(r[4]), float(r[5])) for r in tables}, reverse=True)
+        catalogue = tuple((f"{a:g}x{b:g}", a, b, c) for a, b, c in sizes)
+    if not catalogue:
+        raise _fail(source, "catalogue", "a world without tables must list its catalogue")
+    wall_texture = float(obj["arena"].get("wall_texture", _DEFAULT_TEXTURE))
+    return WorldFile(arena, tables, poses, grid, catalogue, wall_texture)
+
+
+def load_world(path: str | Path) -> WorldFile:
+    """Read and check a world file (see :data:`WORLD_SCHEMA`).
+
+    Raises
+    ------
+    FormatError
+        If the file is missing, is not JSON (with line and column) or breaks the schema.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise FormatError(f"{path}: cannot read the world file ({error.strerror})") from None
+    try:
+        obj = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise FormatError(
+            f"{path}: line {error.lineno} column {error.colno}: not JSON ({error.msg})"
+        ) from None
+    return parse_world(obj, str(path))
+
+
+def save_world(world: WorldFile, path: str | Path) -> Path:
+    """Write ``world`` as a world file, atomically."""
+    return write_json(path, world.to_json())
+
+
+@dataclass(frozen=True)
+class StressOptions:
+    """What :func:`generate_world` puts in a world (lengths [m]).
+
+    Parameters
+    ----------
+    arena_range
+        Range of the arena's sides; each side is drawn uniformly in it.
+    tables_range
+        Range of the number of tables (capped by what fits: one table per
+        ``area_per_table`` m²).
+    sizes
+        Table sizes ``(length, width, leg)`` drawn uniformly per table (mixed sizes).
+    near_wall
+        Fraction of tables placed ``wall_gap`` from a wall.
+    wall_gap
+        Range of the gap between a near-wall table's outline and its wall.
+    close_pairs
+        Fraction of tables placed ``pair_gap`` from an earlier table.
+    pair_gap
+        Range of the gap between the outlines of a close pair.
+    min_gap
+        Smallest gap between any two outlines, and between an outline and a wall.
+    area_per_table
+        Arena area per table at most (keeps rooms passable).
+    """
+
+    arena_range: tuple[float, float] = (4.0, 10.0)
+    tables_range: tuple[int, int] = (4, 10)
+    sizes: tuple[tuple[float, float, float], ...] = ((1.2, 0.8, 0.1), (0.8, 0.8, 0.08))
+    near_wall: float = 0.3
+    wall_gap: tuple[float, float] = (0.1, 0.2)
+    close_pairs: float = 0.3
+    pair_gap: tuple[float, float] = (0.15, 0.4)
+    min_gap: float = 0.1
+    area_per_table: float = 3.5
+
+    def __post_init__(self) -> None:
+        if not 0 < self.arena_range[0] <= self.arena_range[1]:
+            raise ConfigError(
+                f"StressOptions.arena_range must be increasing, > 0: {self.arena_range}"
+            )
+        if not 0 <= self.tables_range[0] <= self.tables_range[1]:
+            raise ConfigError(f"StressOptions.tables_range must be increasing: {self.tables_range}")
+        if not self.sizes:
+            raise ConfigError("StressOptions.sizes must list at least one table size")
+        if not (0 <= self.near_wall <= 1 and 0 <= self.close_pairs <= 1):
+            raise ConfigError("StressOptions.near_wall and close_pairs must lie in [0, 1]")
+
+
+_ATTEMPTS = 4000
+
+
+def _distance_to_walls(polygon: shapely.Polygon, arena: tuple[float, float]) -> float:
+    x0, y0, x1, y1 = polygon.bounds
+    return float(min(x0, y0, arena[0] - x1, arena[1] - y1))
+
+
+def generate_world(
+    rng: np.random.Generator, options: StressOptions = StressOptions(), *, grid: int = 10
+) -> WorldFile:
+    """Draw a stress world: tables of mixed sizes at any angle, some hugging walls, some in pairs.
+
+    The arena's sides are drawn in ``options.arena_range``, the number of tables in
+    ``options.tables_range`` (capped by the area). Each table gets a size from
+    ``options.sizes`` and a uniform angle; with probability ``near_wall`` it is pushed
+    against a random wall to a gap drawn from ``wall_gap``, else with probability
+    ``close_pairs`` it is set beside an earlier table at a gap drawn from ``pair_gap``,
+    else it is placed uniformly. Placements that break ``min_gap`` are drawn again. Robot
+    poses: a ``grid`` × ``grid`` × 4 grid 0.45 m from the walls (positions blocked by a
+    table are skipped when the file is read).
+    """
+    arena = (
+        round(float(rng.uniform(*options.arena_range)), 2),
+        round(float(rng.uniform(*options.arena_range)), 2),
+    )
+    fit = int(arena[0] * arena[1] // options.area_per_table)
+    high = max(min(options.tables_range[1], fit), options.tables_range[0])
+    n_tables = int(rng.integers(options.tables_range[0], high + 1))
+    rows: list[list[float]] = []
+    polygons: list[shapely.Polygon] = []
+    for _ in range(_ATTEMPTS):
+        if len(rows) == n_tables:
+            break
+        length, width, leg = options.sizes[int(rng.integers(len(options.sizes)))]
+        theta = float(rng.uniform(0.0, math.pi))
+        x, y = float(rng.uniform(0, arena[0])), float(rng.uniform(0, arena[1]))
+        mode = rng.uniform()
+        if mode < options.near_wall:
+            x, y = _against_wall(rng, x, y, theta, length, width, arena, options.wall_gap)
+        elif mode < options.near_wall + options.close_pairs and polygons:
+            x, y = _beside(rng, rows, theta, length, width, options.pair_gap)
+        polygon = _table_polygons(np.array([[x, y, theta, length, width]]))[0]
+        if _distance_to_walls(polygon, arena) < options.min_gap:
+            continue
+        if any(polygon.distance(p) < options.min_gap for p in polygons):
+            continue
+        rows.append([x, y, theta, length, width, leg, _DEFAULT_TEXTURE])
+        polygons.append(polygon)
+    tables = np.round(np.asarray(rows, dtype=np.float64).reshape(-1, 7), 4)
+    catalogue = tuple((f"{a:g}x{b:g}", a, b, c) for a, b, c in options.sizes)
+    return WorldFile(arena, tables, None, (grid, 0.45, 4), catalogue)
+
+
+def _against_wall(
+    rng: np.random.Generator,
+    x: float,
+    y: float,
+    theta: float,
+    length: float,
+    width: float,
+    arena: tuple[float, float],
+    gap: tuple[float, float],
+) -> tuple[float, float]:
+    """Move a table's centre so its outline lies a gap drawn from ``gap`` from one wall."""
+    corners = rectangle_corners(np.array(0.0), np.array(0.0), np.array(theta), length, width)
+    half_x, half_y = float(np.abs(corners[:, 0]).max()), float(np.abs(corners[:, 1]).max())
+    g = float(rng.uniform(*gap))
+    wall = int(rng.integers(4))
+    if wall == 0:
+        return half_x + g, y
+    if wall == 1:
+        return arena[0] - half_x - g, y
+    if wall == 2:
+        return x, half_y + g
+    return x, arena[1] - half_y - g
+
+
+def _beside(
+    rng: np.random.Generator,
+    rows: list[list[float]],
+    theta: float,
+    length: float,
+    width: float,
+    gap: tuple[float, float],
+) -> tuple[float, float]:
+    """A centre setting a new table a gap drawn from ``gap`` from a random earlier table."""
+    other = rows[int(rng.integers(len(rows)))]
+    anchor = _table_polygons(np.array([other[:5]]))[0]
+    target = float(rng.uniform(*gap))
+    heading = float(rng.uniform(0, 2 * math.pi))
+    direction = np.array([math.cos(heading), math.sin(heading)])
+    low, high = 0.0, float(np.hypot(length, width) + np.hypot(other[3], other[4]))
+    for _ in range(30):
+        middle = 0.5 * (low + high)
+        x, y = np.array(other[:2]) + middle * direction
+        polygon = _table_polygons(np.array([[x, y, theta, length, width]]))[0]
+        if polygon.distance(anchor) < target:
+            low = middle
+        else:
+            high = middle
+    x, y = np.array(other[:2]) + high * direction
+    return float(x), float(y)

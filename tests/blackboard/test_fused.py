@@ -1,0 +1,392 @@
+"""The fused mapper: every move's ratio against the joint, RJ statistics, evidence, end to end."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bayesmap.blackboard.data_driven import (
+    BirthProposal,
+    LegVotes,
+    birth_density,
+    draw_birth,
+    table_candidates,
+)
+from bayesmap.blackboard.evidence import EvidenceStore
+from bayesmap.blackboard.fused import FusedMapper, FusedParams
+from bayesmap.blackboard.rjmcmc import (
+    ChainState,
+    Context,
+    MoveKind,
+    MoveRates,
+    apply,
+    evaluate,
+    propose,
+    run,
+)
+from bayesmap.blackboard.sweep_model import (
+    ObjectType,
+    SweepModel,
+    arena_contains,
+    leg_centres,
+    leg_contact_density,
+    legs_swept,
+    log_posterior,
+    tables_overlap,
+)
+from bayesmap.errors import ConfigError, InputError
+from bayesmap.sim.tables_world import build_mixed
+from bayesmap.sim.whiskers import WhiskerParams, observe
+
+DESK = ObjectType("desk", 1.2, 0.8, 0.1)
+STOOL = ObjectType("stool", 0.8, 0.8, 0.08)
+CATALOGUE = (DESK, STOOL)
+ARENA = (5.0, 4.0)
+MODEL = SweepModel(0.02, 0.01, 0.1, 0.05, 0.05, 0.02, -12.0, ARENA)
+
+
+def _store(seed: int = 0) -> tuple[EvidenceStore, np.ndarray]:
+    """Sweeps of a whiskered robot around two true tables (a desk and a stool)."""
+    truth = np.array([[1.6, 1.5, 0.3, 0.0], [3.5, 2.4, 1.1, 1.0]])
+    sizes = np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]])
+    world = build_mixed(truth[:, :3], sizes, np.full(2, 0.3), ARENA)
+    rng = np.random.default_rng(seed)
+    store = EvidenceStore()
+    sensor = WhiskerParams()
+    for x in np.linspace(0.4, 4.6, 5):
+        for y in np.linspace(0.4, 3.6, 4):
+            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+                pose = np.array([x, y, heading])
+                store.add(pose, observe(world, pose, rng, sensor).sweeps)
+    return store, truth
+
+
+def _context(store: EvidenceStore) -> Context:
+    ctx = Context(CATALOGUE, MODEL, store)
+    return ctx
+
+
+def _state(ctx: Context, tables: np.ndarray) -> ChainState:
+    state = ChainState(np.asarray(tables, dtype=float).reshape(-1, 4))
+    ctx.refresh(state)
+    return state
+
+
+def _joint(ctx: Context, tables: np.ndarray) -> float:
+    return log_posterior(tables, CATALOGUE, MODEL, ctx.store.rows_, ctx.store.counts_)
+
+
+def test_every_move_ratio_matches_the_full_joint() -> None:
+    """For hundreds of random moves of every kind, the local Δlog π used in the acceptance
+    equals log π(X') − log π(X) computed from scratch over all stored sweeps."""
+    store, truth = _store()
+    ctx = _context(store)
+    rng = np.random.default_rng(3)
+    candidates, weights = table_candidates(
+        leg_centres(truth, CATALOGUE).reshape(-1, 3)[:, :2], CATALOGUE, ARENA, 0.06
+    )
+    birth = BirthProposal((0.0, 0.0, *ARENA), candidates, weights, 2, 0.3, 0.05, 0.05)
+    rates = MoveRates(step_xy=(0.02, 0.2), step_theta=(0.05, 0.3))
+    seen: dict[str, int] = {}
+    state = _state(ctx, np.vstack([truth[:1], [[3.0, 0.8, 0.2, 1.0]]]))
+    for _ in range(250):
+        move = propose(rng, state, ctx, birth, rates)
+        if move is None:
+            continue
+        delta, free_new = evaluate(state, ctx, move)
+        before = _joint(ctx, state.tables)
+        after_tables = state.tables.copy()
+        if move.index is None:
+            after_tables = np.vstack([after_tables, move.table[None]])
+        elif move.table is None:
+            after_tables = np.delete(after_tables, move.index, axis=0)
+        else:
+            after_tables[move.index] = move.table
+        after = _joint(ctx, after_tables)
+        if math.isinf(after):
+            assert delta == -math.inf
+            continue
+        assert delta == pytest.approx(after - before, abs=1e-6)
+        seen[move.kind.value] = seen.get(move.kind.value, 0) + 1
+        if rng.uniform() < 0.5:
+            apply(state, move, free_new, delta)
+            assert state.log_pi == pytest.approx(after, abs=1e-6)
+    assert set(seen) == {kind.value for kind in MoveKind}, seen
+
+
+def test_dimension_keeping_moves_are_their_own_reverse() -> None:
+    """Mirror, corner and type moves: the move that undoes each is proposed with the same
+    probability (so their Hastings ratio is 1)."""
+    ctx = _context(EvidenceStore())
+    rng = np.random.default_rng(0)
+    box = (0.0, 0.0, *ARENA)
+    birth = BirthProposal(box, np.zeros((0, 4)), np.zeros(0), 2, 1.0, 0.02, 0.03)
+    only = {k: 0.0 for k in ("birth", "death", "refine", "mirror", "corner", "type", "switch")}
+    for kind in ("mirror", "corner", "type"):
+        rates = MoveRates(**{**only, kind: 1.0})
+        for _ in range(8):
+            start = np.array([2.5, 2.0, rng.uniform(0, math.pi), float(rng.integers(2))])
+            state = ChainState(start[None])
+            move = propose(rng, state, ctx, birth, rates)
+            if move is None:
+                continue
+            reached = ChainState(move.table[None])
+            back = 0
+            for _ in range(200):
+                reverse = propose(rng, reached, ctx, birth, rates)
+                if reverse is not None and _same(reverse.table, start):
+                    back += 1
+            # mirror: 1 side of 4; corner: 1 corner of 4 × 1 placement of 7 (or 2 of 7 for a
+            # square); type: 1 corner of 4 → the reverse is proposed about as often
+            expected = {"mirror": 0.25, "corner": 1 / 28, "type": 0.25}[kind]
+            lo = expected * 200 * 0.4
+            assert back >= lo, (kind, back)
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    d = (a[2] - b[2]) % math.pi
+    return bool(
+        int(a[3]) == int(b[3])
+        and math.hypot(a[0] - b[0], a[1] - b[1]) < 1e-9
+        and min(d, math.pi - d) < 1e-9
+    )
+
+
+def test_birth_density_is_the_density_draw_birth_samples() -> None:
+    """Histogram of draws against the mixture density over (x, y) cells: the density the
+    reversible-jump ratio uses is the one the proposal samples."""
+    candidates = np.array([[1.0, 1.0, 0.2, 0.0], [2.0, 1.5, 3.1, 1.0]])
+    proposal = BirthProposal(
+        (0.0, 0.0, 3.0, 2.0), candidates, np.array([1.0, 3.0]), 2, 0.2, 0.1, 0.1
+    )
+    rng = np.random.default_rng(0)
+    draws = np.array([draw_birth(rng, proposal) for _ in range(10000)])
+    inside = (draws[:, 0] >= 0) & (draws[:, 0] <= 3) & (draws[:, 1] >= 0) & (draws[:, 1] <= 2)
+    draws = draws[inside]
+    # integrate the density over angle and type on a fine grid in a box around candidate 2
+    box = (1.9, 2.1, 1.4, 1.6)
+    xs = np.linspace(box[0], box[1], 7)
+    ys = np.linspace(box[2], box[3], 7)
+    thetas = np.linspace(0, math.pi, 91)
+    mass = 0.0
+    for k in (0.0, 1.0):
+        values = np.array(
+            [
+                [[birth_density(np.array([x, y, t, k]), proposal) for t in thetas] for y in ys]
+                for x in xs
+            ]
+        )
+        mass += np.trapezoid(np.trapezoid(np.trapezoid(values, thetas, axis=2), ys, axis=1), xs)
+    observed = (
+        np.mean(
+            (draws[:, 0] >= box[0])
+            & (draws[:, 0] <= box[1])
+            & (draws[:, 1] >= box[2])
+            & (draws[:, 1] <= box[3])
+        )
+        * inside.mean()
+    )
+    assert observed == pytest.approx(mass, rel=0.1)
+
+
+@pytest.mark.slow
+def test_reversible_jump_chain_samples_the_prior_without_data() -> None:
+    """With no evidence the posterior is the prior: a Poisson process of intensity λ per
+    type, conditioned on tables inside the arena and not overlapping (a hard-core process).
+    Its count distribution is P(n) ∝ μⁿ/n! · P(n uniform tables do not overlap), with μ =
+    Σ_k λ·|{(x, y, θ): inside}|; both factors are measured here by Monte Carlo, and the
+    chain's mean count and P(n = 0) must match it."""
+    model = MODEL._replace(intensity=0.004, arena=(6.0, 6.0), log_overlap=-math.inf)
+    ctx = Context(CATALOGUE, model, EvidenceStore())
+    rng = np.random.default_rng(11)
+    poses = np.column_stack(
+        [rng.uniform(0, 6, (60000, 2)), rng.uniform(0, math.pi, 60000), rng.integers(0, 2, 60000)]
+    )
+    inside = arena_contains(poses, CATALOGUE, model.arena)
+    mu = model.intensity * 36.0 * math.pi * 2 * inside.mean()
+    valid = poses[inside]
+    weights = []
+    for n in range(6):
+        free = 0
+        for _ in range(1500):
+            tables = valid[rng.integers(len(valid), size=n)]
+            free += not any(
+                tables_overlap(tables[i], tables[i + 1 :], CATALOGUE).any() for i in range(n)
+            )
+        weights.append(mu**n / math.factorial(n) * free / 1500)
+    p_n = np.asarray(weights) / sum(weights)
+    expected_mean = float((np.arange(6) * p_n).sum())
+    candidates = np.array([[3.0, 3.0, 0.5, 0.0], [1.0, 5.0, 2.0, 1.0]])
+    birth = BirthProposal((0.0, 0.0, 6.0, 6.0), candidates, np.array([1.0, 2.0]), 2, 0.5, 0.3, 0.3)
+    state = ChainState()
+    counts = []
+    for _ in range(1500):
+        run(rng, state, ctx, birth, MoveRates(), np.ones(50))
+        counts.append(len(state.tables))
+    assert np.mean(counts) == pytest.approx(expected_mean, abs=0.05)
+    assert np.mean(np.asarray(counts) == 0) == pytest.approx(p_n[0], abs=0.05)
+
+
+def test_leg_density_entry_distance_matches_a_ray_march() -> None:
+    """The whisker line's entry into a leg (r*) against marching along the line."""
+    rng = np.random.default_rng(2)
+    legs = np.array([[1.0, 0.5, 0.05]])
+    model = MODEL._replace(sigma_r=0.01, sigma_perp=0.01, sigma_phi=10.0)
+    for _ in range(50):
+        theta = rng.uniform(0, math.pi)
+        root = np.array([[1.0, 0.5]]) + rng.uniform(0.3, 0.8) * np.array(
+            [math.cos(a := rng.uniform(0, 2 * math.pi)), math.sin(a)]
+        )
+        bearing = math.atan2(0.5 - root[0, 1], 1.0 - root[0, 0]) + rng.uniform(-0.05, 0.05)
+        t = np.linspace(0, 1.5, 30001)
+        px = root[0, 0] + t * math.cos(bearing) - 1.0
+        py = root[0, 1] + t * math.sin(bearing) - 0.5
+        lx = math.cos(theta) * px + math.sin(theta) * py
+        ly = -math.sin(theta) * px + math.cos(theta) * py
+        inside = (np.abs(lx) <= 0.05) & (np.abs(ly) <= 0.05)
+        if not inside.any():
+            continue
+        entry = t[np.argmax(inside)]
+        r = np.linspace(entry - 0.05, entry + 0.05, 201)
+        density = leg_contact_density(
+            np.repeat(root, len(r), axis=0),
+            np.full(len(r), bearing),
+            r,
+            np.zeros(len(r)),
+            legs,
+            np.array([theta]),
+            model,
+        )[:, 0]
+        assert r[np.argmax(density)] == pytest.approx(entry, abs=1e-3)
+
+
+def test_free_space_counts_legs_inside_a_swept_sector_only() -> None:
+    root = np.array([[0.0, 0.0]])
+    start, stop, length = np.array([0.8]), np.array([-0.8]), np.array([1.0])
+    legs = np.array(
+        [
+            [0.6, 0.0, 0.05],  # dead ahead, inside the sector: swept through
+            [0.6, 0.7, 0.05],  # outside the angular range
+            [1.2, 0.0, 0.05],  # beyond the whisker's reach
+            [math.cos(-0.8) * 0.5, math.sin(-0.8) * 0.5, 0.05],  # at the stop: the contact
+        ]
+    )
+    assert legs_swept(legs, root, start, stop, length)[:, 0].tolist() == [1.0, 0.0, 0.0, 0.0]
+
+
+def test_evidence_store_merges_repeated_views_and_indexes_by_place() -> None:
+    store = EvidenceStore()
+    pose = np.array([1.0, 1.0, 0.0])
+    sweeps = np.array([[1.0, 0.2, 1.0, 0.5, 3.0, 0.3], [-1.0, -0.2, 1.0, np.nan, np.nan, np.nan]])
+    for _ in range(50):
+        store.add(pose, sweeps)
+    assert len(store) == 2 and store.counts_.tolist() == [50.0, 50.0]
+    rng = np.random.default_rng(0)
+    for xy in rng.uniform(0, 8, (200, 2)):
+        store.add(np.array([*xy, 0.0]), sweeps)
+    brute = np.flatnonzero(np.hypot(store.rows_[:, 0] - 4, store.rows_[:, 1] - 4) <= 1.5)
+    assert sorted(store.near(4.0, 4.0, 1.5).tolist()) == brute.tolist()
+
+
+@pytest.mark.parametrize(
+    ("pose", "sweeps", "what"),
+    [
+        (np.array([0.0, 0.0]), np.zeros((1, 6)), "pose"),
+        (np.zeros(3), np.zeros((1, 5)), "sweeps must be"),
+        (np.zeros(3), np.array([[np.nan, 0, 1, np.nan, np.nan, np.nan]]), "start must be finite"),
+        (np.zeros(3), np.array([[0, 0, 1, -0.1, 0, 0.3]]), "range >= 0"),
+        (np.zeros(3), np.array([[0, 0, 1, 0.5, np.nan, 0.3]]), "finite normal"),
+    ],
+)
+def test_bad_sweeps_raise_a_clear_error(pose: np.ndarray, sweeps: np.ndarray, what: str) -> None:
+    mapper = FusedMapper(CATALOGUE, ARENA)
+    with pytest.raises(InputError, match=what):
+        mapper.step(pose, sweeps, rng=0)
+
+
+def test_bad_catalogue_and_params_are_config_errors() -> None:
+    with pytest.raises(ConfigError, match="catalogue"):
+        FusedMapper((ObjectType("bad", 0.5, 0.8, 0.1),), ARENA)
+    with pytest.raises(ConfigError, match="p_miss"):
+        FusedParams(p_miss=1.5)
+
+
+def test_leg_votes_peak_where_bearings_cross() -> None:
+    """Noisy ranges (σ_r = 0.5 m) from three poses: the leg candidate lies where their
+    bearings cross, within a few cm of the leg, though every range is far off."""
+    votes = LegVotes((6.0, 6.0), 0.5, 0.05)
+    leg = np.array([3.0, 3.0])
+    roots = np.array([[2.2, 2.6], [3.6, 2.2], [3.1, 3.9]])
+    bearing = np.arctan2(leg[1] - roots[:, 1], leg[0] - roots[:, 0])
+    r_hat = np.hypot(*(leg - roots).T) - 0.05 + np.array([0.45, -0.4, 0.3])
+    votes.add(roots, bearing, r_hat, np.ones(3))
+    peaks = votes.peaks((0.0, 0.0, 6.0, 6.0), 2.0)
+    assert len(peaks) >= 1
+    best = peaks[np.argmax(peaks[:, 2])]
+    assert math.hypot(best[0] - leg[0], best[1] - leg[1]) < 0.06
+
+
+@pytest.mark.slow
+def test_fused_mapper_finds_both_types_and_says_which() -> None:
+    """End to end on the two-table room: one map, each object of the right type, both
+    with high existence probability, no phantom."""
+    store, truth = _store(seed=4)
+    del store
+    world = build_mixed(
+        truth[:, :3], np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]]), np.full(2, 0.3), ARENA
+    )
+    mapper = FusedMapper(CATALOGUE, ARENA, FusedParams(burn_in=300, samples=600, anneal=200))
+    rng = np.random.default_rng(4)
+    for x in np.linspace(0.4, 4.6, 6):
+        for y in np.linspace(0.4, 3.6, 5):
+            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+                pose = np.array([x, y, heading])
+                mapper.step(pose, observe(world, pose, rng, WhiskerParams()).sweeps, rng=rng)
+    fused = mapper.finish(rng=rng)
+    assert len(fused.tables) == 2
+    order = np.argsort(fused.tables[:, 0])
+    found = fused.tables[order]
+    assert np.allclose(found[:, :2], truth[:, :2], atol=0.03)
+    assert found[:, 3].tolist() == [0.0, 1.0]
+    assert (fused.existence > 0.9).all()
+    assert [o["type"] for o in np.array(fused.objects())[order]] == ["desk", "stool"]
+
+
+def test_step_is_deterministic_for_a_seed() -> None:
+    store, truth = _store()
+    del store
+    world = build_mixed(
+        truth[:, :3], np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]]), np.full(2, 0.3), ARENA
+    )
+
+    def tour(seed: int) -> np.ndarray:
+        mapper = FusedMapper(CATALOGUE, ARENA)
+        sensor_rng, chain = np.random.default_rng(1), np.random.default_rng(seed)
+        tables = np.zeros((0, 4))
+        for x in (1.0, 2.6):
+            for heading in (0.0, 0.5 * math.pi):
+                pose = np.array([x, 0.5, heading])
+                tables = mapper.step(
+                    pose, observe(world, pose, sensor_rng, WhiskerParams()).sweeps, rng=chain
+                ).tables
+        return tables
+
+    assert np.array_equal(tour(7), tour(7))
+
+
+def test_the_documented_example_runs_and_finds_the_stool() -> None:
+    """docs/blackboard.md's fused-mapper example gives what its comment says."""
+    import re
+    from pathlib import Path
+
+    doc = Path(__file__).resolve().parents[2] / "docs" / "blackboard.md"
+    text = doc.read_text(encoding="utf-8").split("# Past the paper")[1]
+    block = re.findall(r"```python\n(.*?)```", text, re.DOTALL)[0]
+    namespace: dict[str, object] = {}
+    exec(compile(block, str(doc), "exec"), namespace)
+    objects = namespace["room"].objects()  # type: ignore[attr-defined]
+    assert len(objects) == 1 and objects[0]["type"] == "stool"
+    assert math.hypot(objects[0]["x"] - 2.0, objects[0]["y"] - 1.5) < 0.03
+    assert objects[0]["existence_probability"] > 0.9
