@@ -230,3 +230,8 @@ def test_writing_over_a_folder_or_under_a_file_is_a_config_error(tmp_path):
     (tmp_path / "file").write_text("x")
     with pytest.raises(ConfigError, match="is a file"):
         write_text(tmp_path / "file" / "out.txt", "x")
+
+
+def test_a_name_with_a_nul_character_is_a_format_error():
+    with pytest.raises(FormatError, match="NUL"):
+        read_input("map\x00.pgm", max_bytes=10)

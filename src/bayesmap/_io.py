@@ -80,6 +80,10 @@ def read_input(path: str | Path, *, max_bytes: int, gunzip: bool = False) -> byt
         fd = os.open(path, flags)
     except OSError as error:
         raise FormatError(f"cannot open the file: {error.strerror or error}", path=name) from None
+    except ValueError:  # a NUL character: no file can have this name
+        raise FormatError(
+            "cannot open the file: its name holds a NUL character", path=name
+        ) from None
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
