@@ -79,3 +79,36 @@ def test_impossible_evidence_is_an_input_error() -> None:
         net.posteriors({"B": "y"})
     with pytest.raises(InputError, match="case 1"):
         net.posteriors_batch(np.array([[-1, 0], [-1, 1]]))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_many_blank_patterns_share_one_indicator_contraction(seed: int) -> None:
+    net = random_net(60 + seed, n_vars=10, max_card=3, max_parents=2)
+    rng = np.random.default_rng(seed)
+    cases = net.sample(400, rng=rng)
+    cases[rng.random(cases.shape) < 0.5] = -1
+    patterns = {tuple(row >= 0) for row in cases}
+    assert len(patterns) > 64  # the indicator path is the one under test
+    targets = [net.variables[0], net.variables[4], net.variables[-1]]
+    many = net.posteriors_batch(cases, targets=targets)
+    single = net.posterior_batch(targets[1], cases)
+    np.testing.assert_allclose(single, many[targets[1]], atol=1e-12)
+    for i in range(0, 400, 7):
+        evidence = {net.variables[j]: int(s) for j, s in enumerate(cases[i]) if s >= 0}
+        for t in targets:
+            expected = list(net.posterior(t, evidence).values())
+            np.testing.assert_allclose(many[t][i], expected, atol=1e-12)
+
+
+def test_indicator_contraction_names_an_impossible_case() -> None:
+    net = bn.BayesNet("zero")
+    net.add_variable("A", ["a", "b"], cpt=[1.0, 0.0])
+    net.add_variable("B", ["x", "y"], parents=["A"], cpt=[[1.0, 0.5], [0.0, 0.5]])
+    for k in range(8):
+        net.add_variable(f"C{k}", ["u", "v"], parents=["A"], cpt=[[0.3, 0.6], [0.7, 0.4]])
+    rng = np.random.default_rng(0)
+    cases = rng.integers(-1, 2, size=(300, len(net)))
+    cases[:, 0] = -1
+    cases[:, 1] = np.where(np.arange(300) == 250, 1, -1)
+    with pytest.raises(InputError, match="case 250"):
+        net.posterior_batch("A", cases)

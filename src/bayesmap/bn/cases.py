@@ -94,8 +94,9 @@ def posterior_frame(net: BayesNet, frame: pd.DataFrame, targets: Sequence[str]) 
 
     table, columns = case_array(net, frame)
     answers: dict[str, Any] = {}
+    every = net.posteriors_batch(table, columns=columns, targets=targets)
     for target in targets:
-        values = net.posterior_batch(target, table, columns=columns)
+        values = every[target]
         for k, state in enumerate(net.states(target)):
             answers[column_name(target, state)] = values[:, k]
     return pd.DataFrame(answers, index=frame.index)

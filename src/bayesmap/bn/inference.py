@@ -55,6 +55,9 @@ _BATCH_CLASS = 256
 """Batches up to ``2 * _BATCH_CLASS - 1`` cases share one contraction order."""
 """Multiply-adds of a batch's per-case contraction above which the joint is considered."""
 """Largest memo of batch answers (combinations of observed states × target states)."""
+_MANY_PATTERNS = 64
+"""Batches whose cases spread over more patterns of observed columns than this are answered
+by one contraction with evidence indicators rather than one per pattern."""
 _CALL_COST = 4000
 """Fixed cost of one contraction call, in multiply-adds (a few µs of Python and numpy)."""
 _CALLS_PER_QUESTION = 8
@@ -251,15 +254,30 @@ class Engine:
         return {v: np.asarray(j / j.sum()) for (_, v), j in zip(wanted, joints, strict=True)}
 
     def posteriors_batch(
-        self, evidence: BatchEvidence, columns: Sequence[str] | None
+        self,
+        evidence: BatchEvidence,
+        columns: Sequence[str] | None,
+        targets: Sequence[str] | None = None,
     ) -> dict[int, FloatArray]:
-        """:meth:`posteriors` of many cases: ``{variable id: (n_cases, n_states)}``, one
-        two-pass contraction per pattern of observed columns (observed: one-hot)."""
+        """:meth:`posteriors` of many cases: ``{variable id: (n_cases, n_states)}`` of every
+        variable, or of ``targets`` (observed: one-hot).
+
+        Cases are grouped by their pattern of observed columns, one two-pass contraction
+        per pattern; when the cases spread over more than ``_MANY_PATTERNS`` patterns, all
+        are answered by one contraction with evidence indicators instead
+        (:meth:`_indicator_batch`).
+        """
         compiled = self.compiled
         table, cols = self.batch_array(evidence, columns)
         n = table.shape[0]
+        wanted = (
+            range(len(compiled.names)) if targets is None else [compiled.id(t) for t in targets]
+        )
+        groups = _patterns(table) if n else []
+        if len(groups) > _MANY_PATTERNS and not compiled.sources:
+            return self._indicator_batch(tuple(dict.fromkeys(wanted)), table, cols)
         out = {v: np.zeros((n, compiled.card[v])) for v in range(len(compiled.names))}
-        for rows, pattern in _patterns(table):
+        for rows, pattern in groups:
             ev_vars = [cols[j] for j in pattern]
             values = table[np.ix_(rows, pattern)]
             self._batch_contract(
@@ -288,11 +306,65 @@ class Engine:
                 _slice_batch(compiled, f, cols_k, case_names) for f in plan.factors if f.observed
             ]
             size_class = 1 << max(len(rows), _BATCH_CLASS).bit_length()
-            program, wanted = self._two_pass(plan, free, (_CASE,), size_class)
+            program, pairs = self._two_pass(plan, free, (_CASE,), size_class)
             _, joints = program(operands)
-            for (_, v), joint in zip(wanted, joints, strict=True):
+            for (_, v), joint in zip(pairs, joints, strict=True):
                 out[v][rows] = joint / joint.sum(axis=1, keepdims=True)
-        return out
+        return {v: out[v] for v in wanted}
+
+    def _indicator_batch(
+        self, targets: tuple[int, ...], table: IntArray, cols: Sequence[int]
+    ) -> dict[int, FloatArray]:
+        """Posteriors of ``targets`` for cases with many patterns of blanks, all at once.
+
+        Each observed column becomes a factor over the case axis and its variable — one-hot
+        where the case observes it, ones where it is blank — so every case shares one
+        contraction of the (evidence-free, pruned) network with these indicators, and its
+        reverse gives every target's joint with the case's evidence (:mod:`marginals`).
+        """
+        compiled = self.compiled
+        n = table.shape[0]
+        used = [j for j in range(table.shape[1]) if np.any(table[:, j] >= 0)]
+        observed = tuple(cols[j] for j in used)
+        keep = tuple(dict.fromkeys((*targets, *observed)))
+        plan = self.plan("sum", keep, frozenset())
+        size_class = 1 << max(n, _BATCH_CLASS).bit_length()
+        key = ("indicators", observed, targets, size_class)
+        entry = plan.cache.get(key)
+        if entry is None:
+            scopes = [f.free for f in plan.factors] + [(_CASE, v) for v in observed]
+            constants: list[FloatArray | None] = [f.array for f in plan.factors]
+            constants += [None] * len(observed)
+            sizes: dict[Any, int] = dict(enumerate(compiled.card))
+            sizes[_CASE] = size_class
+            path, _, _ = plans.order_steps(compiled, scopes, (_CASE,), {_CASE: size_class})
+            own = {f.var: k for k, f in enumerate(plan.factors) if f.var in targets}
+            pairs = [(own[t], t) for t in targets]
+            entry = plan.cache[key] = marginals.TwoPass(
+                scopes, constants, path, (_CASE,), sizes, pairs
+            )
+        indicators = []
+        for j in used:
+            values = table[:, j]
+            indicator = np.ones((n, compiled.card[cols[j]]))
+            seen = np.flatnonzero(values >= 0)
+            indicator[seen] = 0.0
+            indicator[seen, values[seen]] = 1.0
+            indicators.append(indicator)
+        totals, joints = entry(indicators)
+        bad = np.flatnonzero(~(totals > 0.0))
+        if bad.size:
+            i = int(bad[0])
+            case = {
+                compiled.names[cols[j]]: compiled.states[cols[j]][table[i, j]]
+                for j in used
+                if table[i, j] >= 0
+            }
+            raise InputError(f"batched evidence case {i}: " + _impossible(case))
+        return {
+            t: np.asarray(joint / totals[:, np.newaxis])
+            for t, joint in zip(targets, joints, strict=True)
+        }
 
     def _two_pass_pays(self, plan: Plan, free: tuple[int, ...]) -> bool:
         """Whether one two-pass contraction of the whole network costs less than one pruned
@@ -417,8 +489,11 @@ class Engine:
             return np.empty((0, compiled.card[t]))
         if soft:
             return self._soft_batch(t, table, cols, soft)
+        groups = _patterns(table)
+        if len(groups) > _MANY_PATTERNS and not compiled.sources:
+            return self._indicator_batch((t,), table, cols)[t]
         out = np.empty((table.shape[0], compiled.card[t]))
-        for rows, pattern in _patterns(table):
+        for rows, pattern in groups:
             ev_vars = [cols[j] for j in pattern]
             values = table[np.ix_(rows, pattern)]
             if t in ev_vars:

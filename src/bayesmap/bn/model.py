@@ -556,12 +556,17 @@ class BayesNet:
         }
 
     def posteriors_batch(
-        self, evidence: BatchEvidence, *, columns: Sequence[str] | None = None
+        self,
+        evidence: BatchEvidence,
+        *,
+        columns: Sequence[str] | None = None,
+        targets: Sequence[str] | None = None,
     ) -> dict[str, FloatArray]:
-        """:meth:`posteriors` for many cases: ``{variable: (n_cases, n_states) array}``
-        (observed variables one-hot); evidence as in :meth:`posterior_batch`."""
+        """:meth:`posteriors` for many cases: ``{variable: (n_cases, n_states) array}`` of
+        every variable, or of ``targets`` (observed variables one-hot); evidence as in
+        :meth:`posterior_batch` (arrays or mappings)."""
         names = self.variables
-        answers = self._engine.posteriors_batch(evidence, columns)
+        answers = self._engine.posteriors_batch(evidence, columns, targets)
         return {names[v]: values for v, values in answers.items()}
 
     def sample(self, n: int = 1, *, rng: RNGLike = None) -> IntArray:
