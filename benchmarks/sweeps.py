@@ -74,8 +74,9 @@ def main() -> None:
 
 `python benchmarks/sweeps.py` — {machine()}. The machine was **shared with other
 engineers' jobs** during the run (1-minute load average {load_before[0]:.1f} before,
-{load_after[0]:.1f} after, on {os.cpu_count()} cores), so the workers competed for the
-cores and the speed-up below is a lower bound of what an idle machine gives.
+{load_after[0]:.1f} after, on {os.cpu_count()} cores): the serial run and the workers competed
+with that load for the cores, so these timings say how a sweep fares on a busy machine, not
+what it gives on an idle one.
 
 Each run is a whole `blackboard` experiment ({args.poses} poses, condition `normal`,
 figures included) on one of {args.worlds} generated worlds with one of {args.seeds} seeds.
