@@ -28,7 +28,7 @@ def test_the_documented_example_builds_runs_and_prints_the_engines_answer(tmp_pa
     args = [str(tmp_path / "firmware") if a == "firmware/" else a for a in args]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
-    assert result.stdout.strip() == command.group(2).replace("firmware/", f"{tmp_path}/firmware/")
+    assert result.output.strip() == command.group(2).replace("firmware/", f"{tmp_path}/firmware/")
 
     header = (tmp_path / "firmware" / "asia.h").read_text()
     documented = re.search(r"```c\n(typedef.*?)```", text, re.DOTALL)
