@@ -21,11 +21,12 @@ Examples
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from bayesmap.bn.io import bif, xbn, xmlbif
 from bayesmap.bn.io._common import read_source, write_output
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
@@ -44,10 +45,27 @@ class Format:
     extensions: tuple[str, ...]
 
 
+def _deferred(module: str, function: str) -> Callable[..., Any]:
+    """``bayesmap.bn.io.<module>.<function>``, imported on first call (lxml, for the XML
+    formats, then loads only when an XML file is read or written)."""
+
+    def call(*args: Any, **kwargs: Any) -> Any:
+        target = getattr(importlib.import_module(f"bayesmap.bn.io.{module}"), function)
+        return target(*args, **kwargs)
+
+    call.__name__ = call.__qualname__ = f"{module}.{function}"
+    return call
+
+
 FORMATS: dict[str, Format] = {
-    "xmlbif": Format("xmlbif", xmlbif.loads, xmlbif.dumps, (".xml", ".xmlbif", ".bifxml")),
-    "bif": Format("bif", bif.loads, bif.dumps, (".bif",)),
-    "xbn": Format("xbn", xbn.loads, xbn.dumps, (".xbn",)),
+    "xmlbif": Format(
+        "xmlbif",
+        _deferred("xmlbif", "loads"),
+        _deferred("xmlbif", "dumps"),
+        (".xml", ".xmlbif", ".bifxml"),
+    ),
+    "bif": Format("bif", _deferred("bif", "loads"), _deferred("bif", "dumps"), (".bif",)),
+    "xbn": Format("xbn", _deferred("xbn", "loads"), _deferred("xbn", "dumps"), (".xbn",)),
 }
 """Registered formats by name."""
 
