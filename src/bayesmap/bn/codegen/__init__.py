@@ -38,7 +38,7 @@ from bayesmap import _io
 from bayesmap.bn.codegen.emit import Arith, Spec, header, identifier, source
 from bayesmap.bn.codegen.program import (
     SOFT_SUFFIX,
-    Multiply,
+    Eliminate,
     Program,
     SoftNetwork,
     check_pattern,
@@ -194,7 +194,7 @@ def _prior_vars(programs: dict[int, list[Program]]) -> set[int]:
         for program in progs:
             views = [c.view for c in program.checks] + [program.result]
             for step in program.steps:
-                views += [step.a, step.b] if isinstance(step, Multiply) else [step.source]
+                views += [step.source] if isinstance(step, Eliminate) else [step.a, step.b]
             found.update(
                 view.table.var
                 for view in views

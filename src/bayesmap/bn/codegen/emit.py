@@ -9,13 +9,22 @@ error bound, which the C code does not carry).
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from bayesmap._typing import FloatArray
-from bayesmap.bn.codegen.program import Check, Eliminate, Multiply, Program, Table, View
+from bayesmap.bn.codegen.program import (
+    Axis,
+    Check,
+    Multiply,
+    MultiplySum,
+    Program,
+    Step,
+    Table,
+    View,
+)
 from bayesmap.bn.compiled import Compiled
 from bayesmap.bn.fixed_point import QFormat
 
@@ -210,8 +219,26 @@ def _renormalise(q: QFormat) -> list[str]:
         "    return n;",
         "}",
         "",
-        f"/* Shift a block so its largest entry fills {q.mantissa_bits} bits; right shifts",
-        "   round half up and saturate. */",
+        f"/* The shift that brings the largest entry of a block to {q.mantissa_bits} bits. */",
+        "static int shift_of(int64_t largest)",
+        "{",
+        f"    return largest == 0 ? 0 : bit_length((uint64_t)largest) - {q.mantissa_bits};",
+        "}",
+        "",
+        "/* One entry shifted: right shifts round half up and saturate, left shifts are exact. */",
+        "static int64_t rescale(int64_t x, int shift)",
+        "{",
+        "    if (shift > 0) {",
+        "        int64_t r = (x + ((int64_t)1 << (shift - 1))) >> shift;",
+        f"        return r > INT64_C({q.max_raw}) ? INT64_C({q.max_raw}) : r;",
+        "    }",
+        "    if (shift < 0) {",
+        "        return (int64_t)((uint64_t)x << -shift);",
+        "    }",
+        "    return x;",
+        "}",
+        "",
+        "/* Shift a block so its largest entry fills the word (fixed_point.renormalise). */",
         "static void renormalise(int64_t *x, int32_t n)",
         "{",
         "    int64_t largest = 0;",
@@ -222,19 +249,10 @@ def _renormalise(q: QFormat) -> list[str]:
         "            largest = x[i];",
         "        }",
         "    }",
-        "    if (largest == 0) {",
-        "        return;",
-        "    }",
-        f"    shift = bit_length((uint64_t)largest) - {q.mantissa_bits};",
-        "    if (shift > 0) {",
-        "        int64_t half = (int64_t)1 << (shift - 1);",
+        "    shift = shift_of(largest);",
+        "    if (shift != 0) {",
         "        for (i = 0; i < n; ++i) {",
-        "            int64_t r = (x[i] + half) >> shift;",
-        f"            x[i] = r > INT64_C({q.max_raw}) ? INT64_C({q.max_raw}) : r;",
-        "        }",
-        "    } else if (shift < 0) {",
-        "        for (i = 0; i < n; ++i) {",
-        "            x[i] = (int64_t)((uint64_t)x[i] << -shift);",
+        "            x[i] = rescale(x[i], shift);",
         "        }",
         "    }",
         "}",
@@ -255,6 +273,7 @@ class _Emitter:
         self.soft_used: set[int] = set()
         self.any_soft = False
         self.depth = 1
+        self.fused = False
 
     # ----------------------------------------------------------------- tables
     def _values(self, table: Table) -> FloatArray:
@@ -308,6 +327,7 @@ class _Emitter:
         p, up, arith = self.spec.prefix, self.spec.prefix.upper(), self.spec.arith
         self.soft_used = set()
         self.depth = 1
+        self.fused = False
         body = [
             f"    if (!({self._possible(check)})) return {up}_IMPOSSIBLE;"
             for check in program.checks
@@ -329,6 +349,8 @@ class _Emitter:
             )
         lines += [f"    int32_t i{k};" for k in range(self.depth)]
         lines.append(f"    {arith.work_type} total = 0;")
+        if self.fused and arith.q is not None:
+            lines += ["    int64_t product;", "    int64_t largest;", "    int shift;"]
         lines += body
         lines += ["    (void)evidence;", "    (void)soft;", "    (void)data;"]
         lines += [f"    return {up}_OK;", "}", ""]
@@ -387,34 +409,79 @@ class _Emitter:
         self.depth = max(self.depth, k)
         return opened, names
 
-    def _step(self, step: Multiply | Eliminate) -> list[str]:
+    def _step(self, step: Step) -> list[str]:
         fixed = self.spec.arith.q is not None
         out = step.out
         if isinstance(step, Multiply):
             opened, names = self._loops([a.size for a in out.axes])
-            a, b = self._at(step.a, names), self._at(step.b, names)
-            product = f"(int64_t){a} * {b}" if fixed else f"{a} * {b}"
+            product = self._product(step.a, step.b, names)
             indent = "    " * (1 + len(opened))
             lines = ["    /* multiply */", *opened, f"{indent}{self._at(out, names)} = {product};"]
             lines += _close(len(opened))
+        elif isinstance(step, MultiplySum):
+            lines = self._multiply_sum(step)
         else:
             kept = step.source.axes[: step.n_keep]
             dropped = step.source.axes[step.n_keep :]
-            opened, names = self._loops([a.size for a in kept])
-            inner, inner_names = self._loops(
-                [a.size for a in dropped], first=len(opened), level=len(opened)
-            )
-            indent = "    " * (1 + len(opened))
-            deep = "    " * (1 + len(opened) + len(inner))
-            at_in = self._at(step.source, [*names, *inner_names])
-            lines = ["    /* sum out */", *opened, f"{indent}total = 0;", *inner]
-            lines.append(f"{deep}total += {at_in};")
-            lines += _close(len(inner), len(opened))
-            lines.append(f"{indent}{self._at(out, names)} = total;")
-            lines += _close(len(opened))
+            lines = ["    /* sum out */"]
+            lines += self._sum(kept, dropped, self._at_fn(step.source), out)
         if fixed:
             lines.append(f"    renormalise(work + {out.work}, {out.size});")
         return lines
+
+    def _product(self, a: View, b: View, names: Sequence[str | None]) -> str:
+        product = f"{self._at(a, names)} * {self._at(b, names)}"
+        return "(int64_t)" + product if self.spec.arith.q is not None else product
+
+    def _at_fn(self, view: View) -> Callable[[Sequence[str | None]], str]:
+        return lambda names: self._at(view, names)
+
+    def _sum(
+        self,
+        kept: Sequence[Axis],
+        dropped: Sequence[Axis],
+        term: Callable[[Sequence[str | None]], str],
+        out: View,
+    ) -> list[str]:
+        """``out[kept] = Σ_dropped term`` as nested loops."""
+        opened, names = self._loops([a.size for a in kept])
+        inner, inner_names = self._loops(
+            [a.size for a in dropped], first=len(opened), level=len(opened)
+        )
+        indent = "    " * (1 + len(opened))
+        deep = "    " * (1 + len(opened) + len(inner))
+        lines = [*opened, f"{indent}total = 0;", *inner]
+        lines.append(f"{deep}total += {term([*names, *inner_names])};")
+        lines += _close(len(inner), len(opened))
+        lines.append(f"{indent}{self._at(out, names)} = total;")
+        lines += _close(len(opened))
+        return lines
+
+    def _multiply_sum(self, step: MultiplySum) -> list[str]:
+        """A product summed as it is formed (fixed point: a first pass finds its shift)."""
+        axes = tuple(
+            x if x.size >= y.size else y for x, y in zip(step.a.axes, step.b.axes, strict=True)
+        )
+        kept, dropped = axes[: step.n_keep], axes[step.n_keep :]
+        lines = ["    /* multiply and sum out */"]
+        if self.spec.arith.q is None:
+            return lines + self._sum(
+                kept, dropped, lambda n: self._product(step.a, step.b, n), step.out
+            )
+        self.fused = True
+        opened, names = self._loops([a.size for a in axes])
+        indent = "    " * (1 + len(opened))
+        lines += ["    largest = 0;", *opened]
+        lines.append(f"{indent}product = {self._product(step.a, step.b, names)};")
+        lines.append(f"{indent}if (product > largest) largest = product;")
+        lines += _close(len(opened))
+        lines.append("    shift = shift_of(largest);")
+        return lines + self._sum(
+            kept,
+            dropped,
+            lambda n: f"rescale({self._product(step.a, step.b, n)}, shift)",
+            step.out,
+        )
 
     def _normalise(self, result: View) -> list[str]:
         up, arith = self.spec.prefix.upper(), self.spec.arith

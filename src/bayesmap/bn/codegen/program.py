@@ -91,12 +91,32 @@ class Multiply:
 
 
 @dataclass(frozen=True)
+class MultiplySum:
+    """``out[kept] = Σ_dropped renormalised(a·b)[kept, dropped]``, then renormalise ``out``.
+
+    A product summed at once, never stored: the block's shift comes from a first pass over
+    the products, the shifted products are summed in a second. The numbers are those of a
+    :class:`Multiply` followed by an :class:`Eliminate`; the work array holds only ``out``.
+    ``a`` and ``b`` are aligned on the product's axes, of which the first ``n_keep`` stay.
+    """
+
+    out: View
+    a: View
+    b: View
+    n_keep: int
+
+
+@dataclass(frozen=True)
 class Eliminate:
     """``out[kept] = Σ_dropped source[kept, dropped]``, then renormalise ``out``."""
 
     out: View
     source: View
     n_keep: int
+
+
+Step = Multiply | MultiplySum | Eliminate
+"""One instruction of a :class:`Program`."""
 
 
 @dataclass(frozen=True)
@@ -113,7 +133,7 @@ class Program:
     target: int
     observed: tuple[int, ...]
     checks: list[Check]
-    steps: list[Multiply | Eliminate]
+    steps: list[Step]
     result: View
     work_size: int
 
@@ -159,10 +179,17 @@ class Allocator:
 
 @dataclass
 class Tracer:
-    """An :class:`~bayesmap.bn.elimination.Algebra` on views that records the instructions."""
+    """An :class:`~bayesmap.bn.elimination.Algebra` on views that records the instructions.
 
-    steps: list[Multiply | Eliminate] = field(default_factory=list)
+    A product is not placed in the work array until it is needed: if the next instruction
+    sums it out, the two become one :class:`MultiplySum` and the product is never stored
+    (the largest tables of a plan are such products).
+    """
+
+    steps: list[Step] = field(default_factory=list)
     allocator: Allocator = field(default_factory=Allocator)
+    pending: tuple[View, View, View] | None = None
+    placed: dict[int, tuple[View, View]] = field(default_factory=dict)
 
     def shape(self, operand: View) -> tuple[int, ...]:
         """Sizes of the axes."""
@@ -170,6 +197,7 @@ class Tracer:
 
     def rearrange(self, operand: View, axes: Sequence[int], shape: Sequence[int]) -> View:
         """Permute the axes, then insert unit axes: only the strides change."""
+        operand = self.resolve(operand)
         moved = [operand.axes[k] for k in axes]
         out, j = [], 0
         for size in shape:
@@ -181,36 +209,65 @@ class Tracer:
         return View(operand.table, operand.work, operand.offset, tuple(out))
 
     def multiply(self, a: View, b: View) -> View:
-        """Record a broadcast product into a fresh buffer."""
-        axes = []
-        for x, y in zip(a.axes, b.axes, strict=True):
-            axes.append(x if x.size >= y.size else y)
-        out = self._fresh(tuple(axes))
-        self._release(a, b)
-        self.steps.append(Multiply(out, a, b))
-        return out
+        """Record a broadcast product (placed in the work array only if it is kept)."""
+        a, b = self.resolve(a), self.resolve(b)
+        if self.pending is not None:  # an earlier product, still needed later: place it
+            self.resolve(self.pending[0])
+        axes = tuple(x if x.size >= y.size else y for x, y in zip(a.axes, b.axes, strict=True))
+        product = View(None, -1, (), _laid_out(axes))
+        self.pending = (product, a, b)
+        return product
 
     def eliminate(self, operand: View, n_keep: int) -> tuple[View, None]:
         """Record the sum over the trailing axes into a fresh buffer."""
+        pending = self.pending
+        if pending is not None and operand is pending[0]:
+            _, a, b = pending
+            self.pending = None
+            out = self._fresh(operand.axes[:n_keep])
+            self._release(a, b)
+            self.steps.append(MultiplySum(out, a, b, n_keep))
+            return out, None
+        operand = self.resolve(operand)
+        if pending is not None and self.pending is not None:
+            self.resolve(pending[0])
         out = self._fresh(operand.axes[:n_keep])
         self._release(operand)
         self.steps.append(Eliminate(out, operand, n_keep))
         return out, None
 
+    def resolve(self, view: View) -> View:
+        """The placed view of a product (placing the pending one now), or ``view`` itself."""
+        pending = self.pending
+        if pending is not None and view is pending[0]:
+            product, a, b = pending
+            self.pending = None
+            out = self._fresh(product.axes)
+            self._release(a, b)
+            self.steps.append(Multiply(out, a, b))
+            self.placed[id(product)] = (product, out)
+            return out
+        entry = self.placed.get(id(view))
+        return entry[1] if entry is not None and entry[0] is view else view
+
     def _fresh(self, axes: tuple[Axis, ...]) -> View:
         size = math.prod(a.size for a in axes)
-        strides, step = [], 1
-        for a in reversed(axes):
-            strides.append(step if a.size > 1 else 0)
-            step *= a.size
-        strides.reverse()
-        laid = tuple(Axis(a.var, a.size, s) for a, s in zip(axes, strides, strict=True))
-        return View(None, self.allocator.take(size), (), laid)
+        return View(None, self.allocator.take(size), (), _laid_out(axes))
 
     def _release(self, *views: View) -> None:
         for view in views:
             if view.table is None:
                 self.allocator.pending.append((view.work, view.size))
+
+
+def _laid_out(axes: tuple[Axis, ...]) -> tuple[Axis, ...]:
+    """The axes of a contiguous C-order buffer (unit axes get stride 0)."""
+    strides, step = [], 1
+    for axis in reversed(axes):
+        strides.append(step if axis.size > 1 else 0)
+        step *= axis.size
+    strides.reverse()
+    return tuple(Axis(a.var, a.size, s) for a, s in zip(axes, strides, strict=True))
 
 
 @dataclass
@@ -293,6 +350,7 @@ def trace(
     tracer = Tracer()
     operands = [_leaf(compiled, f, soft) for f in plan.factors]
     result, term, _ = elimination.run(path, operands, tracer)
+    result = tracer.resolve(result)
     if term != plan.output:  # one target: the only other order is none at all
         raise AssertionError("a one-target plan ended with a different output")
     checks = [Check(_leaf(compiled, f, soft)) for f in plan.checks]
