@@ -22,6 +22,7 @@ from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn
 from bayesmap._io import write_bytes, write_json
 from bayesmap.errors import BayesmapError, InputError
 from bayesmap.grid.ros import write_ros_map
+from bayesmap.sonar.bags import read_sonar_bag
 from bayesmap.sonar.filter import Stage
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.logs import LENGTH_UNITS, LogUnits, SonarLog, read_sonar_log
@@ -195,6 +196,20 @@ def map_command(
     max_cells: Annotated[
         int, typer.Option("--max-cells", help="Refuse maps with more cells than this.")
     ] = 25_000_000,
+    topics: Annotated[
+        str | None,
+        typer.Option(
+            "--topics",
+            help="LOG is a ROS bag (ROS 1, ROS 2 or MCAP): its sensor_msgs/Range topics, one "
+            "per transducer in ring order, comma-separated.",
+        ),
+    ] = None,
+    pose_topic: Annotated[
+        str, typer.Option("--pose-topic", help="Bag: nav_msgs/Odometry topic, or /tf.")
+    ] = "/odom",
+    tf_frames: Annotated[
+        str, typer.Option("--tf-frames", help="Bag with --pose-topic /tf: 'parent,child'.")
+    ] = "odom,base_link",
 ) -> None:
     """Build map.png, map.yaml + map.pgm (ROS map_server) and summary.json from a sonar log."""
     with _user_errors():
@@ -221,16 +236,28 @@ def map_command(
             transient=True,
         ) as bar:
             reading = bar.add_task(f"reading {log.name}", total=1)
-            data = read_sonar_log(
-                log,
-                geometry.n,
-                poses_path=poses,
-                units=units,
-                strict=strict,
-                time_tolerance=pose_tolerance,
-                max_pose_gap=max_pose_gap,
-                progress=lambda done, total: bar.update(reading, completed=done, total=total),
-            )
+            if topics is not None:
+                data = _read_bag(
+                    log,
+                    topics,
+                    pose_topic,
+                    tf_frames,
+                    geometry,
+                    strict,
+                    pose_tolerance,
+                    max_pose_gap,
+                )
+            else:
+                data = read_sonar_log(
+                    log,
+                    geometry.n,
+                    poses_path=poses,
+                    units=units,
+                    strict=strict,
+                    time_tolerance=pose_tolerance,
+                    max_pose_gap=max_pose_gap,
+                    progress=lambda done, total: bar.update(reading, completed=done, total=total),
+                )
             _check_ranges(data, geometry, range_unit)
             mapping = bar.add_task("mapping", total=len(data.ranges))
             built = build_map(
@@ -243,6 +270,33 @@ def map_command(
                 progress=lambda done, total: bar.update(mapping, completed=done, total=total),
             )
         _write_outputs(out, log, poses, data, built, pipeline, no_filter)
+
+
+def _read_bag(
+    log: Path,
+    topics: str,
+    pose_topic: str,
+    tf_frames: str,
+    geometry: SonarGeometry,
+    strict: bool,
+    pose_tolerance: float,
+    max_pose_gap: float,
+) -> SonarLog:
+    names = [t.strip() for t in topics.split(",") if t.strip()]
+    if len(names) != geometry.n:
+        raise InputError(f"--topics names {len(names)} topics for a ring of {geometry.n}")
+    frames = tuple(f.strip() for f in tf_frames.split(","))
+    if len(frames) != 2 or not all(frames):
+        raise InputError(f"--tf-frames needs 'parent,child', got {tf_frames!r}")
+    return read_sonar_bag(
+        log,
+        names,
+        pose_topic=pose_topic,
+        tf_frames=(frames[0], frames[1]),
+        strict=strict,
+        time_tolerance=pose_tolerance,
+        max_pose_gap=max_pose_gap,
+    )
 
 
 def _write_outputs(

@@ -41,6 +41,7 @@ from bayesmap.errors import FormatError, InputError
 __all__ = [
     "ANGLE_UNITS",
     "LENGTH_UNITS",
+    "join_poses",
     "LogUnits",
     "SkippedRow",
     "SonarLog",
@@ -323,7 +324,7 @@ def read_sonar_log(
         data = table.values
         times, range_raw = data[:, 0], data[:, 1:]
         pose_si = np.column_stack([pose_data[:, 1:3] * length, pose_data[:, 3] * angle])
-        poses, why = _join(times, pose_data[:, 0], pose_si, time_tolerance, max_pose_gap)
+        poses, why = join_poses(times, pose_data[:, 0], pose_si, time_tolerance, max_pose_gap)
         keep = why == ""
         for number, reason in zip(table.lines[~keep], why[~keep], strict=True):
             _report(main, int(number), str(reason), skipped)
@@ -356,16 +357,19 @@ def _abort_if_strict(strict: bool, skipped: list[SkippedRow]) -> None:
         )
 
 
-def _join(
+def join_poses(
     times: FloatArray,
     pose_times: FloatArray,
     poses: FloatArray,
     tolerance: float,
     max_gap: float,
 ) -> tuple[FloatArray, npt.NDArray[np.str_]]:
-    """A pose for each time: interpolated between bracketing poses at most ``max_gap`` [s]
-    apart (linear in position, shortest arc in heading), else the nearest within
-    ``tolerance`` [s]. Returns ``(n, 3)`` poses and, per row, why none was found ("" if one was).
+    """A pose for each of ``times`` from poses ``(m, 3)`` [m, m, rad] at ``pose_times``.
+
+    Interpolated between the bracketing poses when they are at most ``max_gap`` [s] apart
+    (linear in position, shortest arc in heading), else the nearest pose within
+    ``tolerance`` [s]. Returns ``(n, 3)`` poses and, per time, why none was found ("" if
+    one was).
     """
     n = len(times)
     out = np.full((n, 3), np.nan)

@@ -273,9 +273,9 @@ PIPELINES: dict[str, Pipeline] = {
         trait_verification=True,
         no_echo="clear",
         clear_distance=1.0,
-        clamp=4.0,
-        decay=0.0,
+        footprint=0.2,
         merge_repeats=True,
+        filter_options=(("no_echo_spread", 0.2), ("certainty_threshold", 0.3)),
     ),
     "paper": Pipeline(acceptability=True, agreeability=True, trait_verification=True),
     "acceptability": Pipeline(acceptability=True),
@@ -288,8 +288,12 @@ PIPELINES: dict[str, Pipeline] = {
 }
 """The pipelines compared in ``reproduce sonar`` and offered by ``sonar map --pipeline``.
 
-``paper``: all three stages with the eq. 1 cone model as first built (no-echo clears the
-cone, ±10 clamp); the single stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
+``default``: all three stages with the settings learnt on simulated logs with known truth
+(``benchmarks/sonar_tuning.py``, docs/sonar.md): no-echo readings tested across their cone
+(±0.2 rad) against ``L``, certainty threshold 0.3; no-echo readings clear 1 m; the robot's
+footprint (0.2 m) cleared; identical stationary rings merged. ``paper``: all three stages
+with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single
+stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
 ``ros``: unfiltered baselines (the ROS layer exactly as ``range_sensor_layer`` does it)."""
 
 DEFAULT_PIPELINE = "default"
