@@ -37,12 +37,12 @@ from bayesmap.sonar.logs import LogUnits, write_sonar_log  # noqa: E402
 from bayesmap.sonar.mapping import ElfesMapper, RosRangeLayerMapper, ThrunMapper  # noqa: E402
 from bayesmap.sonar.pipeline import DEFAULT_PIPELINE, PIPELINES, RingMapper, map_log  # noqa: E402
 
-RINGS = 3_000
-PEER_RINGS = 1_000
+RINGS = 1_500
+PEER_RINGS = 500
 REPEATS = 3
 RESOLUTION = 0.1
 LOG_MB = 50
-MEMORY_RINGS = 2_000
+MEMORY_RINGS = 500
 WORLD = "sonar-lcorridor-v2"
 
 
