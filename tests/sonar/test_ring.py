@@ -7,10 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from bayesmap.errors import ConfigError, FormatError, InputError
+from bayesmap.errors import BayesmapError, ConfigError, FormatError, InputError
 from bayesmap.sonar.bottom_up import neighbour_bounds
-from bayesmap.sonar.ring import load_ring, preset
+from bayesmap.sonar.ring import load_ring, preset, ring_from_mapping
 
 
 def test_pioneer_presets_put_transducers_where_aria_does() -> None:
@@ -98,3 +100,31 @@ def test_bad_ring_files_say_where_and_what(
 def test_missing_ring_file_names_the_presets(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="pioneer16"):
         load_ring(tmp_path / "nope.yaml")
+
+
+values = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-10, 10),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=5),
+)
+transducer = st.dictionaries(
+    st.sampled_from(["x", "y", "heading", "sigma", "beam_width", "max_range", "colour"]), values
+)
+ring_doc = st.dictionaries(
+    st.sampled_from(
+        ["transducers", "length_unit", "angle_unit", "sigma", "max_range", "min_range"]
+    ),
+    st.one_of(values, st.lists(st.one_of(transducer, values), max_size=5)),
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.one_of(ring_doc, values, st.lists(values, max_size=3)))
+def test_fuzzed_ring_documents_fail_only_with_bayesmap_errors(data: object) -> None:
+    try:
+        ring = ring_from_mapping(data, "fuzz")
+    except BayesmapError:
+        return
+    assert ring.n >= 2 and ring.offsets is not None

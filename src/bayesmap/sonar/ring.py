@@ -73,9 +73,9 @@ def ring_from_mapping(data: Any, source: str = "ring") -> SonarGeometry:
         )
     length_unit = data.get("length_unit", "m")
     angle_unit = data.get("angle_unit", "deg")
-    if length_unit not in _LENGTH:
+    if not isinstance(length_unit, str) or length_unit not in _LENGTH:
         raise FormatError(f"{source}: length_unit {length_unit!r} is not one of m, cm, mm")
-    if angle_unit not in _ANGLE:
+    if not isinstance(angle_unit, str) or angle_unit not in _ANGLE:
         raise FormatError(f"{source}: angle_unit {angle_unit!r} is not one of deg, rad")
     metres, radians = _LENGTH[length_unit], _ANGLE[angle_unit]
     scale = {"beam_width": radians, "min_range": metres, "max_range": metres, "sigma": metres}
