@@ -51,7 +51,7 @@ def main(argv: list[str]) -> None:
     started = time.perf_counter()
     if len(argv) >= 2 and argv[0] == "--from":
         folder = Path(argv[1])
-        note = f"Taken from the `reproduce sonar` run in `{folder}`."
+        note = "Taken from one finished `bayesmap reproduce sonar` run."
     else:
         folder = Path(tempfile.mkdtemp(prefix="sonar_worlds_"))
         run(Config(), folder, progress=lambda what, done, total: print(what, flush=True))
