@@ -32,11 +32,11 @@ from benchmarks._report import machine, update_section  # noqa: E402
 from bayesmap._rng import spawn  # noqa: E402
 from bayesmap.experiments.sonar import (  # noqa: E402
     Config,
-    _make_ring,
-    _truth,
+    make_ring,
     map_metrics,
     path_cells,
     ring_geometry,
+    truth_layers,
 )
 from bayesmap.grid import OccupancyGrid  # noqa: E402
 from bayesmap.sim.polygons import REALISTIC_WORLDS, world  # noqa: E402
@@ -104,7 +104,7 @@ class _Case:
         self.origin = (xmin - 1.0, ymin - 1.0)
         template = self.grid()
         self.name, self.log = name, log
-        self.truth, self.wall = _truth(w, template, log.poses, config.max_range)
+        self.truth, self.wall = truth_layers(w, template, log.poses, config.max_range)
         self.driven = path_cells(template, log.odometry, config.footprint)
 
     def grid(self) -> OccupancyGrid:
@@ -177,7 +177,7 @@ def _map_pipeline(base: Pipeline, options: dict[str, Any]) -> Pipeline:
 def main() -> None:
     started = time.perf_counter()
     config = Config()
-    geometry = ring_geometry(_make_ring(config))
+    geometry = ring_geometry(make_ring(config))
     streams = spawn(TUNE_SEED, len(REALISTIC_WORLDS) * SEEDS_PER_WORLD)
     cases = []
     for i, name in enumerate(REALISTIC_WORLDS):
@@ -187,7 +187,7 @@ def main() -> None:
                 _Case(
                     config,
                     name,
-                    simulate_log(world(name), _make_ring(config), config.realism, rng=rng),
+                    simulate_log(world(name), make_ring(config), config.realism, rng=rng),
                 )
             )
     lines = ["### Filter settings (mean over worlds of min(rejection precision, recall))", ""]

@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayesmap.experiments.sonar import Config, map_metrics, path_cells, run
+from bayesmap.experiments.sonar import Config, make_ring, map_metrics, path_cells, run, score_world
 from bayesmap.grid import OccupancyGrid
-from bayesmap.sim.sonar_log import Realism
+from bayesmap.sim.polygons import random_building
+from bayesmap.sim.sonar_log import Realism, simulate_log
 
 
 def test_map_metrics_against_hand_counts() -> None:
@@ -59,3 +60,16 @@ def test_path_cells_are_those_within_the_radius() -> None:
     x, y = grid.cell_centers(rows, cols)
     assert len(rows) == 10  # a cross of five cells round each point
     assert np.all(np.minimum(np.hypot(x - 0.55, y - 0.55), np.hypot(x - 1.45, y - 0.55)) <= 0.101)
+
+
+@pytest.mark.slow
+def test_default_pipeline_wins_on_a_building_nobody_tuned_on() -> None:
+    config = Config(realism=Realism(ring_rate=4.0))
+    w = random_building(11)
+    log = simulate_log(w, make_ring(config), config.realism, rng=12)
+    names = ("default", "paper", "elfes-ignore-no-echo", "ros")
+    metrics, _, _, _ = score_world(config, w, log, names)
+    kappa = {name: metrics[name]["kappa"] for name in names}
+    assert kappa["default"] > kappa["paper"] + 0.1
+    assert kappa["default"] > max(kappa["elfes-ignore-no-echo"], kappa["ros"])
+    assert metrics["default"]["missed_wall_rate"] <= metrics["ros"]["missed_wall_rate"] + 0.05

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import shapely
 
-from bayesmap.sim.polygons import REALISTIC_WORLDS, world
+from bayesmap.sim.polygons import REALISTIC_WORLDS, random_building, world
 from bayesmap.sim.sonar import EchoKind, SonarRing
 from bayesmap.sim.sonar_log import Realism, drive, odometry, simulate_log
 
@@ -65,3 +65,14 @@ def test_simulated_log_has_people_stops_no_echo_code_and_truth() -> None:
     still = np.flatnonzero(np.all(np.diff(alone.poses, axis=0) == 0, axis=1))
     assert len(still) > 20
     assert np.array_equal(alone.ranges[still + 1], alone.ranges[still])
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_random_buildings_are_drivable(seed: int) -> None:
+    w = random_building(seed)
+    route = np.vstack([w.waypoints, w.waypoints[:1]])
+    room = w.free.buffer(-0.25)
+    for a, b in zip(route[:-1], route[1:], strict=True):
+        if np.any(a != b):
+            assert room.contains(shapely.LineString([a, b]))
+    assert random_building(seed).segments.tolist() == w.segments.tolist()

@@ -33,6 +33,8 @@ from bayesmap.viz.sonar import maps_side_by_side
 __all__ = [
     "BASELINES",
     "Config",
+    "make_ring",
+    "truth_layers",
     "map_metrics",
     "path_cells",
     "ring_geometry",
@@ -145,9 +147,10 @@ def path_cells(grid: OccupancyGrid, path: np.ndarray, radius: float) -> np.ndarr
     return hit.reshape(grid.shape)
 
 
-def _truth(
+def truth_layers(
     w: PolygonWorld, grid: OccupancyGrid, poses: np.ndarray, reach: float
 ) -> tuple[np.ndarray, np.ndarray]:
+    """``(ny, nx)`` true occupancy and the wall cells within ``reach`` [m] of ``poses``."""
     x, y = _cell_centres(grid)
     truth = w.truth_occupancy(x, y, grid.resolution).reshape(grid.shape)
     near_wall = w.near_wall(x, y, grid.resolution / 2.0)
@@ -168,7 +171,8 @@ def _rejection_metrics(accepted: np.ndarray, specular: np.ndarray) -> dict[str, 
     }
 
 
-def _make_ring(config: Config) -> SonarRing:
+def make_ring(config: Config) -> SonarRing:
+    """The simulated Pioneer ring of ``config`` (true transducer offsets)."""
     return SonarRing.pioneer(
         config.ring,
         beam_width=math.radians(config.beam_width_deg),
@@ -186,13 +190,13 @@ def score_world(
     Returns the metrics and (observed-masked) probability map of each pipeline, the grid
     and the truth.
     """
-    geometry = ring_geometry(_make_ring(config))
+    geometry = ring_geometry(make_ring(config))
     xmin, ymin, xmax, ymax = w.bounds
     pad = 1.0
     size = (xmax - xmin + 2 * pad, ymax - ymin + 2 * pad)
     origin = (xmin - pad, ymin - pad)
     template = OccupancyGrid(*size, config.resolution, origin=origin)
-    truth, wall = _truth(w, template, log.poses, config.max_range)
+    truth, wall = truth_layers(w, template, log.poses, config.max_range)
     driven = path_cells(template, log.odometry, config.footprint)
     metrics: dict[str, dict[str, float]] = {}
     maps: dict[str, np.ndarray] = {}
@@ -272,7 +276,7 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
     names = tuple(n for n in PIPELINES if n in config.pipelines)
     jobs = [(name, k) for name in config.worlds for k in range(config.runs)]
     streams = spawn(config.seed, len(jobs))
-    ring = _make_ring(config)
+    ring = make_ring(config)
     records: list[dict[str, Any]] = []
     by_world: dict[str, dict[str, dict[str, list[float]]]] = {}
     figures: list[Path] = []

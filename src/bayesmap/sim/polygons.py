@@ -39,10 +39,11 @@ import shapely
 from shapely.affinity import rotate
 from shapely.geometry import Polygon, box
 
+from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray, Poses
 from bayesmap.errors import ConfigError
 
-__all__ = ["REALISTIC_WORLDS", "WORLDS", "PolygonWorld", "path_poses", "world"]
+__all__ = ["REALISTIC_WORLDS", "WORLDS", "PolygonWorld", "path_poses", "random_building", "world"]
 
 
 @dataclass(frozen=True)
@@ -259,6 +260,53 @@ REALISTIC_WORLDS: tuple[str, ...] = (
     "sonar-openhall-v2",
 )
 """The worlds with door recesses, furniture and clutter that ``reproduce sonar`` measures on."""
+
+
+def random_building(rng: RNGLike = None) -> PolygonWorld:
+    """A stress world nobody tuned on: a random corridor with recesses, side rooms and clutter.
+
+    The corridor is 10–20 m long and 1.6–2.4 m wide, with door recesses (0.1–0.25 m deep,
+    0.8–1.0 m wide) at random along both walls and one or two open doors into rooms of
+    2.5–4 m, each holding a box at a random angle. The path runs along the corridor, into
+    each room and back.
+    """
+    generator = as_generator(rng)
+    length = float(generator.uniform(10.0, 20.0))
+    width = float(generator.uniform(1.6, 2.4))
+    parts: list[Polygon] = [box(0.0, 0.0, length, width)]
+    for y, sign in ((0.0, -1.0), (width, 1.0)):
+        x = float(generator.uniform(0.8, 2.5))
+        while x < length - 1.0:
+            depth = sign * float(generator.uniform(0.1, 0.25))
+            parts += _recesses((x,), y, depth, float(generator.uniform(0.8, 1.0)))
+            x += float(generator.uniform(1.8, 4.0))
+    holes: list[Polygon] = []
+    mid = width / 2
+    waypoints: list[tuple[float, float]] = [(0.8, mid)]
+    rooms = int(generator.integers(1, 3))
+    spots = np.sort(generator.uniform(3.0, length - 3.0, size=rooms))
+    for k, x in enumerate(spots):
+        if k and x - spots[k - 1] < 4.5:
+            continue
+        side = 1.0 if generator.random() < 0.5 else -1.0
+        size = float(generator.uniform(2.5, 4.0))
+        wall = width if side > 0 else 0.0
+        door = box(x - 0.45, min(wall, wall + side * 0.3), x + 0.45, max(wall, wall + side * 0.3))
+        near, far = wall + side * 0.3, wall + side * (0.3 + size)
+        room = box(x - size / 2, min(near, far), x + size / 2, max(near, far))
+        parts += [door, room]
+        centre = (x + size / 4, (near + far) / 2)
+        angle = float(generator.uniform(0.0, 90.0))
+        holes.append(
+            rotate(box(centre[0] - 0.3, centre[1] - 0.2, centre[0] + 0.3, centre[1] + 0.2), angle)
+        )
+        inside = near + side * min(1.0, size / 3)
+        waypoints += [(float(x), mid), (float(x), inside), (float(x), mid)]
+    waypoints.append((length - 0.8, mid))
+    outer = shapely.union_all(parts)
+    if not isinstance(outer, Polygon):
+        raise ConfigError("random building: the outline split (unlucky draw); use another seed")
+    return _make("sonar-random-building", outer, holes, waypoints)
 
 
 def world(name: str) -> PolygonWorld:
