@@ -91,7 +91,12 @@ def test_two_file_log(tmp_path: Path) -> None:
     result = runner.invoke(app, args)
     assert result.exit_code == 0, result.output
     summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["rows_skipped"] == 2 and summary["poses"].endswith("example_poses.csv")
+    # The two ranges rows without a pose of their own get one interpolated from their neighbours.
+    assert summary["rows_skipped"] == 0 and summary["poses"].endswith("example_poses.csv")
+    result = runner.invoke(app, [*args, "--max-pose-gap", "0", "--pose-tolerance", "0.000001"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert [row["line"] for row in summary["skipped"]] == [8, 9]
 
 
 def test_bad_angles_are_an_input_error(tmp_path: Path) -> None:
@@ -112,3 +117,70 @@ def test_bad_angles_are_an_input_error(tmp_path: Path) -> None:
         ],
     )
     assert result.exit_code != 0
+
+
+def _text(result: object) -> str:
+    out = getattr(result, "output", "")
+    try:
+        err = getattr(result, "stderr", "")
+    except ValueError:
+        err = ""
+    return f"{out}\n{err}"
+
+
+def test_out_naming_a_file_is_a_one_line_error(tmp_path: Path) -> None:
+    target = tmp_path / "taken.txt"
+    target.write_text("keep me")
+    result = _map(target)
+    assert result.exit_code == 1
+    assert "is a file" in _text(result) and "Traceback" not in _text(result)
+    assert target.read_text() == "keep me"
+
+
+def test_forgotten_position_unit_is_refused_before_allocating(tmp_path: Path) -> None:
+    args = [
+        "sonar", "map", str(DATA / "example_log.txt"), "--angles-deg", ANGLES,
+        "--range-unit", "mm", "--heading-unit", "deg", "--max-range", "5000",
+        "--resolution", "0.01", "--out", str(tmp_path / "o"), "--max-cells", "1000000",
+    ]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 1
+    text = _text(result)
+    assert "cells" in text and "Traceback" not in text and "position unit" in text
+
+
+def test_max_range_in_the_wrong_unit_warns(tmp_path: Path) -> None:
+    args = [
+        "sonar", "map", str(DATA / "example_log.txt"), "--angles-deg", ANGLES,
+        "--range-unit", "mm", "--position-unit", "mm", "--heading-unit", "deg",
+        "--max-range", "5", "--resolution", "0.2", "--out", str(tmp_path),
+    ]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, _text(result)
+    assert "is --max-range in --range-unit" in _text(result)
+
+
+def test_ring_preset_pipeline_choice_and_literal_messages(tmp_path: Path) -> None:
+    base = [
+        "sonar", "map", str(DATA / "example_log.txt"), "--range-unit", "mm",
+        "--position-unit", "mm", "--heading-unit", "deg", "--resolution", "0.2",
+    ]  # fmt: skip
+    result = runner.invoke(app, [*base, "--ring", "pioneer16", "--out", str(tmp_path / "a")])
+    assert result.exit_code == 0, _text(result)
+    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert summary["pipeline"] == "default"
+    result = runner.invoke(
+        app, [*base, "--ring", "pioneer16", "--pipeline", "ros", "--out", str(tmp_path / "b")]
+    )
+    assert result.exit_code == 0
+    assert json.loads((tmp_path / "b" / "summary.json").read_text())["filter"] is False
+    ring = tmp_path / "[m]ring.yaml"
+    result = runner.invoke(app, [*base, "--ring", str(ring), "--out", str(tmp_path / "c")])
+    assert result.exit_code == 1 and "[m]ring.yaml" in _text(result)
+
+
+def test_sigma_follows_the_range_unit() -> None:
+    from bayesmap.cli.sonar import _geometry
+
+    geometry = _geometry(None, "0,90,180,270", 5000.0, None, 20.0, "mm")
+    assert geometry.sigma == pytest.approx(0.02) and geometry.max_range == pytest.approx(5.0)

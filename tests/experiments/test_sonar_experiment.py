@@ -8,7 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayesmap.experiments.sonar import VARIANTS, Config, map_metrics, run
+from bayesmap.experiments.sonar import Config, make_ring, map_metrics, path_cells, run, score_world
+from bayesmap.grid import OccupancyGrid
+from bayesmap.sim.polygons import random_building
+from bayesmap.sim.sonar_log import Realism, simulate_log
 
 
 def test_map_metrics_against_hand_counts() -> None:
@@ -27,19 +30,46 @@ def test_map_metrics_against_hand_counts() -> None:
 
 def test_small_run_writes_results_and_is_deterministic(tmp_path: Path) -> None:
     config = Config(
-        worlds=("sonar-room-v1",), runs=1, front_arc_runs=1, laps=1, step=0.4, resolution=0.2
+        worlds=("sonar-clutter-v2",),
+        runs=1,
+        pipelines=("default", "elfes", "ros"),
+        resolution=0.2,
+        realism=Realism(ring_rate=2.0, stops=1, people=1),
     )
     calls: list[tuple[str, int, int]] = []
     result = run(config, tmp_path / "a", progress=lambda d, c, t: calls.append((d, c, t)))
     again = run(config, tmp_path / "b")
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
     assert metrics == json.loads((tmp_path / "b" / "metrics.json").read_text())
-    assert [r["ring"] for r in metrics["runs"]] == ["ring16", "front8"]
-    for record in metrics["runs"]:
-        assert set(record["variants"]) == set(VARIANTS)
-        assert record["variants"]["no filter"]["rejected_fraction"] == 0.0
-        assert 0 < record["variants"]["all stages"]["rejected_fraction"] < 1
-    assert "| all stages |" in (tmp_path / "a" / "summary.md").read_text()
+    record = metrics["runs"][0]
+    assert set(record["pipelines"]) == {"default", "elfes", "ros"}
+    assert record["pipelines"]["elfes"]["rejected_fraction"] == 0.0
+    assert 0 < record["pipelines"]["default"]["rejected_fraction"] < 1
+    target = metrics["targets"]["sonar-clutter-v2"]
+    assert target["best_baseline"] in ("elfes", "ros")
+    assert "| default |" in (tmp_path / "a" / "summary.md").read_text()
     assert all(path.exists() and path.suffix == ".png" for path in result.figures)
     assert result.headline == again.headline
     assert calls and calls[-1][1] == calls[-1][2]
+
+
+def test_path_cells_are_those_within_the_radius() -> None:
+    grid = OccupancyGrid(2.0, 1.0, 0.1)
+    cells = path_cells(grid, np.array([[0.55, 0.55, 0.0], [1.45, 0.55, 0.0]]), 0.101)
+    rows, cols = np.nonzero(cells)
+    x, y = grid.cell_centers(rows, cols)
+    assert len(rows) == 10  # a cross of five cells round each point
+    assert np.all(np.minimum(np.hypot(x - 0.55, y - 0.55), np.hypot(x - 1.45, y - 0.55)) <= 0.101)
+
+
+@pytest.mark.slow
+def test_default_pipeline_wins_on_a_building_nobody_tuned_on() -> None:
+    config = Config(realism=Realism(ring_rate=4.0))
+    w = random_building(11)
+    log = simulate_log(w, make_ring(config), config.realism, rng=12)
+    names = ("default", "paper", "elfes-ignore-no-echo", "ros")
+    metrics, _, _, _ = score_world(config, w, log, names)
+    kappa = {name: metrics[name]["kappa"] for name in names}
+    assert kappa["default"] > kappa["paper"] + 0.1
+    assert kappa["default"] > max(kappa["elfes-ignore-no-echo"], kappa["ros"])
+    assert metrics["default"]["missed_wall_rate"] <= metrics["ros"]["missed_wall_rate"] + 0.05

@@ -15,7 +15,7 @@ from bayesmap.sim.sonar import SonarRing, SonarScan, observe
 from bayesmap.sonar.filter import SpecularFilter, Stage
 from bayesmap.sonar.geometry import SonarGeometry, cone_cells
 from bayesmap.sonar.mapping import ElfesMapper, RosRangeLayerMapper, ThrunMapper
-from bayesmap.sonar.pipeline import build_map, grid_for_poses, map_log
+from bayesmap.sonar.pipeline import PIPELINES, build_map, grid_for_poses, map_log
 
 Corridor = tuple[np.ndarray, SonarScan, SonarGeometry]
 
@@ -173,7 +173,111 @@ def test_pipeline_filtered_map_is_deterministic_and_covers_the_path(corridor: Co
     grid = a.mapper.grid
     rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
     assert grid.in_bounds(rows, cols).all()
-    unfiltered = build_map(poses, scan.ranges, geometry, 0.2, use_filter=False)
+    unfiltered = build_map(poses, scan.ranges, geometry, 0.2, pipeline=PIPELINES["elfes"])
     assert unfiltered.run.accepted.all() and unfiltered.filt is None
     with pytest.raises(InputError):
         map_log(poses, scan.ranges[:-1], ElfesMapper(grid_for_poses(poses, 5, 0.2), geometry))
+
+
+def _row_probability(mapper: ElfesMapper | RosRangeLayerMapper, y: float = 0.0) -> np.ndarray:
+    grid = mapper.grid
+    row = grid.world_to_cell(0.0, y)[0]
+    return np.asarray(mapper.probability()[row])
+
+
+def test_no_echo_handling_ignore_clear_and_cone() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+    far = [6.0, 6.0]  # a no-echo code above the max range
+    seen = {}
+    for mode in ("ignore", "clear", "cone"):
+        grid = OccupancyGrid(12.0, 2.0, 0.1, origin=(-6.0, -1.0))
+        mapper = ElfesMapper(grid, geometry, no_echo=mode, clear_distance=1.5)
+        mapper.integrate([0.0, 0.0, 0.0], far)
+        x = np.asarray(grid.cell_centers(0, np.arange(grid.shape[1]))[0])
+        free = _row_probability(mapper) < 0.5
+        seen[mode] = float(np.abs(x[free]).max()) if free.any() else 0.0
+    assert seen["ignore"] == 0.0
+    assert 1.3 <= seen["clear"] <= 1.5
+    assert seen["cone"] > 4.5
+
+
+def test_saturation_and_decay_let_a_passer_by_fade() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+
+    def rings_to_clear(clamp: float, decay: float) -> int:
+        grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
+        mapper = ElfesMapper(grid, geometry, clamp=clamp, decay=decay)
+        for _ in range(47):  # a person stands 1 m ahead while the robot waits
+            mapper.integrate([0.0, 0.0, 0.0], [1.0, 6.0])
+        cell = grid.world_to_cell(1.0, 0.0)
+        for n in range(1, 500):  # they leave: the wall is 3 m ahead
+            mapper.integrate([0.0, 0.0, 0.0], [3.0, 6.0])
+            if mapper.probability()[cell] < 0.5:
+                return n
+        return 500
+
+    assert rings_to_clear(10.0, 0.0) > rings_to_clear(3.0, 0.0) > rings_to_clear(3.0, 0.2)
+
+
+def test_footprint_clearing_frees_the_robots_cells() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+    grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
+    mapper = ElfesMapper(grid, geometry, footprint=0.2)
+    mapper.integrate([0.0, 0.0, 0.0], [1.0, 6.0])
+    assert mapper.probability()[grid.world_to_cell(1.0, 0.0)] > 0.5
+    mapper.integrate([1.0, 0.0, 0.0], [6.0, 6.0])
+    assert mapper.probability()[grid.world_to_cell(1.0, 0.0)] < 0.5
+
+
+def test_ros_layer_drops_readings_above_max_range_and_marks_at_it() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+    grid = OccupancyGrid(12.0, 2.0, 0.1, origin=(-6.0, -1.0))
+    mapper = RosRangeLayerMapper(grid, geometry)
+    mapper.integrate([0.0, 0.0, 0.0], [5.25, math.inf])
+    assert not mapper.observed().any()
+    mapper.integrate([0.0, 0.0, 0.0], [5.0, math.inf])  # exactly at max: marked, as ROS does
+    assert mapper.probability()[grid.world_to_cell(5.0, 0.0)] > 0.5
+
+
+def test_identical_stationary_rings_count_once() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+    poses = np.array([[0.0, 0.0, 0.0]] * 47 + [[0.5, 0.0, 0.0]])
+    ranges = np.array([[1.0, 6.0]] * 47 + [[0.5, 6.0]])
+    ranges[10, 0] += 0.5 * geometry.sigma  # within the noise: still the same ring
+
+    def run(merge: bool) -> tuple[np.ndarray, int]:
+        grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
+        mapper = ElfesMapper(grid, geometry)
+        outcome = map_log(poses, ranges, mapper, merge_repeats=merge)
+        return outcome.repeat, mapper.rings_
+
+    repeat, rings = run(True)
+    assert repeat.sum() == 46 and rings == 2
+    assert run(False)[1] == 48
+
+
+def test_grid_too_large_is_refused_with_the_unit_hint() -> None:
+    poses = np.array([[0.0, 0.0, 0.0], [12_000.0, 3_000.0, 0.0]])  # mm read as metres
+    with pytest.raises(InputError, match="millimetres"):
+        grid_for_poses(poses, 5.0, 0.05)
+
+
+def test_traits_the_robot_drives_through_leave_l() -> None:
+    geometry = SonarGeometry(angles=tuple(2 * math.pi * k / 8 for k in range(8)), max_range=5.0)
+    filt = SpecularFilter(geometry, footprint=0.25)
+    filt.l_segments_ = np.array([[1.0, -1.0, 1.0, 1.0], [3.0, -1.0, 3.0, 1.0]])
+    filt.l_seen_ = np.zeros(2)
+    filt.l_passes_ = np.zeros(2, dtype=np.int64)
+    filt.process([1.1, 0.0, 0.0], np.full(8, 6.0))  # the robot stands on the first "wall"
+    assert filt.l_segments_.tolist() == [[3.0, -1.0, 3.0, 1.0]]
+
+
+def test_traits_echoes_see_through_leave_l() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi / 2, math.pi, -math.pi / 2), max_range=5.0)
+    filt = SpecularFilter(geometry, acceptability=False, agreeability=False, pass_limit=3)
+    filt.l_segments_ = np.array([[1.0, -0.5, 1.0, 0.5]])  # a phantom 1 m ahead
+    filt.l_seen_ = np.zeros(1)
+    filt.l_passes_ = np.zeros(1, dtype=np.int64)
+    for _ in range(3):  # echoes keep coming from a wall 3 m ahead, through the phantom
+        filt.process([0.0, 0.0, 0.0], [3.0, 2.0, 2.0, 2.0])
+    assert not np.any(np.all(np.isclose(filt.l_segments_, [1.0, -0.5, 1.0, 0.5]), axis=1))

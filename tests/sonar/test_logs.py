@@ -24,7 +24,7 @@ def test_example_log_reports_every_bad_row_with_its_line() -> None:
     assert "NaN" in log.skipped[0].reason
     assert "non-numeric" in log.skipped[1].reason
     assert "columns" in log.skipped[2].reason
-    assert "not after" in log.skipped[3].reason
+    assert "out of order" in log.skipped[3].reason
     assert log.rows == len(log.timestamps) + len(log.skipped)
     assert np.all(np.diff(log.timestamps) > 0)
     assert log.poses[0].tolist() == pytest.approx([1.5, 1.5, 0.0])
@@ -40,11 +40,21 @@ def test_strict_mode_aborts_at_the_first_bad_row() -> None:
 def test_two_files_joined_by_timestamp_report_missing_poses() -> None:
     units = LogUnits(range_unit="cm", position_unit="cm", heading_unit="rad")
     log = read_sonar_log(
-        DATA / "example_ranges.csv", 16, poses_path=DATA / "example_poses.csv", units=units
+        DATA / "example_ranges.csv",
+        16,
+        poses_path=DATA / "example_poses.csv",
+        units=units,
+        time_tolerance=1e-6,
+        max_pose_gap=0.0,
     )
     single = read_sonar_log(DATA / "example_log.txt", 16, units=MM)
     assert [row.line for row in log.skipped] == [8, 9]
-    assert all("no pose" in row.reason for row in log.skipped)
+    assert all("no pose" in row.reason or "max pose gap" in row.reason for row in log.skipped)
+    # With interpolation across the missing poses the same rows are kept.
+    joined = read_sonar_log(
+        DATA / "example_ranges.csv", 16, poses_path=DATA / "example_poses.csv", units=units
+    )
+    assert joined.skipped == () and len(joined.timestamps) == len(log.timestamps) + 2
     common = np.intersect1d(log.timestamps, single.timestamps)
     a = np.isin(log.timestamps, common)
     b = np.isin(single.timestamps, common)
@@ -145,3 +155,76 @@ def test_fuzzed_files_never_crash(
     assert np.all(np.diff(log.timestamps) > 0)
     assert not np.isnan(log.ranges).any() and np.all(log.ranges >= 0)
     assert all(row.line >= 1 for row in log.skipped)
+
+
+def _write_ring_log(path: Path, times: np.ndarray, n: int = 2) -> None:
+    rows = [f"{float(t)!r} {0.1 * i} 0 0 " + " ".join(["1.5"] * n) for i, t in enumerate(times)]
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_one_corrupt_timestamp_costs_its_row_only(tmp_path: Path) -> None:
+    times = np.arange(100) * 0.1
+    times[15] = 9.9e9  # a corrupt clock value
+    path = tmp_path / "log.txt"
+    _write_ring_log(path, times)
+    log = read_sonar_log(path, 2)
+    assert [row.line for row in log.skipped] == [16]
+    assert len(log.timestamps) == 99
+    with pytest.raises(FormatError) as info:
+        read_sonar_log(path, 2, strict=True)
+    assert info.value.line == 16
+
+
+def test_strict_names_the_first_bad_line_whatever_the_fault(tmp_path: Path) -> None:
+    times = np.arange(30) * 0.1
+    times[20] = -5.0
+    path = tmp_path / "log.txt"
+    _write_ring_log(path, times)
+    lines = path.read_text().splitlines()
+    lines[25] = lines[25] + " 7"  # a column too many, later in the file
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FormatError) as info:
+        read_sonar_log(path, 2, strict=True)
+    assert info.value.line == 21
+
+
+def _pose_file(path: Path, times: np.ndarray, heading_deg: np.ndarray) -> None:
+    rows = [
+        f"{float(t)!r} {float(t)} {2 * float(t)} {float(h)!r}"
+        for t, h in zip(times, heading_deg, strict=True)
+    ]
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_poses_are_interpolated_with_a_clock_offset_and_half_rate(tmp_path: Path) -> None:
+    ranges = tmp_path / "ranges.txt"
+    t = np.arange(1, 41) * 0.1
+    ranges.write_text("\n".join(f"{float(v)!r} 1.0 2.0" for v in t) + "\n")
+    poses = tmp_path / "poses.txt"
+    pose_t = np.arange(0, 22) * 0.2 + 0.001  # half the rate, 1 ms late
+    _pose_file(poses, pose_t, np.full(len(pose_t), 10.0))
+    units = LogUnits(heading_unit="deg")
+    log = read_sonar_log(ranges, 2, poses_path=poses, units=units)
+    assert log.skipped == () and len(log.timestamps) == 40
+    assert np.allclose(log.poses[:, 0], t, atol=1e-9)
+    assert np.allclose(log.poses[:, 1], 2 * t, atol=1e-9)
+
+
+def test_heading_is_interpolated_along_the_shortest_arc(tmp_path: Path) -> None:
+    ranges = tmp_path / "ranges.txt"
+    ranges.write_text("0.5 1.0\n")
+    poses = tmp_path / "poses.txt"
+    _pose_file(poses, np.array([0.0, 1.0]), np.array([170.0, -170.0]))
+    log = read_sonar_log(ranges, 1, poses_path=poses, units=LogUnits(heading_unit="deg"))
+    assert abs(math.remainder(log.poses[0, 2] - math.pi, 2 * math.pi)) < 1e-9
+
+
+def test_pose_gaps_beyond_the_limit_cost_their_rows(tmp_path: Path) -> None:
+    ranges = tmp_path / "ranges.txt"
+    ranges.write_text("1.0 1.0\n5.0 1.0\n9.0 1.0\n")
+    poses = tmp_path / "poses.txt"
+    _pose_file(poses, np.array([0.9, 1.1, 8.0, 9.0]), np.zeros(4))
+    log = read_sonar_log(ranges, 1, poses_path=poses, max_pose_gap=1.0)
+    assert [row.line for row in log.skipped] == [2]
+    assert "max pose gap" in log.skipped[0].reason
+    assert len(read_sonar_log(ranges, 1, poses_path=poses, max_pose_gap=10.0).timestamps) == 3

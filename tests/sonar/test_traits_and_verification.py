@@ -147,3 +147,27 @@ def test_case_b_discards_contradictions_and_flagged_uncertain_matches() -> None:
     assert reason[0] == TVReason.FLAGGED_UNCERTAIN
     reason = _reconcile(True, candidate=np.array([True, False, False, True]))
     assert reason.tolist() == [TVReason.KEPT] * 4
+
+
+def test_one_point_repeated_is_not_a_trait() -> None:
+    # A standing robot: one echo point, jittering by a millimetre, six times.
+    standing = np.array([[1.0, 2.0]] * 2 + [[1.001, 2.0]] * 2 + [[1.002, 2.0]] * 2)
+    assert len(fit_traits(standing).segments) == 1  # counted as points, it is a "line"
+    assert len(fit_traits(standing, min_spacing=0.05).segments) == 0
+    wall = np.column_stack([np.linspace(0.0, 0.2, 4), np.ones(4)])
+    assert len(fit_traits(wall, min_length=0.3).segments) == 0
+    assert len(fit_traits(wall, min_length=0.1).segments) == 1
+
+
+def test_short_traits_are_equivalent_to_nothing_far_away() -> None:
+    point = np.array([[0.0, 0.0, 0.0, 0.0]])
+    far_wall = np.array([[70.0, 0.01, 75.0, 0.01]])
+    assert not equivalent(point, far_wall, match_angle=0.2, match_offset=0.2).any()
+    assert not equivalent(far_wall, point, match_angle=0.2, match_offset=0.2).any()
+    # A wall seen again a little further along still matches ...
+    near = np.array([[1.0, 0.05, 3.0, 0.05]])
+    wall = np.array([[0.0, 0.0, 2.0, 0.0]])
+    assert equivalent(near, wall, match_angle=0.2, match_offset=0.2).all()
+    # ... but one that only shares the line, not a stretch of it, does not.
+    beyond = np.array([[2.5, 0.0, 4.0, 0.0]])
+    assert not equivalent(beyond, wall, match_angle=0.2, match_offset=0.2).any()

@@ -5,20 +5,18 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-import numpy as np
 import typer
-from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from bayesmap.cli._console import console as make_console
+from bayesmap.cli._console import print_error, print_note
 from bayesmap.errors import BayesmapError
-from bayesmap.experiments import blackboard_world
-from bayesmap.sim.world_files import StressOptions, generate_world, save_world
 
 app = typer.Typer(
     help="Map four-legged tables with a whiskered robot (Fox & Prescott 2011 and past it).",
     no_args_is_help=True,
 )
-console = Console(stderr=True, highlight=False)
+console = make_console(stderr=True)
 
 Condition = Literal["normal", "noiseless", "noisy"]
 Mode = Literal["fused", "paper"]
@@ -37,6 +35,8 @@ def run_command(
     ] = "fused",
 ) -> None:
     """Drive the robot through WORLD's poses; write metrics.json, map.json and map.png."""
+    from bayesmap.experiments import blackboard_world  # the mapper loads only when it runs
+
     config = blackboard_world.Config(world=world, condition=condition, seed=seed, mode=mode)
     with Progress(
         TextColumn("{task.description}"),
@@ -54,12 +54,10 @@ def run_command(
             result = blackboard_world.run(config, out, progress=hook)
         except BayesmapError as error:
             bar.stop()
-            console.print(f"error: {error}", markup=False, soft_wrap=True)
+            print_error(" ".join(str(error).split()), out=console)
             raise typer.Exit(1) from error
     numbers = ", ".join(f"{k} {v:.3f}" for k, v in result.headline.items() if isinstance(v, float))
-    console.print(
-        f"wrote {out}/metrics.json, map.json, map.png: {numbers}", markup=False, soft_wrap=True
-    )
+    print_note(f"wrote {out}/metrics.json, map.json, map.png: {numbers}", out=console)
 
 
 @app.command("world")
@@ -71,6 +69,10 @@ def world_command(
     ] = True,
 ) -> None:
     """Generate a world: 4–10 tables of mixed sizes at any angle in a 4–10 m arena."""
+    import numpy as np
+
+    from bayesmap.sim.world_files import StressOptions, generate_world, save_world
+
     options = StressOptions() if stress else StressOptions(near_wall=0.0, close_pairs=0.0)
     save_world(generate_world(np.random.default_rng(seed), options), out)
-    console.print(f"wrote {out}", markup=False)
+    print_note(f"wrote {out}", out=console)

@@ -1,14 +1,31 @@
-"""``bayesmap sonar``: build maps from real sonar-ring logs."""
+"""``bayesmap sonar``: build maps from real sonar-ring logs.
+
+Every user mistake ends in one plain line on stderr (``error: ...``), exit code 1; messages
+are printed literally (no markup), so ``[m]`` in a message stays ``[m]``.
+"""
 
 from __future__ import annotations
 
+import logging
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Literal
 
+import numpy as np
 import typer
+from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn
 
-from bayesmap.errors import InputError
+from bayesmap._io import write_bytes, write_json
+from bayesmap.cli._console import console, print_note
+from bayesmap.errors import BayesmapError, InputError
+from bayesmap.sonar.filter import Stage
+from bayesmap.sonar.geometry import SonarGeometry
+from bayesmap.sonar.logs import LENGTH_UNITS, LogUnits, SonarLog, read_sonar_log
+from bayesmap.sonar.pipeline import DEFAULT_PIPELINE, PIPELINES, BuiltMap, build_map
+from bayesmap.sonar.ring import PRESETS, load_ring
 
 app = typer.Typer(
     help="Build occupancy maps from sonar-ring logs, with specular-reading rejection.",
@@ -17,6 +34,36 @@ app = typer.Typer(
 
 LengthUnit = Literal["mm", "cm", "m"]
 AngleUnit = Literal["rad", "deg", "decideg"]
+_err = console(stderr=True)
+
+
+def _say(message: str) -> None:
+    """Print ``message`` to stderr exactly as written."""
+    print_note(message, out=_err)
+
+
+class _LiteralHandler(logging.Handler):
+    """Log warnings of the library (skipped rows) as plain lines on stderr."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        _say(f"warning: {record.getMessage()}")
+
+
+@contextmanager
+def _user_errors() -> Iterator[None]:
+    handler = _LiteralHandler(level=logging.WARNING)
+    library = logging.getLogger("bayesmap")
+    library.addHandler(handler)
+    propagate = library.propagate
+    library.propagate = False
+    try:
+        yield
+    except BayesmapError as error:
+        _say(f"error: {error}")
+        raise typer.Exit(1) from None
+    finally:
+        library.removeHandler(handler)
+        library.propagate = propagate
 
 
 def _angles(text: str) -> tuple[float, ...]:
@@ -29,27 +76,92 @@ def _angles(text: str) -> tuple[float, ...]:
     return tuple(math.radians(v) for v in values)
 
 
+def _geometry(
+    ring: str | None,
+    angles_deg: str | None,
+    max_range: float | None,
+    beam_width_deg: float | None,
+    sigma: float | None,
+    range_unit: str,
+) -> SonarGeometry:
+    """The ring from ``--ring`` or ``--angles-deg``, with the command line's overrides."""
+    if (ring is None) == (angles_deg is None):
+        raise InputError(
+            "give the ring either as --ring (a YAML ring file or one of: "
+            f"{', '.join(PRESETS)}) or as --angles-deg, not both or neither"
+        )
+    metres = LENGTH_UNITS[range_unit]
+    for name, value in (
+        ("--max-range", max_range),
+        ("--sigma", sigma),
+        ("--beam-width-deg", beam_width_deg),
+    ):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise InputError(f"{name} must be a positive number, got {value}")
+    if ring is not None:
+        geometry = load_ring(ring)
+    else:
+        if max_range is None:
+            raise InputError("--max-range is needed with --angles-deg (in --range-unit)")
+        geometry = SonarGeometry(angles=_angles(angles_deg or ""), max_range=max_range * metres)
+    if max_range is not None:
+        geometry = replace(
+            geometry,
+            max_range=max_range * metres,
+            min_range=min(geometry.min_range, 0.5 * max_range * metres),
+        )
+    if sigma is not None:
+        geometry = replace(geometry, sigma=sigma * metres)
+    if beam_width_deg is not None:
+        geometry = replace(geometry, beam_width=math.radians(beam_width_deg))
+    return geometry
+
+
+def _check_ranges(data: SonarLog, geometry: SonarGeometry, range_unit: str) -> None:
+    """Warn when the ranges and the max range look like different units."""
+    echo = geometry.echo(data.ranges)
+    if echo.mean() < 0.05:
+        _say(
+            f"warning: {100 * (1 - echo.mean()):.0f} % of readings are at or above the max range "
+            f"({geometry.max_range:g} m): is --max-range in --range-unit ({range_unit})?"
+        )
+    elif np.median(data.ranges[echo]) < 0.02 * geometry.max_range:
+        _say(
+            f"warning: the median echo is {np.median(data.ranges[echo]):.3g} m against a max "
+            f"range of {geometry.max_range:g} m: is --range-unit ({range_unit}) right?"
+        )
+
+
 @app.command("map")
 def map_command(
     log: Annotated[
         Path, typer.Argument(help="Log: rows 't x y heading r1..rN' (or 't r1..rN' with --poses).")
     ],
+    resolution: Annotated[float, typer.Option("--resolution", help="Map cell side (m).")],
+    out: Annotated[Path, typer.Option("--out", help="Output folder (created if missing).")],
+    ring: Annotated[
+        str | None,
+        typer.Option(
+            "--ring",
+            help="Ring file (YAML: each transducer's x, y, heading...) or preset: "
+            f"{', '.join(PRESETS)}.",
+        ),
+    ] = None,
     angles_deg: Annotated[
-        str,
+        str | None,
         typer.Option(
             "--angles-deg",
-            help="Transducer bearings from the heading, in ring order, comma-separated (deg).",
+            help="Instead of --ring: transducer bearings (deg), in ring order, all at the centre.",
         ),
-    ],
+    ] = None,
     max_range: Annotated[
-        float,
+        float | None,
         typer.Option(
             "--max-range",
-            help="Max range, in --range-unit; a reading at or above it means no echo.",
+            help="Max range in --range-unit; a reading at or above it means no echo "
+            "(default: the ring file's).",
         ),
-    ],
-    resolution: Annotated[float, typer.Option("--resolution", help="Map cell side (m).")],
-    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    ] = None,
     poses: Annotated[
         Path | None, typer.Option("--poses", help="Pose file 't x y heading', joined by timestamp.")
     ] = None,
@@ -57,63 +169,183 @@ def map_command(
     position_unit: Annotated[LengthUnit, typer.Option("--position-unit")] = "m",
     heading_unit: Annotated[AngleUnit, typer.Option("--heading-unit")] = "rad",
     beam_width_deg: Annotated[
-        float, typer.Option("--beam-width-deg", help="Full cone width (deg).")
-    ] = 25.0,
+        float | None, typer.Option("--beam-width-deg", help="Full cone width (deg).")
+    ] = None,
     sigma: Annotated[
-        float, typer.Option("--sigma", help="Range noise standard deviation (m).")
-    ] = 0.02,
+        float | None,
+        typer.Option("--sigma", help="Range noise standard deviation, in --range-unit."),
+    ] = None,
+    pipeline: Annotated[
+        str,
+        typer.Option("--pipeline", help=f"One of: {', '.join(PIPELINES)}."),
+    ] = DEFAULT_PIPELINE,
     no_filter: Annotated[
-        bool, typer.Option("--no-filter", help="Map every reading (no rejection).")
+        bool,
+        typer.Option("--no-filter", help="Map every reading (the pipeline without its filter)."),
     ] = False,
     strict: Annotated[bool, typer.Option("--strict", help="Abort at the first bad row.")] = False,
+    pose_tolerance: Annotated[
+        float, typer.Option("--pose-tolerance", help="Nearest-pose tolerance (s).")
+    ] = 0.05,
+    max_pose_gap: Annotated[
+        float, typer.Option("--max-pose-gap", help="Interpolate poses across gaps up to this (s).")
+    ] = 1.0,
+    max_cells: Annotated[
+        int, typer.Option("--max-cells", help="Refuse maps with more cells than this.")
+    ] = 25_000_000,
+    topics: Annotated[
+        str | None,
+        typer.Option(
+            "--topics",
+            help="LOG is a ROS bag (ROS 1, ROS 2 or MCAP): its sensor_msgs/Range topics, one "
+            "per transducer in ring order, comma-separated.",
+        ),
+    ] = None,
+    pose_topic: Annotated[
+        str, typer.Option("--pose-topic", help="Bag: nav_msgs/Odometry topic, or /tf.")
+    ] = "/odom",
+    tf_frames: Annotated[
+        str, typer.Option("--tf-frames", help="Bag with --pose-topic /tf: 'parent,child'.")
+    ] = "odom,base_link",
 ) -> None:
     """Build map.png, map.yaml + map.pgm (ROS map_server) and summary.json from a sonar log."""
-    # imported here, so that other commands start without loading matplotlib and the mapper
-    from bayesmap._io import write_bytes, write_json
-    from bayesmap.grid.ros import write_ros_map
-    from bayesmap.sonar.filter import Stage
-    from bayesmap.sonar.geometry import SonarGeometry
-    from bayesmap.sonar.logs import LENGTH_UNITS, LogUnits, read_sonar_log
-    from bayesmap.sonar.pipeline import build_map
+    with _user_errors():
+        if pipeline not in PIPELINES:
+            raise InputError(f"--pipeline {pipeline!r} is not one of: {', '.join(PIPELINES)}")
+        if out.exists() and not out.is_dir():
+            raise InputError(f"--out {out} is a file; name a folder (it is created if missing)")
+        if not (math.isfinite(resolution) and resolution > 0):
+            raise InputError(f"--resolution must be a positive number of metres, got {resolution}")
+        geometry = _geometry(ring, angles_deg, max_range, beam_width_deg, sigma, range_unit)
+        units = LogUnits(
+            range_unit=range_unit, position_unit=position_unit, heading_unit=heading_unit
+        )
+        chosen = PIPELINES[pipeline]
+        if no_filter:
+            chosen = replace(
+                chosen, acceptability=False, agreeability=False, trait_verification=False
+            )
+        with Progress(
+            TextColumn("{task.description}"),
+            BarColumn(),
+            TaskProgressColumn(),
+            console=_err,
+            transient=True,
+        ) as bar:
+            reading = bar.add_task(f"reading {log.name}", total=1)
+            if topics is not None:
+                data = _read_bag(
+                    log,
+                    topics,
+                    pose_topic,
+                    tf_frames,
+                    geometry,
+                    strict,
+                    pose_tolerance,
+                    max_pose_gap,
+                )
+            else:
+                data = read_sonar_log(
+                    log,
+                    geometry.n,
+                    poses_path=poses,
+                    units=units,
+                    strict=strict,
+                    time_tolerance=pose_tolerance,
+                    max_pose_gap=max_pose_gap,
+                    progress=lambda done, total: bar.update(reading, completed=done, total=total),
+                )
+            _check_ranges(data, geometry, range_unit)
+            mapping = bar.add_task("mapping", total=len(data.ranges))
+            built = build_map(
+                data.poses,
+                data.ranges,
+                geometry,
+                resolution,
+                pipeline=chosen,
+                max_cells=max_cells,
+                progress=lambda done, total: bar.update(mapping, completed=done, total=total),
+            )
+        _write_outputs(out, log, poses, data, built, pipeline, no_filter)
+
+
+def _read_bag(
+    log: Path,
+    topics: str,
+    pose_topic: str,
+    tf_frames: str,
+    geometry: SonarGeometry,
+    strict: bool,
+    pose_tolerance: float,
+    max_pose_gap: float,
+) -> SonarLog:
+    names = [t.strip() for t in topics.split(",") if t.strip()]
+    if len(names) != geometry.n:
+        raise InputError(f"--topics names {len(names)} topics for a ring of {geometry.n}")
+    frames = tuple(f.strip() for f in tf_frames.split(","))
+    if len(frames) != 2 or not all(frames):
+        raise InputError(f"--tf-frames needs 'parent,child', got {tf_frames!r}")
+    from bayesmap.sonar.bags import read_sonar_bag  # rosbags loads only for bags
+
+    return read_sonar_bag(
+        log,
+        names,
+        pose_topic=pose_topic,
+        tf_frames=(frames[0], frames[1]),
+        strict=strict,
+        time_tolerance=pose_tolerance,
+        max_pose_gap=max_pose_gap,
+    )
+
+
+def _write_outputs(
+    out: Path,
+    log: Path,
+    poses: Path | None,
+    data: SonarLog,
+    built: BuiltMap,
+    pipeline: str,
+    no_filter: bool,
+) -> None:
+    from bayesmap.grid.ros import write_ros_map  # the map writers load only when used
     from bayesmap.viz.sonar import map_png
 
-    angles = _angles(angles_deg)
-    units = LogUnits(range_unit=range_unit, position_unit=position_unit, heading_unit=heading_unit)
-    if not (math.isfinite(max_range) and max_range > 0):
-        raise InputError(f"--max-range must be a positive number, got {max_range}")
-    geometry = SonarGeometry(
-        angles=angles,
-        beam_width=math.radians(beam_width_deg),
-        max_range=max_range * LENGTH_UNITS[range_unit],
-        sigma=sigma,
-    )
-    data = read_sonar_log(log, len(angles), poses_path=poses, units=units, strict=strict)
-    built = build_map(data.poses, data.ranges, geometry, resolution, use_filter=not no_filter)
     grid = built.mapper.grid
     probability = built.mapper.probability()
     observed = built.mapper.observed()
+    if not observed.any():
+        _say("warning: no reading changed the map: every cell is unknown")
+    elif not (probability[observed] > 0.5).any():
+        _say(
+            "warning: the map has no occupied cell (all free or unknown): check --max-range "
+            "and --range-unit"
+        )
     yaml_path, pgm_path = write_ros_map(
         out / "map", probability, grid.resolution, grid.origin, unknown_mask=~observed
     )
     write_bytes(
         out / "map.png",
         map_png(
-            probability * observed + 0.5 * ~observed,
+            np.where(observed, probability, 0.5),
             grid.extent,
             path=data.poses[:, :2],
-            title=log.name,
+            title=f"{log.name} ({pipeline}{', no filter' if no_filter else ''})",
         ),
     )
     stage = built.run.stage
     rejected = {s.name.lower(): int((stage == s).sum()) for s in Stage if s != Stage.ACCEPTED}
+    dropped = sum(row.path == str(log) for row in data.skipped)
     summary = {
         "log": str(log),
         "poses": None if poses is None else str(poses),
+        "pipeline": pipeline,
+        "filter": built.filt is not None,
         "rows": data.rows,
         "rows_skipped": len(data.skipped),
+        "dropped_fraction": dropped / max(data.rows, 1),
         "readings": int(data.ranges.size),
+        "repeated_rings": int(built.run.repeat.sum()),
         "rejected": rejected,
-        "filter": not no_filter,
         "skipped": [
             {"file": row.path, "line": row.line, "reason": row.reason} for row in data.skipped
         ],
@@ -128,6 +360,7 @@ def map_command(
     write_json(out / "summary.json", summary)
     typer.echo(
         f"{data.rows} rows ({len(data.skipped)} skipped), {data.ranges.size} readings, "
+        f"{int(built.run.repeat.sum())} repeated rings merged, "
         f"rejected {sum(rejected.values())} "
         f"({', '.join(f'{k} {v}' for k, v in rejected.items())}); "
         f"wrote {out / 'map.png'}, {yaml_path}, {pgm_path}, {out / 'summary.json'}"

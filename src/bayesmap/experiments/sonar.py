@@ -1,23 +1,23 @@
-"""Sonar mapping with specular-reading rejection (ICINCO 2007 fragment) on simulated rings.
+"""Sonar mapping with specular-reading rejection (ICINCO 2007 fragment) on realistic logs.
 
-For each world and seed the simulator drives a 16-transducer ring (and, once per world, the
-8-transducer front arc) around a polygon world of smooth walls. The *same* readings are
-mapped with no filter, each stage alone, all stages (Elfes-style eq. 1 cone model), and,
-unfiltered, with Thrun's ±0.4 log-odds model and the ROS ``range_sensor_layer`` model.
-Maps are scored against the world's truth; rejections against the simulator's knowledge of
-which readings were specular.
+For each realistic world and seed the simulator (:func:`bayesmap.sim.sonar_log.simulate_log`)
+drives a Pioneer 16-sonar ring round the world as a real robot would: stops, turns in place,
+people walking by, odometry drift, a no-echo code above the max range, specular loss and
+multipath. The *same* logged readings and odometry go through every pipeline of
+:data:`bayesmap.sonar.pipeline.PIPELINES` (the default, the paper's filter as first built, each
+stage alone, and the unfiltered baselines: eq. 1 cone, eq. 1 ignoring no-echo readings,
+Thrun's ±0.4 and the ROS range layer). Maps are scored against the world's truth; rejections
+against the simulator's knowledge of which readings were specular.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import shapely
 from pydantic import BaseModel, ConfigDict, Field
 
 from bayesmap._io import write_bytes, write_json, write_text
@@ -29,33 +29,38 @@ from bayesmap.experiments._common import (
     run_in_folder,
 )
 from bayesmap.grid import OccupancyGrid
-from bayesmap.sim.polygons import PolygonWorld, path_poses, world
-from bayesmap.sim.sonar import SonarRing, SonarScan, observe
-from bayesmap.sonar.filter import SpecularFilter
+from bayesmap.sim.polygons import REALISTIC_WORLDS, PolygonWorld, world
+from bayesmap.sim.sonar import SonarRing
+from bayesmap.sim.sonar_log import Realism, SimulatedLog, simulate_log
 from bayesmap.sonar.geometry import SonarGeometry
-from bayesmap.sonar.mapping import ElfesMapper, RosRangeLayerMapper, ThrunMapper
-from bayesmap.sonar.pipeline import RingMapper, map_log
+from bayesmap.sonar.pipeline import DEFAULT_PIPELINE, PIPELINES, map_log
 from bayesmap.viz.sonar import maps_side_by_side
 
-__all__ = ["VARIANTS", "Config", "map_metrics", "ring_geometry", "run"]
+__all__ = [
+    "BASELINES",
+    "Config",
+    "make_ring",
+    "truth_layers",
+    "map_metrics",
+    "path_cells",
+    "ring_geometry",
+    "run",
+    "score_world",
+]
 
-VARIANTS: tuple[str, ...] = (
-    "no filter",
-    "acceptability",
-    "agreeability",
-    "trait verification",
-    "all stages",
-    "Thrun log-odds",
-    "ROS range layer",
+BASELINES: tuple[str, ...] = ("elfes", "elfes-ignore-no-echo", "thrun", "ros")
+"""The unfiltered pipelines the default must beat."""
+
+_METRICS = (
+    ("kappa", "κ"),
+    ("accuracy", "accuracy"),
+    ("false_obstacle_rate", "false obstacle"),
+    ("missed_wall_rate", "missed wall"),
+    ("path_occupied", "path cells occ."),
+    ("rejected_fraction", "rejected"),
+    ("rejection_precision", "rej. precision"),
+    ("rejection_recall", "rej. recall"),
 )
-"""The mapping variants compared on the same readings."""
-
-_STAGES: dict[str, tuple[bool, bool, bool]] = {
-    "acceptability": (True, False, False),
-    "agreeability": (False, True, False),
-    "trait verification": (False, False, True),
-    "all stages": (True, True, True),
-}
 
 
 class Config(BaseModel):
@@ -64,21 +69,17 @@ class Config(BaseModel):
     model_config = ConfigDict(frozen=True)
 
     seed: int = 2007
-    worlds: tuple[str, ...] = ("sonar-corridor-v1", "sonar-room-v1", "sonar-hall-v1")
-    runs: int = Field(3, ge=1, description="Seeded runs per world (16-transducer ring).")
-    front_arc_runs: int = Field(
-        1, ge=0, description="Runs per world with the 8-transducer front arc."
-    )
-    laps: int = Field(2, ge=1)
-    step: float = Field(0.1, gt=0, description="Distance between rings [m].")
+    worlds: tuple[str, ...] = REALISTIC_WORLDS
+    runs: int = Field(3, ge=1, description="Seeded runs per world.")
+    pipelines: tuple[str, ...] = tuple(PIPELINES)
+    ring: int = Field(16, description="Pioneer ring: 16 (front and rear) or 8 (front).")
     resolution: float = Field(0.1, gt=0, description="Map cell side [m].")
     beam_width_deg: float = Field(25.0, gt=0, lt=180)
     sigma: float = Field(0.02, gt=0, description="Range noise [m].")
     max_range: float = Field(5.0, gt=0)
     critical_angle_deg: float = Field(15.0, gt=0, lt=90)
-    path_jitter: float = Field(
-        0.3, ge=0, description="Each run moves every waypoint by up to this much [m] (seeded)."
-    )
+    footprint: float = Field(0.2, gt=0, description="Robot radius for path cells [m].")
+    realism: Realism = Field(default_factory=Realism)
 
 
 def ring_geometry(ring: SonarRing) -> SonarGeometry:
@@ -89,21 +90,9 @@ def ring_geometry(ring: SonarRing) -> SonarGeometry:
         max_range=ring.max_range,
         sigma=ring.sigma,
         radius=ring.radius,
+        offsets=ring.offsets,
+        min_range=ring.min_range,
     )
-
-
-def _mappers(
-    grid_factory: Callable[[], OccupancyGrid], geometry: SonarGeometry
-) -> dict[str, RingMapper]:
-    out: dict[str, RingMapper] = {}
-    for name in VARIANTS:
-        if name == "Thrun log-odds":
-            out[name] = ThrunMapper(grid_factory(), geometry)
-        elif name == "ROS range layer":
-            out[name] = RosRangeLayerMapper(grid_factory(), geometry)
-        else:
-            out[name] = ElfesMapper(grid_factory(), geometry)
-    return out
 
 
 def map_metrics(
@@ -147,24 +136,39 @@ def map_metrics(
     }
 
 
-def _truth(
-    w: PolygonWorld, grid: OccupancyGrid, poses: np.ndarray, reach: float
-) -> tuple[np.ndarray, np.ndarray]:
+def _cell_centres(grid: OccupancyGrid) -> tuple[np.ndarray, np.ndarray]:
     ny, nx = grid.shape
     rows, cols = np.mgrid[0:ny, 0:nx]
     x, y = grid.cell_centers(rows, cols)
-    truth = w.truth_occupancy(x.ravel(), y.ravel(), grid.resolution).reshape(ny, nx)
-    near_wall = w.near_wall(x.ravel(), y.ravel(), grid.resolution / 2.0)
+    return np.asarray(x).ravel(), np.asarray(y).ravel()
+
+
+def path_cells(grid: OccupancyGrid, path: np.ndarray, radius: float) -> np.ndarray:
+    """``(ny, nx)``: cells whose centre is within ``radius`` [m] of a point of ``path``."""
+    x, y = _cell_centres(grid)
+    hit = np.zeros(x.size, dtype=bool)
+    res = grid.resolution
+    for px, py in np.unique(np.round(path[:, :2] / (res / 2)) * (res / 2), axis=0):
+        hit |= (x - px) ** 2 + (y - py) ** 2 <= radius**2
+    return hit.reshape(grid.shape)
+
+
+def truth_layers(
+    w: PolygonWorld, grid: OccupancyGrid, poses: np.ndarray, reach: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(ny, nx)`` true occupancy and the wall cells within ``reach`` [m] of ``poses``."""
+    x, y = _cell_centres(grid)
+    truth = w.truth_occupancy(x, y, grid.resolution).reshape(grid.shape)
+    near_wall = w.near_wall(x, y, grid.resolution / 2.0)
     dist = np.full(x.size, np.inf)
     for px, py in poses[:: max(len(poses) // 200, 1), :2]:
-        np.minimum(dist, np.hypot(x.ravel() - px, y.ravel() - py), out=dist)
-    wall = (near_wall & (dist <= reach)).reshape(ny, nx)
+        np.minimum(dist, np.hypot(x - px, y - py), out=dist)
+    wall = (near_wall & (dist <= reach)).reshape(grid.shape)
     return truth, wall
 
 
-def _rejection_metrics(accepted: np.ndarray, scan: SonarScan) -> dict[str, float]:
+def _rejection_metrics(accepted: np.ndarray, specular: np.ndarray) -> dict[str, float]:
     rejected = ~accepted
-    specular = scan.specular
     hits = int((rejected & specular).sum())
     return {
         "rejected_fraction": float(rejected.mean()),
@@ -173,84 +177,102 @@ def _rejection_metrics(accepted: np.ndarray, scan: SonarScan) -> dict[str, float
     }
 
 
-def _jitter(w: PolygonWorld, amount: float, rng: np.random.Generator) -> np.ndarray:
-    """The waypoints, each moved by up to ``amount`` [m] if it stays clear of the walls."""
-    moved = w.waypoints + rng.uniform(-amount, amount, size=w.waypoints.shape)
-    inside = shapely.contains_xy(w.free.buffer(-0.3), moved[:, 0], moved[:, 1])
-    return np.where(inside[:, None], moved, w.waypoints)
+def make_ring(config: Config) -> SonarRing:
+    """The simulated Pioneer ring of ``config`` (true transducer offsets)."""
+    return SonarRing.pioneer(
+        config.ring,
+        beam_width=math.radians(config.beam_width_deg),
+        sigma=config.sigma,
+        max_range=config.max_range,
+        critical_angle=math.radians(config.critical_angle_deg),
+    )
 
 
-def _one_run(
-    config: Config, w: PolygonWorld, ring: SonarRing, rng: np.random.Generator
-) -> tuple[dict[str, dict[str, float]], dict[str, np.ndarray], OccupancyGrid, dict[str, Any]]:
-    poses = path_poses(_jitter(w, config.path_jitter, rng), config.step, laps=config.laps)
-    scan = observe(poses, w, ring, rng=rng)
-    geometry = ring_geometry(ring)
+def score_world(
+    config: Config, w: PolygonWorld, log: SimulatedLog, names: tuple[str, ...]
+) -> tuple[dict[str, dict[str, float]], dict[str, np.ndarray], OccupancyGrid, np.ndarray]:
+    """Map one simulated log with each named pipeline and score the maps.
+
+    Returns the metrics and (observed-masked) probability map of each pipeline, the grid
+    and the truth.
+    """
+    geometry = ring_geometry(make_ring(config))
     xmin, ymin, xmax, ymax = w.bounds
-    pad = 0.5
-
-    def grid_factory() -> OccupancyGrid:
-        return OccupancyGrid(
-            xmax - xmin + 2 * pad,
-            ymax - ymin + 2 * pad,
-            config.resolution,
-            origin=(xmin - pad, ymin - pad),
-        )
-
-    template = grid_factory()
-    truth, wall = _truth(w, template, poses, ring.max_range)
+    pad = 1.0
+    size = (xmax - xmin + 2 * pad, ymax - ymin + 2 * pad)
+    origin = (xmin - pad, ymin - pad)
+    template = OccupancyGrid(*size, config.resolution, origin=origin)
+    truth, wall = truth_layers(w, template, log.poses, config.max_range)
+    driven = path_cells(template, log.odometry, config.footprint)
     metrics: dict[str, dict[str, float]] = {}
     maps: dict[str, np.ndarray] = {}
-    for name, mapper in _mappers(grid_factory, geometry).items():
-        filt = None
-        if name in _STAGES:
-            acc, agr, tv = _STAGES[name]
-            filt = SpecularFilter(
-                geometry,
-                acceptability=acc,
-                agreeability=agr,
-                trait_verification=tv,
-                critical_angle=math.radians(config.critical_angle_deg),
-            )
-        outcome = map_log(poses, scan.ranges, mapper, filt)
+    for name in names:
+        pipeline = PIPELINES[name]
+        grid = OccupancyGrid(*size, config.resolution, origin=origin)
+        mapper = pipeline.make_mapper(grid, geometry)
+        outcome = map_log(
+            log.odometry,
+            log.ranges,
+            mapper,
+            pipeline.make_filter(geometry),
+            merge_repeats=pipeline.merge_repeats,
+        )
         probability = mapper.probability()
-        metrics[name] = map_metrics(probability, mapper.observed(), truth, wall)
-        metrics[name].update(_rejection_metrics(outcome.accepted, scan))
-        maps[name] = np.where(mapper.observed(), probability, 0.5)
-    info = {
-        "rings": len(poses),
-        "readings": int(scan.ranges.size),
-        "specular_fraction": float(scan.specular.mean()),
-    }
-    return metrics, maps, template, {**info, "truth": truth}
+        observed = mapper.observed()
+        scores = map_metrics(probability, observed, truth, wall)
+        scores["path_occupied"] = float((driven & (probability > 0.5)).sum())
+        scores.update(_rejection_metrics(outcome.accepted, log.specular))
+        metrics[name] = scores
+        maps[name] = np.where(observed, probability, 0.5)
+    return metrics, maps, template, truth
 
 
-def _summary_table(rows: dict[str, dict[str, list[float]]], title: str) -> str:
-    keys = [
-        ("accuracy", "accuracy"),
-        ("kappa", "κ"),
-        ("false_obstacle_rate", "false obstacle"),
-        ("missed_wall_rate", "missed wall"),
-        ("rejected_fraction", "rejected"),
-        ("rejection_precision", "rej. precision"),
-        ("rejection_recall", "rej. recall"),
-    ]
+def _table(rows: dict[str, dict[str, list[float]]], names: tuple[str, ...]) -> str:
     lines = [
-        f"### {title}",
-        "",
-        "| variant | " + " | ".join(label for _, label in keys) + " |",
-        "|---|" + "---|" * len(keys),
+        "| pipeline | " + " | ".join(label for _, label in _METRICS) + " |",
+        "|---|" + "---|" * len(_METRICS),
     ]
-    for variant in VARIANTS:
-        if variant not in rows:
-            continue
+    for name in names:
         cells = []
-        for key, _ in keys:
-            values = np.asarray(rows[variant][key], dtype=np.float64)
+        for key, _ in _METRICS:
+            values = np.asarray(rows[name][key], dtype=np.float64)
             values = values[np.isfinite(values)]
-            cells.append("–" if values.size == 0 else f"{values.mean():.3f} ± {values.std():.3f}")
-        lines.append(f"| {variant} | " + " | ".join(cells) + " |")
+            if values.size == 0:
+                cells.append("–")
+            elif key == "path_occupied":
+                cells.append(f"{values.mean():.1f}")
+            else:
+                cells.append(f"{values.mean():.3f} ± {values.std():.3f}")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def _finite_mean(values: list[float]) -> float:
+    finite = [v for v in values if math.isfinite(v)]
+    return float(np.mean(finite)) if finite else float("nan")
+
+
+def _targets(by_world: dict[str, dict[str, dict[str, list[float]]]]) -> dict[str, Any]:
+    """The issue's targets per world: κ margin over the best baseline, missed walls vs ROS."""
+    out: dict[str, Any] = {}
+    for name, rows in by_world.items():
+        mean = {p: {k: _finite_mean(v) for k, v in m.items()} for p, m in rows.items()}
+        if DEFAULT_PIPELINE not in mean:
+            continue
+        best = max(
+            (b for b in BASELINES if b in mean), key=lambda b: mean[b]["kappa"], default=None
+        )
+        entry: dict[str, Any] = {"kappa": mean[DEFAULT_PIPELINE]["kappa"]}
+        if best is not None:
+            entry["best_baseline"] = best
+            entry["kappa_margin"] = mean[DEFAULT_PIPELINE]["kappa"] - mean[best]["kappa"]
+        if "ros" in mean:
+            entry["missed_wall_vs_ros"] = (
+                mean[DEFAULT_PIPELINE]["missed_wall_rate"] - mean["ros"]["missed_wall_rate"]
+            )
+        entry["path_cells_occupied"] = mean[DEFAULT_PIPELINE]["path_occupied"]
+        out[name] = entry
+    return out
 
 
 def _run(
@@ -259,46 +281,34 @@ def _run(
     """Run the sonar experiment; write metrics.json, summary.md and figures under ``out_dir``."""
     hook = progress or no_progress
     out = Path(out_dir)
-    jobs: list[tuple[str, str, int]] = []
-    for name in config.worlds:
-        jobs += [(name, "ring16", k) for k in range(config.runs)]
-        jobs += [(name, "front8", k) for k in range(config.front_arc_runs)]
+    names = tuple(n for n in PIPELINES if n in config.pipelines)
+    jobs = [(name, k) for name in config.worlds for k in range(config.runs)]
     streams = spawn(config.seed, len(jobs))
+    ring = make_ring(config)
     records: list[dict[str, Any]] = []
-    by_world: dict[tuple[str, str], dict[str, dict[str, list[float]]]] = {}
+    by_world: dict[str, dict[str, dict[str, list[float]]]] = {}
     figures: list[Path] = []
-    kwargs = {
-        "beam_width": math.radians(config.beam_width_deg),
-        "sigma": config.sigma,
-        "max_range": config.max_range,
-        "critical_angle": math.radians(config.critical_angle_deg),
-    }
-    for index, ((world_name, ring_name, k), rng) in enumerate(zip(jobs, streams, strict=True)):
-        hook(f"{world_name} {ring_name} run {k}", index, len(jobs))
+    for index, ((world_name, k), rng) in enumerate(zip(jobs, streams, strict=True)):
+        hook(f"{world_name} run {k}", index, len(jobs))
         w = world(world_name)
-        ring = (
-            SonarRing.ring(16, **kwargs) if ring_name == "ring16" else SonarRing.front_arc(**kwargs)
-        )
-        metrics, maps, grid, info = _one_run(config, w, ring, rng)
-        truth = info.pop("truth")
+        log = simulate_log(w, ring, config.realism, rng=rng)
+        metrics, maps, grid, truth = score_world(config, w, log, names)
         records.append(
-            {"world": world_name, "ring": ring_name, "run": k, **info, "variants": metrics}
+            {
+                "world": world_name,
+                "run": k,
+                "rings": len(log.times),
+                "readings": int(log.ranges.size),
+                "specular_fraction": float(log.specular.mean()),
+                "pipelines": metrics,
+            }
         )
-        table = by_world.setdefault((world_name, ring_name), {})
-        for variant, scores in metrics.items():
+        table = by_world.setdefault(world_name, {})
+        for name, scores in metrics.items():
             for key, value in scores.items():
-                table.setdefault(variant, {}).setdefault(key, []).append(value)
-        if k == 0 and ring_name == "ring16":
-            panels = [("truth", truth.astype(float))] + [
-                (name, maps[name])
-                for name in (
-                    "no filter",
-                    "all stages",
-                    "Thrun log-odds",
-                    "ROS range layer",
-                    "trait verification",
-                )
-            ]
+                table.setdefault(name, {}).setdefault(key, []).append(value)
+        if k == 0:
+            panels = [("truth", truth.astype(float))] + [(n, maps[n]) for n in names]
             path = out / f"maps_{world_name}.png"
             write_bytes(
                 path,
@@ -306,49 +316,61 @@ def _run(
                     panels,
                     grid.extent,
                     walls=w.segments,
-                    title=f"{world_name}: 16-sonar ring, seed stream {k}",
+                    path=log.odometry[:, :2],
+                    title=f"{world_name}: Pioneer {config.ring}-sonar ring, run 0",
+                    columns=5,
                 ),
             )
             figures.append(path)
     hook("writing results", len(jobs), len(jobs))
     overall: dict[str, dict[str, list[float]]] = {}
-    for (_, ring_name), table in by_world.items():
-        if ring_name != "ring16":
-            continue
-        for variant, values in table.items():
+    for table in by_world.values():
+        for name, values in table.items():
             for key, series in values.items():
-                overall.setdefault(variant, {}).setdefault(key, []).extend(series)
+                overall.setdefault(name, {}).setdefault(key, []).extend(series)
+    targets = _targets(by_world)
     metrics_path = write_json(
         out / "metrics.json",
         {
             "experiment": "sonar",
             "config": config.model_dump(),
-            "worlds": list(config.worlds),
-            "variants": list(VARIANTS),
+            "pipelines": list(names),
+            "default": DEFAULT_PIPELINE,
             "runs": records,
+            "targets": targets,
         },
     )
     parts = [
         "# Sonar mapping with specular-reading rejection\n",
-        f"Worlds: {', '.join(config.worlds)}; {config.runs} seeded runs each with the 16-sonar "
-        f"ring and {config.front_arc_runs} with the 8-sonar front arc; seed {config.seed}. "
-        "Mean ± standard deviation over runs. Accuracy and κ over observed cells; false "
-        "obstacle: observed free cells mapped occupied; missed wall: wall cells within sensor "
-        "reach not mapped occupied; rejection precision/recall against the simulator's "
-        "specular readings.\n",
-        _summary_table(overall, "All worlds, 16-sonar ring"),
+        f"Worlds: {', '.join(config.worlds)}; {config.runs} seeded runs each, Pioneer "
+        f"{config.ring}-sonar ring, seed {config.seed}. Mean ± standard deviation over runs. "
+        "κ and accuracy over observed cells; false obstacle: observed free cells mapped "
+        "occupied; missed wall: wall cells within sensor reach not mapped occupied; path "
+        "cells occ.: cells within the robot's radius of its logged path mapped occupied "
+        "(mean count); rejection precision/recall against the simulator's specular readings.\n",
+        "## All worlds\n",
+        _table(overall, names),
     ]
-    for (world_name, ring_name), table in by_world.items():
-        parts.append(_summary_table(table, f"{world_name}, {ring_name}"))
-    summary_path = write_text(out / "summary.md", "\n".join(parts))
-    best = overall["all stages"]
-    base = overall["no filter"]
-    headline: dict[str, float | int | str] = {
-        "kappa no filter": float(np.mean(base["kappa"])),
-        "kappa all stages": float(np.mean(best["kappa"])),
-        "rejection precision": float(np.nanmean(best["rejection_precision"])),
-        "rejection recall": float(np.nanmean(best["rejection_recall"])),
-    }
+    for world_name, table in by_world.items():
+        parts += [f"## {world_name}\n", _table(table, names)]
+    parts.append("## Targets (default pipeline)\n")
+    for world_name, entry in targets.items():
+        parts.append(
+            f"- {world_name}: κ {entry['kappa']:.3f}, margin over best baseline "
+            f"({entry.get('best_baseline')}) {entry.get('kappa_margin', float('nan')):+.3f}; "
+            f"missed wall minus ROS {entry.get('missed_wall_vs_ros', float('nan')):+.3f}; "
+            f"path cells occupied {entry['path_cells_occupied']:.1f}"
+        )
+    summary_path = write_text(out / "summary.md", "\n".join(parts) + "\n")
+    best = overall.get(DEFAULT_PIPELINE, {})
+    headline: dict[str, float | int | str] = {}
+    if best:
+        headline = {
+            "kappa default": float(np.mean(best["kappa"])),
+            "min kappa margin": float(min(e.get("kappa_margin", np.nan) for e in targets.values())),
+            "rejection precision": _finite_mean(best["rejection_precision"]),
+            "rejection recall": _finite_mean(best["rejection_recall"]),
+        }
     return ExperimentResult(
         name="sonar",
         out_dir=out,

@@ -13,6 +13,20 @@ Registered worlds (all rich in walls met at glancing angles by a ring of sonars)
   driven around the box;
 - ``"sonar-hall-v1"``: a 12 m by 6 m hall with slanted end walls, two pillars rotated 15°
   and 40° and a long cabinet at 10°, driven in a loop between them.
+
+The realistic worlds (v2) add what buildings have: door recesses 0.15 m deep, open
+doorways into side rooms, furniture and clutter (see :mod:`bayesmap.sim.sonar_log` for the
+logs driven through them):
+
+- ``"sonar-doors-v2"``: a 16 m by 2 m corridor with nine door recesses and an open door into
+  a 3 m by 3 m office, driven there and back;
+- ``"sonar-office-v2"``: a 9 m by 7 m office with four desks, a cabinet, a pillar and door
+  recesses, driven round the desks;
+- ``"sonar-clutter-v2"``: a 7 m by 6 m store room with ten boxes and bins at assorted angles;
+- ``"sonar-lcorridor-v2"``: a 1.8 m wide L-shaped corridor, 24 m by 14 m, door recesses
+  every 3 m, driven there and back;
+- ``"sonar-openhall-v2"``: an 18 m by 12 m hall with one slanted wall and four pillars,
+  most of it beyond the sonars' reach from the path.
 """
 
 from __future__ import annotations
@@ -25,10 +39,11 @@ import shapely
 from shapely.affinity import rotate
 from shapely.geometry import Polygon, box
 
+from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray, Poses
 from bayesmap.errors import ConfigError
 
-__all__ = ["WORLDS", "PolygonWorld", "path_poses", "world"]
+__all__ = ["REALISTIC_WORLDS", "WORLDS", "PolygonWorld", "path_poses", "random_building", "world"]
 
 
 @dataclass(frozen=True)
@@ -127,12 +142,171 @@ def _hall() -> PolygonWorld:
     )
 
 
+def _recesses(xs: tuple[float, ...], y: float, depth: float, width: float = 0.9) -> list[Polygon]:
+    """Door recesses ``width`` [m] wide centred at ``xs``, reaching ``depth`` [m] from ``y``."""
+    lo, hi = sorted((y, y + depth))
+    return [box(x - width / 2, lo, x + width / 2, hi) for x in xs]
+
+
+def _union(parts: list[Polygon]) -> Polygon:
+    shape = shapely.union_all(parts)
+    if not isinstance(shape, Polygon):
+        raise ConfigError("a world's outline must be one polygon")
+    return shape
+
+
+def _doors() -> PolygonWorld:
+    corridor = box(0.0, 0.0, 16.0, 2.0)
+    south = _recesses((1.5, 4.5, 7.5, 10.5, 13.5), 0.0, -0.15)
+    north = _recesses((3.0, 6.0, 12.0, 14.6), 2.0, 0.15)
+    office = [box(8.05, 2.0, 8.95, 2.3), box(6.5, 2.3, 9.5, 5.3)]
+    outer = _union([corridor, *south, *north, *office])
+    bin_ = rotate(box(10.9, 1.45, 11.3, 1.85), 20.0, origin="centroid")
+    desk = box(6.9, 4.3, 8.1, 5.0)
+    waypoints = [(0.8, 1.0), (8.5, 1.0), (8.5, 3.4), (8.5, 1.0), (15.2, 1.0)]
+    return _make("sonar-doors-v2", outer, [bin_, desk], waypoints)
+
+
+def _office() -> PolygonWorld:
+    room = box(0.0, 0.0, 9.0, 7.0)
+    recesses = _recesses((2.0, 6.5), 0.0, -0.15) + _recesses((4.5,), 7.0, 0.15)
+    outer = _union([room, *recesses])
+    desks = [
+        box(2.0, 2.2, 3.6, 3.0),
+        box(2.0, 4.0, 3.6, 4.8),
+        rotate(box(5.4, 2.2, 7.0, 3.0), 5.0, origin="centroid"),
+        rotate(box(5.4, 4.0, 7.0, 4.8), -8.0, origin="centroid"),
+    ]
+    cabinet = box(0.0, 5.6, 0.5, 6.8)
+    pillar = rotate(box(4.35, 3.25, 4.75, 3.65), 30.0, origin="centroid")
+    waypoints = [(1.0, 1.1), (8.0, 1.1), (8.0, 5.9), (1.2, 5.9), (1.2, 3.5), (3.9, 3.5), (3.9, 1.7)]
+    return _make("sonar-office-v2", outer, [*desks, cabinet, pillar], waypoints)
+
+
+def _clutter() -> PolygonWorld:
+    room = box(0.0, 0.0, 7.0, 6.0)
+    outer = _union([room, *_recesses((3.5,), 0.0, -0.15)])
+    items = [
+        ((1.8, 1.9), (0.5, 0.4), 15.0),
+        ((3.2, 2.6), (0.6, 0.6), 40.0),
+        ((5.0, 1.9), (0.4, 0.4), 0.0),
+        ((5.6, 3.4), (0.7, 0.4), -25.0),
+        ((2.2, 4.0), (0.4, 0.6), 10.0),
+        ((3.9, 4.2), (0.5, 0.5), 60.0),
+        ((6.5, 5.5), (0.5, 0.5), 0.0),
+        ((0.3, 3.0), (0.4, 0.8), 0.0),
+        ((4.6, 5.7), (0.8, 0.3), 0.0),
+        ((2.6, 0.25), (0.6, 0.3), 0.0),
+    ]
+    holes = [
+        rotate(box(x - w / 2, y - h / 2, x + w / 2, y + h / 2), a, origin="centroid")
+        for (x, y), (w, h), a in items
+    ]
+    free_room = room.difference(shapely.union_all(holes))
+    if not isinstance(free_room, Polygon):
+        raise ConfigError("sonar-clutter-v2: clutter splits the room")
+    waypoints = [(0.9, 0.9), (6.45, 0.9), (6.45, 4.6), (4.9, 4.9), (1.0, 5.2), (1.1, 2.5)]
+    return _make("sonar-clutter-v2", outer, holes, waypoints)
+
+
+def _lcorridor() -> PolygonWorld:
+    leg_a = box(0.0, 0.0, 24.0, 1.8)
+    leg_b = box(22.2, 0.0, 24.0, 14.0)
+    along_a = _recesses((2.0, 5.0, 8.0, 11.0, 14.0, 17.0, 20.0), 1.8, 0.15)
+    along_a += _recesses((3.5, 9.5, 15.5), 0.0, -0.15)
+    along_b = [box(22.05, y - 0.45, 22.2, y + 0.45) for y in (4.0, 7.0, 10.0)]
+    along_b += [box(24.0, y - 0.45, 24.15, y + 0.45) for y in (5.5, 11.5)]
+    outer = _union([leg_a, leg_b, *along_a, *along_b])
+    waypoints = [(0.8, 0.9), (23.1, 0.9), (23.1, 13.2), (23.1, 0.9), (0.8, 0.9)]
+    return _make("sonar-lcorridor-v2", outer, [], waypoints)
+
+
+def _openhall() -> PolygonWorld:
+    outer = Polygon([(0.0, 0.0), (18.0, 0.0), (18.0, 9.0), (15.0, 12.0), (0.0, 12.0)])
+    pillars = [
+        rotate(box(x - 0.3, y - 0.3, x + 0.3, y + 0.3), a, origin="centroid")
+        for x, y, a in ((5.0, 4.0, 0.0), (13.0, 4.0, 45.0), (5.0, 8.0, 45.0), (13.0, 8.0, 0.0))
+    ]
+    waypoints = [
+        (2.0, 2.0),
+        (16.0, 2.0),
+        (16.0, 8.5),
+        (9.0, 10.0),
+        (2.0, 10.0),
+        (2.0, 6.0),
+        (9.0, 6.0),
+        (9.0, 2.5),
+    ]
+    return _make("sonar-openhall-v2", outer, pillars, waypoints)
+
+
 WORLDS: dict[str, Callable[[], PolygonWorld]] = {
     "sonar-corridor-v1": _corridor,
     "sonar-room-v1": _room,
     "sonar-hall-v1": _hall,
+    "sonar-doors-v2": _doors,
+    "sonar-office-v2": _office,
+    "sonar-clutter-v2": _clutter,
+    "sonar-lcorridor-v2": _lcorridor,
+    "sonar-openhall-v2": _openhall,
 }
 """Factories of the registered worlds, by versioned name."""
+
+REALISTIC_WORLDS: tuple[str, ...] = (
+    "sonar-doors-v2",
+    "sonar-office-v2",
+    "sonar-clutter-v2",
+    "sonar-lcorridor-v2",
+    "sonar-openhall-v2",
+)
+"""The worlds with door recesses, furniture and clutter that ``reproduce sonar`` measures on."""
+
+
+def random_building(rng: RNGLike = None) -> PolygonWorld:
+    """A stress world nobody tuned on: a random corridor with recesses, side rooms and clutter.
+
+    The corridor is 10–20 m long and 1.6–2.4 m wide, with door recesses (0.1–0.25 m deep,
+    0.8–1.0 m wide) at random along both walls and one or two open doors into rooms of
+    2.5–4 m, each holding a box at a random angle. The path runs along the corridor, into
+    each room and back.
+    """
+    generator = as_generator(rng)
+    length = float(generator.uniform(10.0, 20.0))
+    width = float(generator.uniform(1.6, 2.4))
+    parts: list[Polygon] = [box(0.0, 0.0, length, width)]
+    for y, sign in ((0.0, -1.0), (width, 1.0)):
+        x = float(generator.uniform(0.8, 2.5))
+        while x < length - 1.0:
+            depth = sign * float(generator.uniform(0.1, 0.25))
+            parts += _recesses((x,), y, depth, float(generator.uniform(0.8, 1.0)))
+            x += float(generator.uniform(1.8, 4.0))
+    holes: list[Polygon] = []
+    mid = width / 2
+    waypoints: list[tuple[float, float]] = [(0.8, mid)]
+    rooms = int(generator.integers(1, 3))
+    spots = np.sort(generator.uniform(3.0, length - 3.0, size=rooms))
+    for k, x in enumerate(spots):
+        if k and x - spots[k - 1] < 4.5:
+            continue
+        side = 1.0 if generator.random() < 0.5 else -1.0
+        size = float(generator.uniform(2.5, 4.0))
+        wall = width if side > 0 else 0.0
+        door = box(x - 0.45, min(wall, wall + side * 0.3), x + 0.45, max(wall, wall + side * 0.3))
+        near, far = wall + side * 0.3, wall + side * (0.3 + size)
+        room = box(x - size / 2, min(near, far), x + size / 2, max(near, far))
+        parts += [door, room]
+        centre = (x + size / 4, (near + far) / 2)
+        angle = float(generator.uniform(0.0, 90.0))
+        holes.append(
+            rotate(box(centre[0] - 0.3, centre[1] - 0.2, centre[0] + 0.3, centre[1] + 0.2), angle)
+        )
+        inside = near + side * min(1.0, size / 3)
+        waypoints += [(float(x), mid), (float(x), inside), (float(x), mid)]
+    waypoints.append((length - 0.8, mid))
+    outer = shapely.union_all(parts)
+    if not isinstance(outer, Polygon):
+        raise ConfigError("random building: the outline split (unlucky draw); use another seed")
+    return _make("sonar-random-building", outer, holes, waypoints)
 
 
 def world(name: str) -> PolygonWorld:

@@ -27,9 +27,10 @@ import numpy as np
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import BoolArray, FloatArray, IntArray, Poses, Ranges
 from bayesmap.errors import ConfigError, InputError
+from bayesmap.sensing.sonar_rings import PIONEER_FRONT8, PIONEER_RING16
 from bayesmap.sim.polygons import PolygonWorld
 
-__all__ = ["EchoKind", "SonarRing", "SonarScan", "cast_rays", "h", "observe"]
+__all__ = ["EchoKind", "SonarRing", "SonarScan", "cast_rays", "h", "observe", "trace"]
 
 _EPS = 1e-9
 _CHUNK = 2_000_000
@@ -46,6 +47,8 @@ class EchoKind(IntEnum):
     """A wall was in the beam but reflected the pulse away: no echo (max range)."""
     OPEN = 3
     """Nothing within the maximum range: a true no-echo reading."""
+    PERSON = 4
+    """Echo from a person walking by: a true obstacle, but one that moves on."""
 
 
 def _pioneer_front_arc() -> tuple[float, ...]:
@@ -86,8 +89,15 @@ class SonarRing:
     min_range: float = 0.1
     critical_angle: float = math.radians(15.0)
     fan: int = 9
+    offsets: tuple[tuple[float, float], ...] | None = None
+    """Transducer positions ``(x, y)`` [m] in the robot frame; ``None``: on the ring of
+    ``radius`` along each axis."""
 
     def __post_init__(self) -> None:
+        if self.offsets is not None and len(self.offsets) != len(self.angles):
+            raise ConfigError(
+                f"{len(self.offsets)} transducer offsets for {len(self.angles)} transducers"
+            )
         if len(self.angles) < 2:
             raise ConfigError(f"a sonar ring needs at least 2 transducers, got {len(self.angles)}")
         if not 0.0 < self.beam_width < math.pi:
@@ -111,10 +121,34 @@ class SonarRing:
         """The 8-transducer front arc of a Pioneer robot: ±90°, ±50°, ±30°, ±10°."""
         return cls(angles=_pioneer_front_arc(), **kwargs)  # type: ignore[arg-type]
 
+    @classmethod
+    def pioneer(cls, n: int = 16, **kwargs: float) -> SonarRing:
+        """A Pioneer 3-DX ring (``n`` = 8: the front array; 16: front and rear), true offsets."""
+        if n not in (8, 16):
+            raise ConfigError(f"a Pioneer ring has 8 or 16 transducers, got {n}")
+        layout = PIONEER_FRONT8 if n == 8 else PIONEER_RING16
+        return cls(
+            angles=tuple(a for _, _, a in layout),
+            offsets=tuple((x, y) for x, y, _ in layout),
+            **kwargs,  # type: ignore[arg-type]
+        )
+
     @property
     def n(self) -> int:
         """Number of transducers."""
         return len(self.angles)
+
+    def positions(self, poses: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Transducer positions ``(n_poses, n, 2)`` [m] and axis bearings ``(n_poses, n)``."""
+        axis = poses[:, 2:3] + np.asarray(self.angles)[None, :]
+        if self.offsets is None:
+            unit = np.stack([np.cos(axis), np.sin(axis)], axis=-1)
+            return poses[:, None, :2] + self.radius * unit, axis
+        off = np.asarray(self.offsets)
+        c, s = np.cos(poses[:, 2:3]), np.sin(poses[:, 2:3])
+        x = poses[:, 0:1] + c * off[None, :, 0] - s * off[None, :, 1]
+        y = poses[:, 1:2] + s * off[None, :, 0] + c * off[None, :, 1]
+        return np.stack([x, y], axis=-1), axis
 
 
 class SonarScan(NamedTuple):
@@ -185,13 +219,41 @@ def _normals(segments: FloatArray) -> FloatArray:
     return np.asarray(n / np.linalg.norm(n, axis=1, keepdims=True))
 
 
-def _trace(poses: Poses, world: PolygonWorld, ring: SonarRing) -> SonarScan:
+def _circle_hits(
+    origins: FloatArray,
+    directions: FloatArray,
+    owner: IntArray,
+    people: FloatArray,
+    radius: float,
+) -> FloatArray:
+    """Distance along each ray to the first person (a circle of ``radius`` [m]), or ``inf``.
+
+    ``people`` is ``(n_poses, k, 2)``: where each person stands when pose ``owner[ray]`` is
+    taken (``nan`` rows: that person is absent).
+    """
+    centres = people[owner]  # (m, k, 2)
+    rel = centres - origins[:, None, :]
+    along = np.einsum("mkj,mj->mk", rel, directions)
+    across2 = np.einsum("mkj,mkj->mk", rel, rel) - along**2
+    with np.errstate(invalid="ignore"):
+        half = np.sqrt(radius**2 - across2)
+        t = along - half
+    ok = np.isfinite(t) & (t > 0)
+    return np.asarray(np.where(ok, t, np.inf).min(axis=1, initial=np.inf))
+
+
+def _trace(
+    poses: Poses,
+    world: PolygonWorld,
+    ring: SonarRing,
+    people: FloatArray | None = None,
+    person_radius: float = 0.2,
+) -> SonarScan:
     poses = np.asarray(poses, dtype=np.float64)
     if poses.ndim != 2 or poses.shape[1] != 3 or not np.all(np.isfinite(poses)):
         raise InputError(f"poses must be a finite (n, 3) array of x, y, heading; got {poses.shape}")
     n_poses, n_sensors, n_fan = len(poses), ring.n, ring.fan
-    axis = poses[:, 2:3] + np.asarray(ring.angles)[None, :]
-    centres = poses[:, None, :2] + ring.radius * np.stack([np.cos(axis), np.sin(axis)], axis=-1)
+    centres, axis = ring.positions(poses)
     half = ring.beam_width / 2.0
     offsets = np.linspace(-half, half, n_fan) if n_fan > 1 else np.zeros(1)
     bearings = axis[..., None] + offsets
@@ -200,6 +262,14 @@ def _trace(poses: Poses, world: PolygonWorld, ring: SonarRing) -> SonarScan:
     segments = world.segments
     normals = _normals(segments)
     t1, wall1 = cast_rays(origins, directions, segments)
+    person = np.full_like(t1, np.inf)
+    if people is not None and people.shape[1] > 0:
+        owner = np.repeat(np.arange(n_poses), n_sensors * n_fan)
+        person = _circle_hits(origins, directions, owner, people, person_radius)
+        blocked = person < t1
+        t1 = np.where(blocked, person, t1)
+        wall1 = np.where(blocked, -1, wall1)
+        person = np.where(blocked & (person < ring.max_range), person, np.inf)
     hit = wall1 >= 0
     cos1 = np.zeros_like(t1)
     cos1[hit] = np.abs(np.einsum("ij,ij->i", directions[hit], normals[wall1[hit]]))
@@ -223,15 +293,48 @@ def _trace(poses: Poses, world: PolygonWorld, ring: SonarRing) -> SonarScan:
     shape = (n_poses, n_sensors, n_fan)
     direct_min = candidate.reshape(shape).min(axis=2)
     bounce_min = bounce_range.reshape(shape).min(axis=2)
+    person_min = person.reshape(shape).min(axis=2)
     nearest = np.where(t1 < ring.max_range, t1, np.inf).reshape(shape).min(axis=2)
-    ranges = np.minimum(direct_min, bounce_min)
+    ranges = np.minimum(np.minimum(direct_min, bounce_min), person_min)
     kind = np.full((n_poses, n_sensors), EchoKind.OPEN, dtype=np.int64)
     kind[np.isfinite(nearest)] = EchoKind.LOST
     kind[np.isfinite(bounce_min) & (bounce_min < direct_min)] = EchoKind.BOUNCE
     kind[np.isfinite(direct_min) & (direct_min <= bounce_min)] = EchoKind.DIRECT
+    kind[np.isfinite(person_min) & (person_min <= np.minimum(direct_min, bounce_min))] = (
+        EchoKind.PERSON
+    )
     ranges = np.where(np.isfinite(ranges), ranges, ring.max_range)
     specular = (kind == EchoKind.BOUNCE) | (kind == EchoKind.LOST)
     return SonarScan(ranges=ranges, kind=kind, specular=specular, nearest=nearest)
+
+
+def trace(
+    poses: Poses,
+    world: PolygonWorld,
+    ring: SonarRing,
+    *,
+    people: FloatArray | None = None,
+    person_radius: float = 0.2,
+) -> SonarScan:
+    """Noiseless readings with people in the way.
+
+    Parameters
+    ----------
+    poses
+        ``(n, 3)`` true robot poses.
+    world, ring
+        The world and the ring.
+    people
+        ``(n, k, 2)`` where each of ``k`` people stands at each pose [m] (``nan``: absent),
+        or ``None``. A person is a cylinder of ``person_radius`` [m]: clothing and a round
+        body echo from any side, so every ray that meets one returns a direct echo
+        (:attr:`EchoKind.PERSON`) unless a wall echo arrives first.
+    """
+    if people is not None:
+        people = np.asarray(people, dtype=np.float64)
+        if people.ndim != 3 or people.shape[0] != len(poses) or people.shape[2] != 2:
+            raise InputError(f"people must be (n_poses, k, 2) positions, got {people.shape}")
+    return _trace(poses, world, ring, people, person_radius)
 
 
 def h(poses: Poses, world: PolygonWorld, ring: SonarRing) -> SonarScan:

@@ -24,6 +24,7 @@ from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.traits import fit_traits, point_segment_distance
 from bayesmap.sonar.verification import (
     TVReason,
+    axis_segment_hits,
     certainty,
     equivalent,
     extend_segments,
@@ -113,6 +114,18 @@ class SpecularFilter:
         How far ``L``'s traits are extended at both ends towards the robot [m].
     margin
         How far before a reading's range an ``L`` trait must cross its axis to contradict it [m].
+    min_length, min_spacing
+        Trait hygiene: shortest trait [m], and the spacing [m] below which echo points count
+        as one (a standing robot repeats its echoes).
+    footprint
+        Radius of the robot [m]: a trait of ``L`` that comes this close to a pose is not a
+        wall (the robot stood there) and is removed, and no such trait enters ``L``.
+    pass_limit
+        A trait of ``L`` that this many echo readings (from different rings, not flagged by
+        the bottom-up stages) see through, more than ``margin`` beyond it, is removed.
+    no_echo_spread
+        A no-echo reading contradicts ``L`` when a trait crosses its axis or the rays this far
+        [rad] either side of it within the max range (0: the axis only).
 
     Attributes
     ----------
@@ -120,8 +133,9 @@ class SpecularFilter:
         Rings processed.
     path_
         Distance travelled [m].
-    l_segments_, l_seen_
-        ``L``: ``(k, 4)`` traits [m] and the path position [m] where each was last seen.
+    l_segments_, l_seen_, l_passes_
+        ``L``: ``(k, 4)`` traits [m], the path position [m] where each was last seen, and how
+        many rings' echoes have passed through it.
     rejections_
         Every rejection, in order.
     counts_
@@ -148,6 +162,11 @@ class SpecularFilter:
         perceptual_length: float | None = None,
         extension: float = 1.0,
         margin: float = 0.3,
+        min_length: float = 0.3,
+        min_spacing: float = 0.05,
+        footprint: float = 0.25,
+        pass_limit: int = 3,
+        no_echo_spread: float = 0.0,
     ) -> None:
         if not 0.0 < critical_angle < math.pi / 2:
             raise ConfigError(f"critical_angle must be in (0, pi/2) rad, got {critical_angle}")
@@ -164,6 +183,11 @@ class SpecularFilter:
             "match_offset": (match_offset, 0.0, False),
             "extension": (extension, 0.0, True),
             "margin": (margin, 0.0, True),
+            "min_length": (min_length, 0.0, True),
+            "min_spacing": (min_spacing, 0.0, True),
+            "footprint": (footprint, 0.0, True),
+            "pass_limit": (pass_limit, 1, True),
+            "no_echo_spread": (no_echo_spread, 0.0, True),
         }
         for name, (value, low, closed) in limits.items():
             if not (value >= low if closed else value > low):
@@ -193,6 +217,11 @@ class SpecularFilter:
             raise ConfigError(f"perceptual_length must be positive metres, got {perceptual_length}")
         self.extension = extension
         self.margin = margin
+        self.min_length = min_length
+        self.min_spacing = min_spacing
+        self.footprint = footprint
+        self.pass_limit = pass_limit
+        self.no_echo_spread = no_echo_spread
         self.left, self.right = geometry.neighbours()
         self.rings_ = 0
         self.path_ = 0.0
@@ -200,6 +229,7 @@ class SpecularFilter:
         self.points_: deque[FloatArray] = deque(maxlen=window - 1)
         self.l_segments_: FloatArray = np.zeros((0, 4))
         self.l_seen_: FloatArray = np.zeros(0)
+        self.l_passes_: IntArray = np.zeros(0, dtype=np.int64)
         self.rejections_: list[Rejection] = []
         self.counts_: dict[str, int] = {
             stage.name.lower(): 0 for stage in Stage if stage != Stage.ACCEPTED
@@ -255,6 +285,7 @@ class SpecularFilter:
             flagged |= verdict.flag
         reasons = {int(k): _STAGE_REASONS[Stage(int(stage[k]))] for k in np.flatnonzero(stage)}
         if self.stages[Stage.TRAIT_VERIFICATION]:
+            self._clean_l(p, r, echo & ~flagged & (stage == Stage.ACCEPTED), centres, axis)
             tv = self._trait_verification(
                 p, r, echo, centres, axis, flagged, stage == Stage.ACCEPTED
             )
@@ -296,6 +327,8 @@ class SpecularFilter:
             tolerance=self.split_tolerance,
             min_points=self.min_points,
             max_gap=self.max_gap,
+            min_length=self.min_length,
+            min_spacing=self.min_spacing,
         )
         labels = np.full(self.geometry.n, -1, dtype=np.int64)
         residual = np.full(self.geometry.n, np.nan)
@@ -326,12 +359,39 @@ class SpecularFilter:
             match_angle=self.match_angle,
             match_offset=self.match_offset,
             margin=self.margin,
+            no_echo_spread=self.no_echo_spread,
         )
         kept = candidate & (reason == TVReason.KEPT)
         rejected_traits = set(labels[candidate & ~kept & (labels >= 0)].tolist())
         good = [i for i in set(labels[kept & (labels >= 0)].tolist()) if i not in rejected_traits]
-        self._grow_l(traits.segments[sorted(good)])
+        fresh = traits.segments[sorted(good)]
+        if len(fresh):
+            clear = point_segment_distance(pose[:2], fresh)[0] > self.footprint
+            fresh = fresh[clear]
+        self._grow_l(fresh)
         return reason
+
+    def _clean_l(
+        self,
+        pose: FloatArray,
+        r: FloatArray,
+        trusted: BoolArray,
+        centres: FloatArray,
+        axis: FloatArray,
+    ) -> None:
+        """Trait hygiene: drop traits of ``L`` the robot stands on or echoes see through."""
+        if len(self.l_segments_) == 0:
+            return
+        keep = point_segment_distance(pose[:2], self.l_segments_)[0] > self.footprint
+        if np.any(trusted):
+            k = np.flatnonzero(trusted)
+            crossings = axis_segment_hits(centres[k], axis[k], self.l_segments_)
+            through = np.any(crossings < (r[k] - self.margin)[:, None], axis=0)
+            self.l_passes_ = self.l_passes_ + through
+            keep &= self.l_passes_ < self.pass_limit
+        self.l_segments_ = self.l_segments_[keep]
+        self.l_seen_ = self.l_seen_[keep]
+        self.l_passes_ = self.l_passes_[keep]
 
     def _grow_l(self, segments: FloatArray) -> None:
         """Merge ``V`` traits into ``L`` (extending equivalent ones) and forget old traits."""
@@ -359,9 +419,11 @@ class SpecularFilter:
             else:
                 self.l_segments_ = np.vstack([self.l_segments_, segment])
                 self.l_seen_ = np.append(self.l_seen_, self.path_)
+                self.l_passes_ = np.append(self.l_passes_, 0)
         keep = self.l_seen_ >= self.path_ - 4.0 * self.perceptual_length
         self.l_segments_ = self.l_segments_[keep]
         self.l_seen_ = self.l_seen_[keep]
+        self.l_passes_ = self.l_passes_[keep]
 
     def _remember(
         self, centres: FloatArray, axis: FloatArray, r: FloatArray, use: BoolArray

@@ -31,7 +31,13 @@ class SonarGeometry:
     sigma
         Standard deviation of the range error [m] (eq. 1).
     radius
-        Distance of the transducers from the robot centre [m].
+        Distance of the transducers from the robot centre [m], each on its own axis (used
+        when ``offsets`` is not given).
+    offsets
+        Each transducer's position ``(x, y)`` [m] in the robot frame (x forward, y left),
+        e.g. from a ring file (:mod:`bayesmap.sonar.ring`); overrides ``radius``.
+    min_range
+        Shortest range the transducer reports [m].
     closed
         Whether the first and last transducers are neighbours. ``None``: decide from the
         angles (closed when the gap from the last back to the first is at most 1.5 times
@@ -44,6 +50,8 @@ class SonarGeometry:
     sigma: float = 0.02
     radius: float = 0.0
     closed: bool | None = None
+    offsets: tuple[tuple[float, float], ...] | None = None
+    min_range: float = 0.0
 
     def __post_init__(self) -> None:
         if len(self.angles) < 2:
@@ -59,6 +67,17 @@ class SonarGeometry:
         if not (self.sigma > 0 and self.radius >= 0):
             raise ConfigError(
                 f"need sigma > 0 and radius >= 0 [m], got {self.sigma}, {self.radius}"
+            )
+        if not 0.0 <= self.min_range < self.max_range:
+            raise ConfigError(
+                f"need 0 <= min range < max range [m], got {self.min_range}, {self.max_range}"
+            )
+        if self.offsets is not None and (
+            len(self.offsets) != len(self.angles)
+            or not all(len(o) == 2 and all(math.isfinite(v) for v in o) for o in self.offsets)
+        ):
+            raise ConfigError(
+                f"need one finite (x, y) offset [m] per transducer ({len(self.angles)})"
             )
 
     @property
@@ -91,8 +110,22 @@ class SonarGeometry:
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise InputError(f"a pose must be 3 finite numbers (x, y, heading), got {p!r}")
         axis = p[2] + np.asarray(self.angles)
-        centres = p[:2] + self.radius * np.column_stack([np.cos(axis), np.sin(axis)])
+        if self.offsets is None:
+            centres = p[:2] + self.radius * np.column_stack([np.cos(axis), np.sin(axis)])
+            return centres, axis
+        off = np.asarray(self.offsets)
+        c, s = math.cos(p[2]), math.sin(p[2])
+        centres = p[:2] + np.column_stack(
+            [c * off[:, 0] - s * off[:, 1], s * off[:, 0] + c * off[:, 1]]
+        )
         return centres, axis
+
+    @property
+    def reach(self) -> float:
+        """Farthest a transducer sits from the robot centre [m]."""
+        if self.offsets is None:
+            return self.radius
+        return float(max(math.hypot(x, y) for x, y in self.offsets))
 
     def echo(self, ranges: FloatArray) -> np.ndarray:
         """``True`` where a reading reports an obstacle (finite and below the max range)."""

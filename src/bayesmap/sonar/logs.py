@@ -2,24 +2,31 @@
 
 A log holds one row per ring: ``timestamp x y heading r_1 ... r_N``, separated by commas or
 by whitespace. Alternatively the ranges (``timestamp r_1 ... r_N``) and the poses
-(``timestamp x y heading``) sit in two files joined by timestamp. Units are converted to SI
-once, here: ranges and positions from mm, cm or m; headings from rad, deg or decidegrees.
+(``timestamp x y heading``) sit in two files joined by timestamp: each ranges row gets the
+pose interpolated between the pose rows around it (linear in position, shortest arc in
+heading) when they are at most ``max_pose_gap`` apart, else the nearest pose within
+``time_tolerance``. Units are converted to SI once, here: ranges and positions from mm, cm or
+m; headings from rad, deg or decidegrees. Files are read line by line into numpy blocks, so
+memory stays close to the size of the numbers.
 
 Real logs are untidy. Blank lines and comments (``#``, ``%``, ``//`` or ``;`` at the start of
 a line; anything after ``#`` on a line) are ignored; a last line without a newline and
 Windows line endings are fine. Bad rows — a non-numeric or empty field, NaN, a negative
-range, the wrong number of columns, a timestamp not after the previous row's, no pose for a
-timestamp — are reported with their line numbers (logged as warnings and returned in
-``skipped``) and left out, or, with ``strict=True``, abort the read with a
-:class:`~bayesmap.errors.FormatError` naming the file and line.
+range, the wrong number of columns, a timestamp out of order, no pose for a timestamp — cost
+that row only. Timestamps are put in order by keeping the longest strictly increasing run of
+rows, so one corrupt timestamp drops its own row, not the rows after it. Every skipped row
+is reported with its line number and reason (a warning each, and in ``skipped``) and a summary
+warning gives the fraction dropped; with ``strict=True`` the first bad row in the file aborts
+the read with a :class:`~bayesmap.errors.FormatError` naming its file and line.
 """
 
 from __future__ import annotations
 
+import bisect
 import logging
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, NamedTuple
@@ -34,6 +41,7 @@ from bayesmap.errors import FormatError, InputError
 __all__ = [
     "ANGLE_UNITS",
     "LENGTH_UNITS",
+    "join_poses",
     "LogUnits",
     "SkippedRow",
     "SonarLog",
@@ -106,77 +114,135 @@ class SonarLog(NamedTuple):
 
 
 class _Table(NamedTuple):
-    lines: list[int]
-    values: list[list[float]]
+    lines: npt.NDArray[np.int64]
+    values: FloatArray
     rows: int
 
 
 _SPLIT = re.compile(r"\s*,\s*|\s+")
+_CHUNK = 20_000
+"""Rows parsed into one numpy block: memory stays near the size of the numbers themselves."""
+
+Progress = Callable[[int, int], None]
+"""``progress(done, total)``: bytes read so far of the file's size."""
 
 
-def _skip(path: Path, number: int, reason: str, strict: bool, skipped: list[SkippedRow]) -> None:
-    """Record a bad row (and log it), or with ``strict`` raise :class:`FormatError` for it."""
-    if strict:
-        raise FormatError(reason + " (drop --strict to skip bad rows)", path=path, line=number)
+def _report(path: Path, number: int, reason: str, skipped: list[SkippedRow]) -> None:
     skipped.append(SkippedRow(str(path), number, reason))
     logger.warning("%s, line %d: %s; row skipped", path, number, reason)
 
 
-def _parse(
-    path: Path, columns: int, n_ranges: int, strict: bool, skipped: list[SkippedRow]
-) -> _Table:
+def _row_values(fields: list[str], columns: int, n_ranges: int) -> list[float] | str:
+    """The row's numbers, or why it is bad."""
+    if len(fields) != columns:
+        return f"expected {columns} columns, found {len(fields)}"
     try:
-        raw = path.read_bytes()
+        numbers = [float(field) for field in fields]
+    except ValueError:
+        culprit = next(f for f in fields if not _is_float(f))
+        return f"non-numeric or empty field {culprit[:40]!r}"
+    if any(math.isnan(v) for v in numbers):
+        return "NaN in row"
+    head, tail = numbers[: columns - n_ranges], numbers[columns - n_ranges :]
+    if not all(math.isfinite(v) for v in head):
+        return "infinite timestamp or pose"
+    if any(v < 0 for v in tail):
+        return "negative range"
+    return numbers
+
+
+def _parse(
+    path: Path,
+    columns: int,
+    n_ranges: int,
+    skipped: list[SkippedRow],
+    progress: Progress | None = None,
+) -> _Table:
+    """Stream ``path`` line by line into numpy blocks; bad rows go to ``skipped``."""
+    try:
+        handle = path.open("rb")
+        total = max(path.stat().st_size, 1)
     except OSError as error:
         raise InputError(f"cannot read sonar log {path}: {error.strerror or error}") from None
-    text = raw.decode("utf-8", errors="replace")
-    lines: list[int] = []
-    values: list[list[float]] = []
+    blocks: list[FloatArray] = []
+    line_blocks: list[npt.NDArray[np.int64]] = []
+    pending: list[list[float]] = []
+    pending_lines: list[int] = []
     rows = 0
-    last_time = -math.inf
-    last_line = 0
+    done = 0
 
-    def bad(number: int, reason: str) -> None:
-        _skip(path, number, reason, strict, skipped)
+    def flush() -> None:
+        if pending:
+            blocks.append(np.asarray(pending, dtype=np.float64).reshape(-1, columns))
+            line_blocks.append(np.asarray(pending_lines, dtype=np.int64))
+            pending.clear()
+            pending_lines.clear()
 
-    for number, line in enumerate(text.split("\n"), start=1):
-        body = line.strip().lstrip("\ufeff")
-        if not body or body.startswith(_COMMENTS):
-            continue
-        body = body.split("#", 1)[0].strip()
-        if not body:
-            continue
-        rows += 1
-        fields = _SPLIT.split(body)
-        if len(fields) != columns:
-            bad(number, f"expected {columns} columns, found {len(fields)}")
-            continue
-        try:
-            numbers = [float(field) for field in fields]
-        except ValueError:
-            culprit = next(f for f in fields if not _is_float(f))
-            bad(number, f"non-numeric or empty field {culprit[:40]!r}")
-            continue
-        if any(math.isnan(v) for v in numbers):
-            bad(number, "NaN in row")
-            continue
-        head, tail = numbers[: columns - n_ranges], numbers[columns - n_ranges :]
-        if not all(math.isfinite(v) for v in head):
-            bad(number, "infinite timestamp or pose")
-            continue
-        if any(v < 0 for v in tail):
-            bad(number, "negative range")
-            continue
-        if numbers[0] <= last_time:
-            bad(
-                number,
-                f"timestamp {numbers[0]!r} is not after the previous row's (line {last_line})",
-            )
-            continue
-        last_time, last_line = numbers[0], number
-        lines.append(number)
-        values.append(numbers)
-    return _Table(lines, values, rows)
+    with handle:
+        for number, raw in enumerate(handle, start=1):
+            done += len(raw)
+            body = raw.decode("utf-8", errors="replace").strip().lstrip("\ufeff")
+            if not body or body.startswith(_COMMENTS):
+                continue
+            body = body.split("#", 1)[0].strip()
+            if not body:
+                continue
+            rows += 1
+            outcome = _row_values(_SPLIT.split(body), columns, n_ranges)
+            if isinstance(outcome, str):
+                _report(path, number, outcome, skipped)
+                continue
+            pending.append(outcome)
+            pending_lines.append(number)
+            if len(pending) >= _CHUNK:
+                flush()
+                if progress is not None:
+                    progress(done, total)
+    flush()
+    if progress is not None:
+        progress(total, total)
+    values = np.vstack(blocks) if blocks else np.zeros((0, columns))
+    lines = np.concatenate(line_blocks) if line_blocks else np.zeros(0, dtype=np.int64)
+    keep = _in_order(values[:, 0])
+    for index in np.flatnonzero(~keep):
+        kept_before = np.flatnonzero(keep[:index])
+        after = f" (line {int(lines[kept_before[-1]])})" if len(kept_before) else ""
+        _report(
+            path,
+            int(lines[index]),
+            f"timestamp {float(values[index, 0])!r} out of order with its neighbours{after}",
+            skipped,
+        )
+    return _Table(lines[keep], values[keep], rows)
+
+
+def _in_order(times: FloatArray) -> npt.NDArray[np.bool_]:
+    """Rows to keep so that timestamps strictly increase, losing as few rows as possible.
+
+    The longest strictly increasing subsequence (patience sorting): one corrupt timestamp,
+    however large or small, costs its own row only, not every row after it.
+    """
+    n = len(times)
+    if n < 2 or bool(np.all(np.diff(times) > 0)):
+        return np.ones(n, dtype=bool)
+    tails: list[float] = []
+    tail_index: list[int] = []
+    parent = np.full(n, -1, dtype=np.int64)
+    for i, t in enumerate(times.tolist()):
+        k = bisect.bisect_left(tails, t)
+        if k == len(tails):
+            tails.append(t)
+            tail_index.append(i)
+        else:
+            tails[k] = t
+            tail_index[k] = i
+        parent[i] = tail_index[k - 1] if k > 0 else -1
+    keep = np.zeros(n, dtype=bool)
+    i = tail_index[-1]
+    while i >= 0:
+        keep[i] = True
+        i = int(parent[i])
+    return keep
 
 
 def _is_float(text: str) -> bool:
@@ -194,7 +260,9 @@ def read_sonar_log(
     poses_path: str | Path | None = None,
     units: LogUnits = LogUnits(),  # noqa: B008 - frozen dataclass, immutable
     strict: bool = False,
-    time_tolerance: float = 1e-6,
+    time_tolerance: float = 0.05,
+    max_pose_gap: float = 1.0,
+    progress: Progress | None = None,
 ) -> SonarLog:
     """Read a sonar log (one file, or ranges and poses in two files joined by timestamp).
 
@@ -209,9 +277,15 @@ def read_sonar_log(
     units
         Units of the columns.
     strict
-        Abort at the first bad row (:class:`FormatError`) instead of skipping it.
+        Abort at the first bad row (:class:`FormatError` naming its line) instead of skipping it.
     time_tolerance
-        Largest difference [s] between a ranges row's and a pose row's timestamps to join them.
+        A ranges row takes the nearest pose within this many seconds when it cannot be
+        interpolated (before the first pose, after the last, or across a gap).
+    max_pose_gap
+        Poses are interpolated (linear in position, shortest arc in heading) between two
+        pose rows at most this many seconds apart.
+    progress
+        Optional ``progress(bytes_read, bytes_total)`` while reading.
 
     Returns
     -------
@@ -226,51 +300,113 @@ def read_sonar_log(
     """
     if n_ranges < 1:
         raise InputError(f"a sonar log needs at least one range column, got n_ranges={n_ranges}")
+    if not (time_tolerance >= 0 and max_pose_gap >= 0):
+        raise InputError(
+            "need time_tolerance >= 0 and max_pose_gap >= 0 s, "
+            f"got {time_tolerance}, {max_pose_gap}"
+        )
     main = Path(path)
     skipped: list[SkippedRow] = []
+    length = LENGTH_UNITS[units.position_unit]
+    angle = ANGLE_UNITS[units.heading_unit]
     if poses_path is None:
-        table = _parse(main, 4 + n_ranges, n_ranges, strict, skipped)
-        data = np.asarray(table.values, dtype=np.float64).reshape(-1, 4 + n_ranges)
-        times, pose_raw, range_raw = data[:, 0], data[:, 1:4], data[:, 4:]
+        table = _parse(main, 4 + n_ranges, n_ranges, skipped, progress)
+        _abort_if_strict(strict, skipped)
+        data = table.values
+        times, range_raw = data[:, 0], data[:, 4:]
+        poses = np.column_stack([data[:, 1:3] * length, data[:, 3] * angle])
     else:
         pose_file = Path(poses_path)
-        pose_table = _parse(pose_file, 4, 0, strict, skipped)
-        table = _parse(main, 1 + n_ranges, n_ranges, strict, skipped)
-        pose_data = np.asarray(pose_table.values, dtype=np.float64).reshape(-1, 4)
-        data = np.asarray(table.values, dtype=np.float64).reshape(-1, 1 + n_ranges)
+        pose_table = _parse(pose_file, 4, 0, skipped)
+        table = _parse(main, 1 + n_ranges, n_ranges, skipped, progress)
+        _abort_if_strict(strict, skipped)
+        pose_data = pose_table.values
+        data = table.values
         times, range_raw = data[:, 0], data[:, 1:]
-        match = _join(times, pose_data[:, 0], time_tolerance)
-        keep = match >= 0
-        for number, t in zip(np.asarray(table.lines)[~keep], times[~keep], strict=True):
-            reason = f"no pose for timestamp {float(t)!r} within {time_tolerance} s"
-            _skip(main, int(number), reason, strict, skipped)
-        times, range_raw = times[keep], range_raw[keep]
-        pose_raw = pose_data[match[keep], 1:4]
+        pose_si = np.column_stack([pose_data[:, 1:3] * length, pose_data[:, 3] * angle])
+        poses, why = join_poses(times, pose_data[:, 0], pose_si, time_tolerance, max_pose_gap)
+        keep = why == ""
+        for number, reason in zip(table.lines[~keep], why[~keep], strict=True):
+            _report(main, int(number), str(reason), skipped)
+        _abort_if_strict(strict, skipped)
+        times, range_raw, poses = times[keep], range_raw[keep], poses[keep]
     if len(times) == 0:
         raise FormatError(
             f"no usable rows ({len(skipped)} skipped; expected {n_ranges} ranges per row)",
             path=main,
         )
-    length = LENGTH_UNITS[units.position_unit]
-    poses = np.column_stack(
-        [pose_raw[:, :2] * length, pose_raw[:, 2] * ANGLE_UNITS[units.heading_unit]]
-    )
     ranges = range_raw * LENGTH_UNITS[units.range_unit]
     skipped.sort(key=lambda row: (row.path != str(main), row.line))
+    if skipped:
+        dropped = sum(row.path == str(main) for row in skipped)
+        logger.warning(
+            "%s: %d of %d rows skipped (%.1f %%); see the warnings above or summary.json",
+            main,
+            dropped,
+            table.rows,
+            100.0 * dropped / max(table.rows, 1),
+        )
     return SonarLog(times, poses, ranges, table.rows, tuple(skipped))
 
 
-def _join(times: FloatArray, pose_times: FloatArray, tolerance: float) -> npt.NDArray[np.int64]:
-    """Index of the pose row nearest each time, or −1 when none is within ``tolerance``."""
+def _abort_if_strict(strict: bool, skipped: list[SkippedRow]) -> None:
+    if strict and skipped:
+        first = min(skipped, key=lambda row: (row.path, row.line))
+        raise FormatError(
+            first.reason + " (drop --strict to skip bad rows)", path=first.path, line=first.line
+        )
+
+
+def join_poses(
+    times: FloatArray,
+    pose_times: FloatArray,
+    poses: FloatArray,
+    tolerance: float,
+    max_gap: float,
+) -> tuple[FloatArray, npt.NDArray[np.str_]]:
+    """A pose for each of ``times`` from poses ``(m, 3)`` [m, m, rad] at ``pose_times``.
+
+    Interpolated between the bracketing poses when they are at most ``max_gap`` [s] apart
+    (linear in position, shortest arc in heading), else the nearest pose within
+    ``tolerance`` [s]. Returns ``(n, 3)`` poses and, per time, why none was found ("" if
+    one was).
+    """
+    n = len(times)
+    out = np.full((n, 3), np.nan)
+    why = np.full(n, "", dtype=object)
     if len(pose_times) == 0:
-        return np.full(len(times), -1, dtype=np.int64)
-    right = np.clip(np.searchsorted(pose_times, times), 0, len(pose_times) - 1)
-    left = np.clip(right - 1, 0, len(pose_times) - 1)
-    nearest = np.where(
-        np.abs(pose_times[left] - times) <= np.abs(pose_times[right] - times), left, right
-    )
-    ok = np.abs(pose_times[nearest] - times) <= tolerance
-    return np.where(ok, nearest, -1).astype(np.int64)
+        why[:] = "no pose rows to join"
+        return out, why.astype(str)
+    right = np.clip(np.searchsorted(pose_times, times, side="left"), 0, len(pose_times) - 1)
+    left = np.clip(np.searchsorted(pose_times, times, side="right") - 1, 0, len(pose_times) - 1)
+    t0, t1 = pose_times[left], pose_times[right]
+    inside = (t0 <= times) & (times <= t1)
+    gap = t1 - t0
+    interpolate = inside & (gap <= max_gap)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.where(gap > 0, (times - t0) / gap, 0.0)
+    p0, p1 = poses[left], poses[right]
+    turn = np.remainder(p1[:, 2] - p0[:, 2] + math.pi, 2 * math.pi) - math.pi
+    blend = np.column_stack([p0[:, :2] + w[:, None] * (p1[:, :2] - p0[:, :2]), p0[:, 2] + w * turn])
+    blend[:, 2] = np.remainder(blend[:, 2] + math.pi, 2 * math.pi) - math.pi
+    out[interpolate] = blend[interpolate]
+    nearest = np.where(np.abs(t0 - times) <= np.abs(t1 - times), left, right)
+    distance = np.abs(pose_times[nearest] - times)
+    fallback = ~interpolate & (distance <= tolerance)
+    out[fallback] = poses[nearest[fallback]]
+    missing = ~(interpolate | fallback)
+    for i in np.flatnonzero(missing):
+        if inside[i]:
+            why[i] = (
+                f"poses around t={float(times[i])!r} are {float(gap[i]):.3g} s apart "
+                f"(more than the {max_gap} s max pose gap) and none is within {tolerance} s"
+            )
+        else:
+            why[i] = (
+                f"no pose for timestamp {float(times[i])!r}: nearest {float(distance[i]):.3g} s "
+                f"away (tolerance {tolerance} s)"
+            )
+    return out, why.astype(str)
 
 
 def write_sonar_log(

@@ -12,6 +12,7 @@ probabilities into the shared grid on :meth:`sync` (which also lowers the entrop
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -23,7 +24,10 @@ from bayesmap.sensing.sonar import elfes_inverse_model, log_odds
 from bayesmap.sensing.sonar_baselines import ros_bayes_update, ros_sensor_model, thrun_inverse_model
 from bayesmap.sonar.geometry import ConeCells, SonarGeometry, cone_cells
 
-__all__ = ["ElfesMapper", "RosRangeLayerMapper", "ThrunMapper"]
+__all__ = ["ElfesMapper", "NoEcho", "RosRangeLayerMapper", "ThrunMapper"]
+
+NoEcho = Literal["cone", "clear", "ignore"]
+"""How a mapper treats a no-echo reading (see :class:`ElfesMapper`)."""
 
 
 class _ConeMapper:
@@ -36,7 +40,12 @@ class _ConeMapper:
         self.readings_ = 0
 
     def _prepare(
-        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None
+        self,
+        pose: npt.ArrayLike,
+        ranges: npt.ArrayLike,
+        use: npt.ArrayLike | None,
+        *,
+        clip: bool = True,
     ) -> tuple[FloatArray, FloatArray, FloatArray, np.ndarray]:
         r = np.asarray(ranges, dtype=np.float64)
         if r.shape != (self.geometry.n,):
@@ -49,7 +58,8 @@ class _ConeMapper:
         if mask.shape != r.shape:
             raise InputError(f"'use' mask has shape {mask.shape}, the ring {r.shape}")
         centres, axis = self.geometry.sensors(np.asarray(pose, dtype=np.float64))
-        r = np.minimum(r, self.geometry.max_range)
+        if clip:
+            r = np.minimum(r, self.geometry.max_range)
         self.rings_ += 1
         self.readings_ += int(mask.sum())
         return centres, axis, r, mask
@@ -61,19 +71,57 @@ class _ConeMapper:
 class _LogOddsMapper(_ConeMapper):
     """Log-odds layer ``log_odds_`` ``(ny, nx)``, clamped to ``±clamp``."""
 
-    def __init__(self, grid: OccupancyGrid, geometry: SonarGeometry, clamp: float) -> None:
+    def __init__(
+        self,
+        grid: OccupancyGrid,
+        geometry: SonarGeometry,
+        clamp: float,
+        decay: float = 0.0,
+        footprint: float = 0.0,
+    ) -> None:
         super().__init__(grid, geometry)
+        if not footprint >= 0:
+            raise ConfigError(f"footprint radius must be >= 0 metres, got {footprint}")
+        self.footprint = float(footprint)
         if not clamp > 0:
             raise ConfigError(f"log-odds clamp must be positive, got {clamp}")
+        if not 0.0 <= decay < 1.0:
+            raise ConfigError(f"log-odds decay must be in [0, 1), got {decay}")
         self.clamp = float(clamp)
+        self.decay = float(decay)
         prior = min(max(grid.prior, 1e-9), 1 - 1e-9)
         self.prior_log_odds = float(log_odds(prior))
         self.log_odds_: Grid = np.full(grid.shape, self.prior_log_odds)
 
     def _add(self, cells: ConeCells, increment: FloatArray) -> None:
         index = (cells.rows, cells.cols)
+        if self.decay > 0.0:
+            # Evidence in view fades towards the prior before the new ring is added, so a
+            # passer-by that saturated cells is cleared by the next few free readings.
+            old = self.log_odds_[index]
+            self.log_odds_[index] = self.prior_log_odds + (1.0 - self.decay) * (
+                old - self.prior_log_odds
+            )
         np.add.at(self.log_odds_, index, increment)
         self.log_odds_[index] = np.clip(self.log_odds_[index], -self.clamp, self.clamp)
+
+    def _clear_footprint(self, pose: npt.ArrayLike) -> None:
+        """The robot stands here: cells within ``footprint`` [m] of its centre are free."""
+        if self.footprint <= 0:
+            return
+        x, y = np.asarray(pose, dtype=np.float64)[:2]
+        res, (x0, y0), (ny, nx) = self.grid.resolution, self.grid.origin, self.grid.shape
+        span = int(math.ceil(self.footprint / res)) + 1
+        col = int(math.floor((x - x0) / res))
+        row = int(math.floor((y - y0) / res))
+        rows, cols = np.mgrid[
+            max(row - span, 0) : min(row + span + 1, ny),
+            max(col - span, 0) : min(col + span + 1, nx),
+        ]
+        inside = (x0 + (cols + 0.5) * res - x) ** 2 + (y0 + (rows + 0.5) * res - y) ** 2 <= (
+            self.footprint**2
+        )
+        self.log_odds_[rows[inside], cols[inside]] = -self.clamp
 
     def probability(self) -> Grid:
         """``(ny, nx)`` occupancy probability of each cell."""
@@ -101,8 +149,22 @@ class ElfesMapper(_LogOddsMapper):
         The ring.
     p_occ, p_free
         Peak and free probabilities of :func:`~bayesmap.sensing.sonar.elfes_inverse_model`.
+    no_echo
+        What a no-echo reading (at or above the max range) does: ``"cone"`` clears its whole
+        cone to the max range (Elfes' reading of "nothing there"), ``"clear"`` clears it up
+        to ``clear_distance``, ``"ignore"`` leaves the map alone. A lost specular echo is
+        also a no-echo reading, so clearing far erases glancing walls.
+    clear_distance
+        How far ``"clear"`` clears [m].
     clamp
-        Log-odds bound (numerical safety).
+        Log-odds saturation: no cell goes beyond ``±clamp``, so a cell a person saturated
+        needs at most ``clamp / |free increment|`` free readings to clear.
+    decay
+        Fraction of a cell's log-odds (relative to the prior) lost each time a ring sees it,
+        before the ring's own evidence is added; 0 keeps everything.
+    footprint
+        Radius [m] round the robot's centre marked free at every ring (the robot is there),
+        as the ROS costmap's footprint clearing does; 0: off.
 
     Attributes
     ----------
@@ -119,9 +181,22 @@ class ElfesMapper(_LogOddsMapper):
         *,
         p_occ: float = 0.7,
         p_free: float = 0.35,
+        no_echo: NoEcho = "cone",
+        clear_distance: float = 2.0,
         clamp: float = 10.0,
+        decay: float = 0.0,
+        footprint: float = 0.0,
     ) -> None:
-        super().__init__(grid, geometry, clamp)
+        super().__init__(grid, geometry, clamp, decay, footprint)
+        if no_echo not in ("cone", "clear", "ignore"):
+            raise ConfigError(f"no_echo must be 'cone', 'clear' or 'ignore', got {no_echo!r}")
+        if not 0.0 < clear_distance <= geometry.max_range:
+            raise ConfigError(
+                f"clear_distance must be in (0, max range = {geometry.max_range}] m, "
+                f"got {clear_distance}"
+            )
+        self.no_echo = no_echo
+        self.clear_distance = float(clear_distance)
         self.p_occ = p_occ
         self.p_free = p_free
         self.sigma_map = max(geometry.sigma, grid.resolution)
@@ -143,7 +218,8 @@ class ElfesMapper(_LogOddsMapper):
         """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
         centres, axis, r, mask = self._prepare(pose, ranges, use)
         echo = r < self.geometry.max_range
-        reach = np.where(echo, r + 3.0 * self.sigma_map, self.geometry.max_range)
+        no_echo_reach = {"cone": self.geometry.max_range, "clear": self.clear_distance}
+        reach = np.where(echo, r + 3.0 * self.sigma_map, no_echo_reach.get(self.no_echo, 0.0))
         cells = self._cells(centres, axis, np.where(mask, reach, 0.0))
         p = elfes_inverse_model(
             r[cells.reading],
@@ -156,6 +232,7 @@ class ElfesMapper(_LogOddsMapper):
             p_free=self.p_free,
         )
         self._add(cells, log_odds(p))
+        self._clear_footprint(pose)
 
 
 class ThrunMapper(_LogOddsMapper):
@@ -169,8 +246,8 @@ class ThrunMapper(_LogOddsMapper):
         Obstacle thickness [m]; default twice the grid resolution.
     l_occ, l_free
         Log-odds per hit and per miss.
-    clamp
-        Log-odds bound (numerical safety).
+    clamp, decay
+        Log-odds saturation and decay, as for :class:`ElfesMapper`.
     """
 
     def __init__(
@@ -182,8 +259,9 @@ class ThrunMapper(_LogOddsMapper):
         l_occ: float = 0.4,
         l_free: float = -0.4,
         clamp: float = 10.0,
+        decay: float = 0.0,
     ) -> None:
-        super().__init__(grid, geometry, clamp)
+        super().__init__(grid, geometry, clamp, decay)
         self.alpha = 2.0 * grid.resolution if alpha is None else float(alpha)
         if not self.alpha > 0:
             raise ConfigError(f"obstacle thickness alpha must be positive metres, got {alpha}")
@@ -216,10 +294,11 @@ class RosRangeLayerMapper(_ConeMapper):
     Per reading, in ring order: the target cell's cost is set to 233, then every cell of
     the update triangle (the transducer and the cone edges at 1.2 times the range) gets
     Bayes' rule with :func:`~bayesmap.sensing.sonar_baselines.ros_sensor_model`, stored with
-    the layer's ``(uchar)(p · 254)`` quantisation. A reading at the maximum range clears its
-    cone (sensor value 0) when ``clear_on_max_reading``, and otherwise marks an arc at the
-    maximum range like any echo (the layer's default). Our clearing touches the cone's
-    cells only.
+    the layer's ``(uchar)(p · 254)`` quantisation. As in ``processVariableRangeMsg``, a
+    reading above the maximum range or below the minimum (a no-echo code, ``inf``) is
+    dropped; a reading exactly at the maximum clears its cone (sensor value 0) when
+    ``clear_on_max_reading``, and otherwise marks an arc there like any echo (the layer's
+    default). Our clearing touches the cone's cells only.
 
     Attributes
     ----------
@@ -245,7 +324,9 @@ class RosRangeLayerMapper(_ConeMapper):
         self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
     ) -> None:
         """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
-        centres, axis, r, mask = self._prepare(pose, ranges, use)
+        centres, axis, r, mask = self._prepare(pose, ranges, use, clip=False)
+        mask = mask & (r <= self.geometry.max_range) & (r >= self.geometry.min_range)
+        r = np.where(mask, r, 0.0)
         half = self.geometry.beam_width / 2.0
         edge = 1.2 * r * math.cos(half)  # the triangle's far side, along the axis
         cells = self._cells(centres, axis, np.where(mask, edge / math.cos(half), 0.0))

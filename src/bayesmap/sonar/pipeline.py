@@ -1,22 +1,42 @@
-"""Readings in, map out: run a log of rings through the filter (optional) and a mapper."""
+"""Readings in, map out: run a log of rings through the filter (optional) and a mapper.
+
+A :class:`Pipeline` names one complete way of turning rings into a map: which filter stages
+run (ICINCO 2007, p. 494), which sensor model maps the survivors (eq. 1 cone, Thrun's ±0.4,
+the ROS range layer), what a no-echo reading does, the saturation and decay of the log-odds,
+and whether identical stationary rings count once. :data:`PIPELINES` holds the ones the
+experiment compares and ``bayesmap sonar map --pipeline`` offers; :data:`DEFAULT_PIPELINE`
+is the one that did best over the realistic simulated worlds (docs/sonar.md).
+"""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import NamedTuple, Protocol
+from dataclasses import dataclass
+from typing import Any, Literal, NamedTuple, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._typing import BoolArray, Grid, IntArray, Poses, Ranges
+from bayesmap._typing import BoolArray, FloatArray, Grid, IntArray, Poses, Ranges
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
 from bayesmap.sonar.filter import SpecularFilter
 from bayesmap.sonar.geometry import SonarGeometry
-from bayesmap.sonar.mapping import ElfesMapper
+from bayesmap.sonar.mapping import ElfesMapper, NoEcho, RosRangeLayerMapper, ThrunMapper
 
-__all__ = ["BuiltMap", "MapRun", "RingMapper", "build_map", "grid_for_poses", "map_log"]
+__all__ = [
+    "DEFAULT_PIPELINE",
+    "PIPELINES",
+    "BuiltMap",
+    "MapRun",
+    "Pipeline",
+    "RingMapper",
+    "build_map",
+    "grid_for_poses",
+    "map_log",
+    "repeats_last",
+]
 
 
 class RingMapper(Protocol):
@@ -40,16 +60,52 @@ class RingMapper(Protocol):
 
 
 class MapRun(NamedTuple):
-    """What :func:`map_log` did: ``accepted`` and ``stage`` per reading, ``(n_rings, n)``."""
+    """What :func:`map_log` did.
+
+    ``accepted`` and ``stage`` per reading ``(n_rings, n)``; ``repeat`` ``(n_rings,)``: rings
+    merged with the one before (they take its verdict and are not mapped again).
+    """
 
     accepted: BoolArray
     stage: IntArray
+    repeat: BoolArray
+
+
+def repeats_last(
+    last_pose: FloatArray,
+    last_ranges: FloatArray,
+    pose: FloatArray,
+    ranges: FloatArray,
+    geometry: SonarGeometry,
+) -> bool:
+    """Whether a ring repeats the last one: same pose, every reading the same within sigma.
+
+    A standing robot logs the same ring dozens of times; these are one observation, not
+    many (two no-echo readings are the same reading).
+    """
+    if np.any(np.abs(pose[:2] - last_pose[:2]) > 1e-3):
+        return False
+    if abs(math.remainder(float(pose[2] - last_pose[2]), 2 * math.pi)) > 1e-3:
+        return False
+    echo, last_echo = geometry.echo(ranges), geometry.echo(last_ranges)
+    if np.any(echo != last_echo):
+        return False
+    return bool(np.all(np.abs(ranges[echo] - last_ranges[echo]) <= geometry.sigma))
 
 
 def grid_for_poses(
-    poses: Poses, reach: float, resolution: float, *, prior: float = 0.5
+    poses: Poses,
+    reach: float,
+    resolution: float,
+    *,
+    prior: float = 0.5,
+    max_cells: int = 25_000_000,
 ) -> OccupancyGrid:
-    """An empty grid covering every pose plus ``reach`` [m] around it, at ``resolution`` [m]."""
+    """An empty grid covering every pose plus ``reach`` [m] around it, at ``resolution`` [m].
+
+    A grid of more than ``max_cells`` cells is refused before anything is allocated, with
+    a message that names the likely unit mistake (positions in mm or cm read as metres).
+    """
     p = np.asarray(poses, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3 or len(p) == 0 or not np.all(np.isfinite(p)):
         raise InputError(f"poses must be a non-empty finite (n, 3) array, got shape {p.shape}")
@@ -57,6 +113,21 @@ def grid_for_poses(
         raise ConfigError(f"need positive reach and resolution [m], got {reach}, {resolution}")
     lo = p[:, :2].min(axis=0) - reach
     hi = p[:, :2].max(axis=0) + reach
+    span = p[:, :2].max(axis=0) - p[:, :2].min(axis=0)
+    cells = math.ceil((hi[0] - lo[0]) / resolution + 1) * math.ceil(
+        (hi[1] - lo[1]) / resolution + 1
+    )
+    if cells > max_cells:
+        hint = (
+            "positions look like millimetres or centimetres read as metres (set the position unit)"
+            if span.max() > 1000.0
+            else "use a coarser resolution"
+        )
+        raise InputError(
+            f"the map would have {cells:,} cells ({hi[0] - lo[0]:.4g} m by {hi[1] - lo[1]:.4g} m "
+            f"at {resolution:g} m), over the limit of {max_cells:,}: the robot's poses span "
+            f"{span[0]:.4g} m by {span[1]:.4g} m; {hint}, or raise the cell limit"
+        )
     origin = (
         math.floor(lo[0] / resolution) * resolution,
         math.floor(lo[1] / resolution) * resolution,
@@ -72,6 +143,7 @@ def map_log(
     mapper: RingMapper,
     filt: SpecularFilter | None = None,
     *,
+    merge_repeats: bool = False,
     progress: Callable[[int, int], None] | None = None,
 ) -> MapRun:
     """Feed each ring through ``filt`` (if any) and integrate the accepted readings.
@@ -86,6 +158,9 @@ def map_log(
         Any :class:`RingMapper`; it is synced into its grid at the end.
     filt
         A :class:`~bayesmap.sonar.filter.SpecularFilter`, or ``None`` to map every reading.
+    merge_repeats
+        Count a ring that repeats the last one (:func:`repeats_last`) once: it takes the
+        last ring's verdict and is neither filtered nor mapped again.
     progress
         Optional ``progress(done, total)`` callback, called every 100 rings.
     """
@@ -97,16 +172,132 @@ def map_log(
         )
     accepted = np.ones(r.shape, dtype=bool)
     stage = np.zeros(r.shape, dtype=np.int64)
+    repeat = np.zeros(len(p), dtype=bool)
+    geometry: SonarGeometry | None = getattr(mapper, "geometry", None)
+    last = -1
     for i in range(len(p)):
-        if filt is not None:
-            verdict = filt.process(p[i], r[i])
-            accepted[i] = verdict.accepted
-            stage[i] = verdict.stage
-        mapper.integrate(p[i], r[i], accepted[i])
+        if (
+            merge_repeats
+            and last >= 0
+            and geometry is not None
+            and repeats_last(p[last], r[last], p[i], r[i], geometry)
+        ):
+            repeat[i] = True
+            accepted[i], stage[i] = accepted[last], stage[last]
+        else:
+            last = i
+            if filt is not None:
+                verdict = filt.process(p[i], r[i])
+                accepted[i] = verdict.accepted
+                stage[i] = verdict.stage
+            mapper.integrate(p[i], r[i], accepted[i])
         if progress is not None and (i % 100 == 99 or i == len(p) - 1):
             progress(i + 1, len(p))
     mapper.sync()
-    return MapRun(accepted=accepted, stage=stage)
+    return MapRun(accepted=accepted, stage=stage, repeat=repeat)
+
+
+@dataclass(frozen=True)
+class Pipeline:
+    """One way from rings to a map: filter stages, sensor model and its options.
+
+    Attributes
+    ----------
+    model
+        ``"elfes"`` (eq. 1 cone, :class:`~bayesmap.sonar.mapping.ElfesMapper`), ``"thrun"``
+        (Table 9.2, ±0.4) or ``"ros"`` (the ROS ``range_sensor_layer``).
+    acceptability, agreeability, trait_verification
+        Which filter stages run (none: no filter).
+    no_echo, clear_distance
+        What a no-echo reading does in the eq. 1 model (see ``ElfesMapper``).
+    clamp, decay, footprint
+        Log-odds saturation, decay and footprint clearing radius [m] of the eq. 1 model
+        (saturation and decay also of Thrun's).
+    merge_repeats
+        Count identical stationary rings once.
+    filter_options
+        Further :class:`~bayesmap.sonar.filter.SpecularFilter` settings, as (name, value).
+    """
+
+    model: Literal["elfes", "thrun", "ros"] = "elfes"
+    acceptability: bool = False
+    agreeability: bool = False
+    trait_verification: bool = False
+    no_echo: NoEcho = "cone"
+    clear_distance: float = 2.0
+    clamp: float = 10.0
+    decay: float = 0.0
+    footprint: float = 0.0
+    merge_repeats: bool = False
+    filter_options: tuple[tuple[str, float], ...] = ()
+
+    @property
+    def filtered(self) -> bool:
+        """Whether any filter stage runs."""
+        return self.acceptability or self.agreeability or self.trait_verification
+
+    def make_filter(self, geometry: SonarGeometry) -> SpecularFilter | None:
+        """The pipeline's filter for ``geometry``, or ``None``."""
+        if not self.filtered:
+            return None
+        options: dict[str, Any] = dict(self.filter_options)
+        return SpecularFilter(
+            geometry,
+            acceptability=self.acceptability,
+            agreeability=self.agreeability,
+            trait_verification=self.trait_verification,
+            **options,
+        )
+
+    def make_mapper(self, grid: OccupancyGrid, geometry: SonarGeometry) -> RingMapper:
+        """The pipeline's mapper on ``grid``."""
+        if self.model == "ros":
+            return RosRangeLayerMapper(grid, geometry)
+        if self.model == "thrun":
+            return ThrunMapper(grid, geometry, clamp=self.clamp, decay=self.decay)
+        return ElfesMapper(
+            grid,
+            geometry,
+            no_echo=self.no_echo,
+            clear_distance=min(self.clear_distance, geometry.max_range),
+            clamp=self.clamp,
+            decay=self.decay,
+            footprint=self.footprint,
+        )
+
+
+PIPELINES: dict[str, Pipeline] = {
+    "default": Pipeline(
+        acceptability=True,
+        agreeability=True,
+        trait_verification=True,
+        no_echo="clear",
+        clear_distance=1.0,
+        footprint=0.2,
+        merge_repeats=True,
+        filter_options=(("no_echo_spread", 0.2), ("certainty_threshold", 0.3)),
+    ),
+    "paper": Pipeline(acceptability=True, agreeability=True, trait_verification=True),
+    "acceptability": Pipeline(acceptability=True),
+    "agreeability": Pipeline(agreeability=True),
+    "trait-verification": Pipeline(trait_verification=True),
+    "elfes": Pipeline(),
+    "elfes-ignore-no-echo": Pipeline(no_echo="ignore"),
+    "thrun": Pipeline(model="thrun"),
+    "ros": Pipeline(model="ros"),
+}
+"""The pipelines compared in ``reproduce sonar`` and offered by ``sonar map --pipeline``.
+
+``default``: all three stages with the settings learnt on simulated logs with known truth
+(``benchmarks/sonar_tuning.py``, docs/sonar.md): no-echo readings tested across their cone
+(±0.2 rad) against ``L``, certainty threshold 0.3; no-echo readings clear 1 m; the robot's
+footprint (0.2 m) cleared; identical stationary rings merged. ``paper``: all three stages
+with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single
+stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
+``ros``: unfiltered baselines (the ROS layer exactly as ``range_sensor_layer`` does it)."""
+
+DEFAULT_PIPELINE = "default"
+"""The pipeline ``sonar map`` uses unless told otherwise."""
 
 
 class BuiltMap(NamedTuple):
@@ -123,15 +314,21 @@ def build_map(
     geometry: SonarGeometry,
     resolution: float,
     *,
-    use_filter: bool = True,
+    pipeline: Pipeline | None = None,
+    max_cells: int = 25_000_000,
     progress: Callable[[int, int], None] | None = None,
 ) -> BuiltMap:
-    """Map a log with the eq. 1 cone model, after the specular filter unless ``use_filter`` is off.
+    """Map a log with ``pipeline`` (default: ``PIPELINES[DEFAULT_PIPELINE]``).
 
     The grid covers every pose plus the max range around it, at ``resolution`` [m].
     """
-    grid = grid_for_poses(poses, geometry.max_range + geometry.radius, resolution)
-    mapper = ElfesMapper(grid, geometry)
-    filt = SpecularFilter(geometry) if use_filter else None
-    outcome = map_log(poses, ranges, mapper, filt, progress=progress)
+    chosen = PIPELINES[DEFAULT_PIPELINE] if pipeline is None else pipeline
+    grid = grid_for_poses(
+        poses, geometry.max_range + geometry.reach, resolution, max_cells=max_cells
+    )
+    mapper = chosen.make_mapper(grid, geometry)
+    filt = chosen.make_filter(geometry)
+    outcome = map_log(
+        poses, ranges, mapper, filt, merge_repeats=chosen.merge_repeats, progress=progress
+    )
     return BuiltMap(mapper=mapper, run=outcome, filt=filt)

@@ -8,6 +8,10 @@ the point farthest from the chord until every point is within ``tolerance`` of i
 with fewer than ``min_points`` points are left unexplained; consecutive pieces whose
 total-least-squares lines agree (every point of both within ``tolerance`` of the joint
 line) are merged. A trait is the joint line clipped to its points' projections.
+
+Trait hygiene (what real logs taught us): a standing robot repeats the same echo point, so a
+trait must have ``min_points`` *distinct* points (more than ``min_spacing`` apart along the
+line) and be at least ``min_length`` long; anything less is not a line.
 """
 
 from __future__ import annotations
@@ -82,6 +86,8 @@ def fit_traits(
     tolerance: float = 0.1,
     min_points: int = 3,
     max_gap: float = 1.0,
+    min_length: float = 0.0,
+    min_spacing: float = 0.0,
 ) -> Traits:
     """Split-and-merge line traits over ``points`` ``(n, 2)`` given in scan (bearing) order.
 
@@ -95,6 +101,10 @@ def fit_traits(
         Fewest points a trait needs.
     max_gap
         Consecutive points farther apart than this [m] never share a trait.
+    min_length
+        Shortest trait kept [m].
+    min_spacing
+        Points closer than this [m] along the line count as one towards ``min_points``.
 
     Returns
     -------
@@ -135,14 +145,15 @@ def fit_traits(
                 continue
         merged.append((a, b, members))
     segments = []
-    for index, (_, _, members) in enumerate(merged):
+    for _, _, members in merged:
         sel = pts[members]
         centroid, direction = fit_line(sel)
-        t = (sel - centroid) @ direction
-        segments.append(
-            np.concatenate([centroid + t.min() * direction, centroid + t.max() * direction])
-        )
-        labels[members] = index
+        t = np.sort((sel - centroid) @ direction)
+        distinct = 1 + int(np.count_nonzero(np.diff(t) > min_spacing))
+        if distinct < min_points or t[-1] - t[0] < min_length:
+            continue
+        segments.append(np.concatenate([centroid + t[0] * direction, centroid + t[-1] * direction]))
+        labels[members] = len(segments) - 1
         residuals[members] = _residuals(sel, centroid, direction)
     return Traits(np.asarray(segments).reshape(-1, 4), labels, residuals)
 

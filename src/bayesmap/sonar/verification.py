@@ -9,8 +9,10 @@ The fragment stops mid-sentence; the choices below are ours (docs/sonar.md):
 - *certainty* ``c = exp(-½ e² / sigma_c²)`` (eq. 1 scaled to peak 1), with ``e`` the
   reading's distance to its trait's line and ``sigma_c = sigma + d (1 - cos(beta/2))``
   (Elfes' range error plus the displacement of a reading across its cone);
-- *equivalent traits*: directions within ``match_angle``, the ``V`` trait's midpoint within
-  ``match_offset`` of the ``L`` trait's line, and overlapping projections;
+- *equivalent traits*: both of positive length, directions within ``match_angle``, both
+  ends of the ``V`` trait within ``match_offset`` of the ``L`` trait's line, and their
+  projections overlapping by a positive length (a point-like trait has no direction, so it
+  is equivalent to nothing);
 - a reading is *supported* by ``L`` when its trait has an equivalent in ``L``; an echo on no
   trait when its echo point lies within ``match_offset`` of an ``L`` trait; a no-echo
   reading when no ``L`` trait crosses its axis;
@@ -36,6 +38,7 @@ from bayesmap.sonar.traits import point_segment_distance
 __all__ = [
     "TVReason",
     "axis_crossings",
+    "axis_segment_hits",
     "certainty",
     "equivalent",
     "extend_segments",
@@ -91,23 +94,32 @@ def extend_segments(segments: FloatArray, length: float) -> FloatArray:
 def equivalent(
     v: FloatArray, ell: FloatArray, *, match_angle: float, match_offset: float
 ) -> BoolArray:
-    """``(m, k)``: trait ``v[i]`` coincides with trait ``ell[j]`` (angle, offset, overlap)."""
+    """``(m, k)``: trait ``v[i]`` coincides with trait ``ell[j]`` (angle, offset, overlap).
+
+    Sound for short traits: a segment shorter than 1 mm has no direction and matches nothing;
+    both ends of ``v[i]`` must lie near ``ell[j]``'s line and the two must share a stretch.
+    """
     if len(v) == 0 or len(ell) == 0:
         return np.zeros((len(v), len(ell)), dtype=bool)
     dv = v[:, 2:] - v[:, :2]
     dl = ell[:, 2:] - ell[:, :2]
+    len_v = np.hypot(dv[:, 0], dv[:, 1])[:, None]
+    length = np.hypot(dl[:, 0], dl[:, 1])[None, :]
     av = np.arctan2(dv[:, 1], dv[:, 0])[:, None]
     al = np.arctan2(dl[:, 1], dl[:, 0])[None, :]
     diff = np.abs((av - al + math.pi / 2) % math.pi - math.pi / 2)
-    ul = dl / np.maximum(np.hypot(dl[:, 0], dl[:, 1]), 1e-12)[:, None]
-    mid = (v[:, :2] + v[:, 2:]) / 2.0
-    rel = mid[:, None, :] - ell[None, :, :2]
-    offset = np.abs(rel[..., 0] * ul[None, :, 1] - rel[..., 1] * ul[None, :, 0])
-    length = np.hypot(dl[:, 0], dl[:, 1])[None, :]
+    ul = dl / np.maximum(length[0], 1e-12)[:, None]
+
+    def offset(points: FloatArray) -> FloatArray:
+        rel = points[:, None, :] - ell[None, :, :2]
+        return np.asarray(np.abs(rel[..., 0] * ul[None, :, 1] - rel[..., 1] * ul[None, :, 0]))
+
+    near = np.maximum(offset(v[:, :2]), offset(v[:, 2:])) <= match_offset
     t0 = ((v[:, None, :2] - ell[None, :, :2]) * ul[None]).sum(-1)
     t1 = ((v[:, None, 2:] - ell[None, :, :2]) * ul[None]).sum(-1)
-    overlap = (np.maximum(t0, t1) >= 0.0) & (np.minimum(t0, t1) <= length)
-    return np.asarray((diff <= match_angle) & (offset <= match_offset) & overlap)
+    shared = np.minimum(np.maximum(t0, t1), length) - np.maximum(np.minimum(t0, t1), 0.0)
+    real = (len_v > 1e-3) & (length > 1e-3)
+    return np.asarray(real & (diff <= match_angle) & near & (shared > 0.0))
 
 
 def axis_crossings(centres: FloatArray, axis: FloatArray, segments: FloatArray) -> FloatArray:
@@ -115,6 +127,11 @@ def axis_crossings(centres: FloatArray, axis: FloatArray, segments: FloatArray) 
     n = len(centres)
     if len(segments) == 0 or n == 0:
         return np.full(n, np.inf)
+    return np.asarray(axis_segment_hits(centres, axis, segments).min(axis=1))
+
+
+def axis_segment_hits(centres: FloatArray, axis: FloatArray, segments: FloatArray) -> FloatArray:
+    """``(n, m)`` distance [m] along each beam axis to each segment (``inf``: not crossed)."""
     d = np.column_stack([np.cos(axis), np.sin(axis)])[:, None, :]
     p = segments[None, :, :2]
     e = segments[None, :, 2:] - p
@@ -124,7 +141,7 @@ def axis_crossings(centres: FloatArray, axis: FloatArray, segments: FloatArray) 
         t = (w[..., 0] * e[..., 1] - w[..., 1] * e[..., 0]) / denom
         u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / denom
     ok = (np.abs(denom) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
-    return np.asarray(np.where(ok, t, np.inf).min(axis=1))
+    return np.asarray(np.where(ok, t, np.inf))
 
 
 def reconcile(
@@ -145,6 +162,7 @@ def reconcile(
     match_angle: float,
     match_offset: float,
     margin: float,
+    no_echo_spread: float = 0.0,
 ) -> IntArray:
     """Reconcile the current readings' traits ``V`` with the local view ``L``.
 
@@ -164,6 +182,9 @@ def reconcile(
         Whether ``L`` spans four perceptual lengths (case B) or not (case A).
     max_range, certainty_threshold, match_angle, match_offset, margin
         See :class:`~bayesmap.sonar.filter.SpecularFilter`.
+    no_echo_spread
+        A no-echo reading is also tested along the rays ``±no_echo_spread`` [rad] off its
+        axis: a known wall anywhere across its cone within range means its echo was lost.
 
     Returns
     -------
@@ -180,6 +201,11 @@ def reconcile(
     supported = np.zeros(n, dtype=bool)
     supported[on_trait] = trait_supported[labels[on_trait]]
     crossing = axis_crossings(centres, axis, l_segments)
+    if no_echo_spread > 0.0 and np.any(~echo) and len(l_segments):
+        quiet = ~echo
+        for side in (-no_echo_spread, no_echo_spread):
+            edge = axis_crossings(centres[quiet], axis[quiet] + side, l_segments)
+            crossing[quiet] = np.minimum(crossing[quiet], edge)
     reach = np.where(echo, ranges, max_range)
     contradicted = crossing < reach - margin
     loose = echo & ~on_trait

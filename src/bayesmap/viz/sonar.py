@@ -1,4 +1,8 @@
-"""Figures for sonar mapping: occupancy maps side by side, with the true walls overlaid."""
+"""Figures for sonar mapping: occupancy maps side by side, with the true walls overlaid.
+
+Every map has its axes in metres and the figure carries a grey-level key: white is free
+(p = 0), mid-grey unknown (p = 0.5), black occupied (p = 1).
+"""
 
 from __future__ import annotations
 
@@ -8,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.image import AxesImage
 
 from bayesmap._typing import FloatArray, Grid
 
@@ -20,8 +25,8 @@ def _draw(
     extent: tuple[float, float, float, float],
     walls: FloatArray | None,
     path: FloatArray | None,
-) -> None:
-    ax.imshow(
+) -> AxesImage:
+    image = ax.imshow(
         np.asarray(probability, dtype=np.float64),
         origin="lower",
         extent=extent,
@@ -39,6 +44,9 @@ def _draw(
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
     ax.tick_params(labelsize=6)
+    ax.set_xlabel("x [m]", fontsize=7)
+    ax.set_ylabel("y [m]", fontsize=7)
+    return image
 
 
 def maps_side_by_side(
@@ -76,16 +84,22 @@ def maps_side_by_side(
     width = extent[1] - extent[0]
     height = extent[3] - extent[2]
     panel_height = panel_width * height / max(width, 1e-9) + 0.35
-    fig = Figure(figsize=(panel_width * cols, panel_height * rows + 0.4))
+    fig = Figure(
+        figsize=(panel_width * cols + 1.0, panel_height * rows + 0.6), layout="constrained"
+    )
     axes = fig.subplots(rows, cols, squeeze=False)
+    image = None
     for ax, (name, probability) in zip(axes.ravel(), panels, strict=False):
-        _draw(ax, probability, extent, walls, path)
+        image = _draw(ax, probability, extent, walls, path)
         ax.set_title(name, fontsize=8)
     for ax in axes.ravel()[n:]:
         ax.axis("off")
+    if image is not None:
+        key = fig.colorbar(image, ax=axes, shrink=0.8, ticks=[0.0, 0.25, 0.5, 0.75, 1.0])
+        key.set_label("P(occupied): white free, grey unknown, black occupied", fontsize=7)
+        key.ax.tick_params(labelsize=6)
     if title:
         fig.suptitle(title, fontsize=9)
-    fig.tight_layout()
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=90)
     return buffer.getvalue()

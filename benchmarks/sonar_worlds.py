@@ -1,0 +1,95 @@
+"""Per-world results of ``reproduce sonar`` into docs/sonar.md, with the maps side by side.
+
+Runs the sonar experiment at its default size (realistic worlds × 3 seeds, every pipeline
+and baseline), or takes the output folder of a finished ``bayesmap reproduce sonar`` run
+(``--from results/sonar``), copies each world's panel of maps to ``docs/sonar_maps_<world>.png``
+and rewrites the section ``sonar_worlds`` of docs/sonar.md with the tables of summary.md.
+It also maps the example log of ``tests/sonar/data`` with ``bayesmap sonar map`` (default
+pipeline) into ``docs/sonar_cli_example.png``.
+Run from the repository root: ``python benchmarks/sonar_worlds.py [--from DIR]``.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from benchmarks._report import machine, update_section  # noqa: E402
+
+from bayesmap.experiments.sonar import Config, run  # noqa: E402
+
+DOCS = Path(__file__).resolve().parent.parent / "docs"
+
+
+def cli_example() -> str:
+    """Run ``bayesmap sonar map`` on the example log; copy its map.png into docs/."""
+    from typer.testing import CliRunner
+
+    from bayesmap.cli import app
+
+    data = Path(__file__).resolve().parent.parent / "tests" / "sonar" / "data"
+    with tempfile.TemporaryDirectory() as folder:
+        args = [
+            "sonar", "map", str(data / "example_log.txt"),
+            "--angles-deg", ",".join(str(22.5 * k) for k in range(16)),
+            "--range-unit", "mm", "--position-unit", "mm", "--heading-unit", "deg",
+            "--max-range", "5000", "--resolution", "0.1", "--out", folder,
+        ]  # fmt: skip
+        result = CliRunner().invoke(app, args)
+        if result.exit_code != 0:
+            raise SystemExit(result.output)
+        shutil.copyfile(Path(folder) / "map.png", DOCS / "sonar_cli_example.png")
+    return result.output.strip().splitlines()[-1].split("; wrote")[0]
+
+
+def main(argv: list[str]) -> None:
+    started = time.perf_counter()
+    if len(argv) >= 2 and argv[0] == "--from":
+        folder = Path(argv[1])
+        note = "Taken from one finished `bayesmap reproduce sonar` run."
+    else:
+        folder = Path(tempfile.mkdtemp(prefix="sonar_worlds_"))
+        run(Config(), folder, progress=lambda what, done, total: print(what, flush=True))
+        minutes = (time.perf_counter() - started) / 60
+        note = f"Run by this script in {minutes:.0f} min on {machine()} (shared machine)."
+    summary = (folder / "summary.md").read_text(encoding="utf-8")
+    body = summary.split("\n", 1)[1].replace("\n## ", "\n### ")
+    figures = []
+    for png in sorted(folder.glob("maps_*.png")):
+        target = DOCS / f"sonar_{png.name}"
+        shutil.copyfile(png, target)
+        name = png.stem.removeprefix("maps_")
+        figures.append(f"**{name}** (run 0)\n\n![{name}]({target.name})\n")
+    said = cli_example()
+    text = "\n".join(
+        [
+            note,
+            "",
+            body.strip(),
+            "",
+            "### Maps",
+            "",
+            "Panels: truth (black = solid), then every pipeline on the same log; true walls in "
+            "red, the logged (drifting) path dotted blue.",
+            "",
+            *figures,
+            "### `bayesmap sonar map` on the example log",
+            "",
+            "`tests/sonar/data/example_log.txt` (16 transducers at the centre, mm and degrees, "
+            f"untidy rows), default pipeline. The command said: `{said}`",
+            "",
+            "![CLI example](sonar_cli_example.png)",
+            "",
+        ]
+    )
+    update_section("sonar_worlds", text, doc=DOCS / "sonar.md")
+    print(f"wrote {len(figures)} figures and the tables into docs/sonar.md")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

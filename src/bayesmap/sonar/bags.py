@@ -1,0 +1,189 @@
+"""Sonar logs from ROS bags: ``sensor_msgs/Range`` per transducer plus odometry or tf.
+
+Reads ROS 1 bags, ROS 2 bags (sqlite3 or MCAP storage) through the ``rosbags`` library's
+:class:`~rosbags.highlevel.AnyReader`. Each transducer publishes its own ``Range`` topic, in
+ring order; a *ring* is formed at each message of the first topic from every topic's reading
+nearest in time (within half the first topic's median period). A ring with a transducer
+silent for that long is skipped and reported, like a bad row of a text log. Poses come from
+``nav_msgs/Odometry`` (``pose.pose``) or from ``tf2_msgs/TFMessage`` transforms between two
+named frames, and are joined to the rings as in :func:`bayesmap.sonar.logs.read_sonar_log`
+(interpolation across gaps up to ``max_pose_gap``, else the nearest pose within
+``time_tolerance``). Ranges are in metres (ROS convention, REP 103); a reading above the
+message's ``max_range`` or ``inf`` is no echo.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bayesmap._typing import FloatArray
+from bayesmap.errors import FormatError, InputError
+from bayesmap.sonar.logs import SkippedRow, SonarLog, join_poses
+
+__all__ = ["read_sonar_bag"]
+
+logger = logging.getLogger(__name__)
+
+
+def _stamp(message: Any, fallback_ns: int) -> float:
+    header = getattr(message, "header", None)
+    stamp = getattr(header, "stamp", None)
+    if stamp is None:
+        return fallback_ns * 1e-9
+    sec = getattr(stamp, "sec", getattr(stamp, "secs", 0))
+    nsec = getattr(stamp, "nanosec", getattr(stamp, "nsecs", 0))
+    t = float(sec) + 1e-9 * float(nsec)
+    return t if t > 0 else fallback_ns * 1e-9
+
+
+def _yaw(q: Any) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def read_sonar_bag(
+    path: str | Path,
+    topics: Sequence[str],
+    *,
+    pose_topic: str = "/odom",
+    tf_frames: tuple[str, str] = ("odom", "base_link"),
+    strict: bool = False,
+    time_tolerance: float = 0.05,
+    max_pose_gap: float = 1.0,
+) -> SonarLog:
+    """Read rings and poses from a ROS 1 bag, a ROS 2 bag folder or an MCAP bag.
+
+    Parameters
+    ----------
+    path
+        ``.bag`` file (ROS 1) or ROS 2 bag folder (sqlite3 or MCAP storage).
+    topics
+        One ``sensor_msgs/Range`` topic per transducer, in ring order.
+    pose_topic
+        A ``nav_msgs/Odometry`` topic, or a ``tf2_msgs/TFMessage`` topic (``/tf``) from which
+        the transform ``tf_frames[0] → tf_frames[1]`` is taken.
+    strict
+        Abort at the first ring that cannot be formed or joined.
+    time_tolerance, max_pose_gap
+        Pose join settings [s], as for :func:`~bayesmap.sonar.logs.read_sonar_log`.
+    """
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.typesys import Stores, get_typestore
+
+    if len(topics) < 2:
+        raise InputError(f"a sonar ring needs at least two Range topics, got {list(topics)}")
+    bag = Path(path)
+    if not bag.exists():
+        raise InputError(f"cannot read bag {bag}: no such file or folder")
+    readings: dict[str, list[tuple[float, float]]] = {topic: [] for topic in topics}
+    pose_rows: list[tuple[float, float, float, float]] = []
+    try:
+        with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+            known = {c.topic: c for c in reader.connections}
+            missing = [t for t in [*topics, pose_topic] if t not in known]
+            if missing:
+                raise FormatError(
+                    f"topic(s) {', '.join(missing)} not in the bag; it has: "
+                    f"{', '.join(sorted(known))}",
+                    path=bag,
+                )
+            wanted = [c for c in reader.connections if c.topic in readings or c.topic == pose_topic]
+            for connection, timestamp, raw in reader.messages(connections=wanted):
+                message: Any = reader.deserialize(raw, connection.msgtype)
+                if connection.topic in readings:
+                    r = float(message.range)
+                    if not r <= float(message.max_range):
+                        r = math.inf  # above the max (a no-echo code) or inf: no echo
+                    readings[connection.topic].append((_stamp(message, timestamp), r))
+                elif connection.msgtype.endswith("Odometry"):
+                    pose = message.pose.pose
+                    pose_rows.append(
+                        (
+                            _stamp(message, timestamp),
+                            float(pose.position.x),
+                            float(pose.position.y),
+                            _yaw(pose.orientation),
+                        )
+                    )
+                elif connection.msgtype.endswith("TFMessage"):
+                    for transform in message.transforms:
+                        if (
+                            transform.header.frame_id.lstrip("/") == tf_frames[0]
+                            and transform.child_frame_id.lstrip("/") == tf_frames[1]
+                        ):
+                            move = transform.transform
+                            pose_rows.append(
+                                (
+                                    _stamp(transform, timestamp),
+                                    float(move.translation.x),
+                                    float(move.translation.y),
+                                    _yaw(move.rotation),
+                                )
+                            )
+                else:
+                    raise FormatError(
+                        f"pose topic {pose_topic} carries {connection.msgtype}, not "
+                        "nav_msgs/Odometry or tf2_msgs/TFMessage",
+                        path=bag,
+                    )
+    except AnyReaderError as error:
+        raise FormatError(f"cannot read the bag: {error}", path=bag) from None
+    return _assemble(bag, topics, readings, pose_rows, strict, time_tolerance, max_pose_gap)
+
+
+def _assemble(
+    bag: Path,
+    topics: Sequence[str],
+    readings: dict[str, list[tuple[float, float]]],
+    pose_rows: list[tuple[float, float, float, float]],
+    strict: bool,
+    time_tolerance: float,
+    max_pose_gap: float,
+) -> SonarLog:
+    series = {t: np.asarray(sorted(readings[t]), dtype=np.float64).reshape(-1, 2) for t in topics}
+    silent = [t for t, s in series.items() if len(s) == 0]
+    if silent:
+        raise FormatError(f"no Range messages on {', '.join(silent)}", path=bag)
+    if not pose_rows:
+        raise FormatError("no poses in the bag (check the pose topic and tf frames)", path=bag)
+    base = series[topics[0]][:, 0]
+    period = float(np.median(np.diff(base))) if len(base) > 1 else 1.0
+    window = 0.5 * period
+    ranges = np.full((len(base), len(topics)), np.nan)
+    for k, topic in enumerate(topics):
+        t, r = series[topic][:, 0], series[topic][:, 1]
+        right = np.clip(np.searchsorted(t, base), 0, len(t) - 1)
+        left = np.clip(right - 1, 0, len(t) - 1)
+        nearest = np.where(np.abs(t[left] - base) <= np.abs(t[right] - base), left, right)
+        ok = np.abs(t[nearest] - base) <= window
+        ranges[ok, k] = r[nearest[ok]]
+    skipped: list[SkippedRow] = []
+    complete = ~np.isnan(ranges).any(axis=1)
+    for i in np.flatnonzero(~complete):
+        quiet = [topics[int(k)] for k in np.flatnonzero(np.isnan(ranges[i]))]
+        skipped.append(
+            SkippedRow(
+                str(bag),
+                int(i) + 1,
+                f"ring at t={base[i]:.3f} s: no reading from {', '.join(quiet)}",
+            )
+        )
+    pose_data = np.asarray(sorted(pose_rows), dtype=np.float64)
+    poses, why = join_poses(base, pose_data[:, 0], pose_data[:, 1:], time_tolerance, max_pose_gap)
+    for i in np.flatnonzero(complete & (why != "")):
+        skipped.append(SkippedRow(str(bag), int(i) + 1, str(why[i])))
+    skipped.sort(key=lambda row: row.line)
+    if strict and skipped:
+        raise FormatError(skipped[0].reason + " (drop --strict to skip it)", path=bag)
+    keep = complete & (why == "")
+    for row in skipped:
+        logger.warning("%s, ring %d: %s; skipped", bag, row.line, row.reason)
+    if not keep.any():
+        raise FormatError(f"no usable rings ({len(skipped)} skipped)", path=bag)
+    out_ranges: FloatArray = ranges[keep]
+    return SonarLog(base[keep], poses[keep], out_ranges, len(base), tuple(skipped))

@@ -1,0 +1,142 @@
+"""Ring files: where each transducer sits, how wide its beam is, its range and noise (YAML).
+
+A ring file describes a robot's sonar ring as the mapping code needs it::
+
+    name: pioneer-3dx-16
+    length_unit: m          # m, cm or mm, for every length in the file
+    angle_unit: deg         # deg or rad
+    beam_width: 25          # defaults for every transducer ...
+    min_range: 0.1
+    max_range: 5.0
+    sigma: 0.02
+    transducers:            # ... in ring order (neighbours are adjacent entries)
+      - {x: 0.069, y: 0.136, heading: 90}
+      - {x: 0.114, y: 0.119, heading: 50, beam_width: 25}   # per-transducer override
+      ...
+
+``x`` forward, ``y`` left, from the robot's centre; ``heading`` is the beam axis from the
+robot's heading. Each transducer may override ``beam_width``, ``min_range``, ``max_range``
+and ``sigma``; the mapping models take one value per ring, so overrides must agree (a ring
+that mixes transducer types is refused with a message saying which value differs). Presets
+``pioneer8`` and ``pioneer16`` (ARIA ``p3dx.p``) need no file.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from bayesmap.errors import ConfigError, FormatError, InputError
+from bayesmap.sensing.sonar_rings import PIONEER_FRONT8, PIONEER_RING16, Layout
+from bayesmap.sonar.geometry import SonarGeometry
+
+__all__ = ["PRESETS", "load_ring", "preset", "ring_from_mapping"]
+
+_LENGTH = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+_ANGLE = {"deg": math.pi / 180.0, "rad": 1.0}
+_SHARED = ("beam_width", "min_range", "max_range", "sigma")
+_DEFAULTS = {"beam_width": math.radians(25.0), "min_range": 0.1, "max_range": 5.0, "sigma": 0.02}
+
+PRESETS: dict[str, Layout] = {"pioneer8": PIONEER_FRONT8, "pioneer16": PIONEER_RING16}
+"""Rings known by name: the Pioneer 3-DX front array and full ring."""
+
+
+def preset(name: str) -> SonarGeometry:
+    """The preset ring ``name`` (``pioneer8``, ``pioneer16``): 25° beams, 0.1–5 m, σ 2 cm."""
+    if name not in PRESETS:
+        raise ConfigError(f"unknown ring preset {name!r}; choose from: {', '.join(PRESETS)}")
+    layout = PRESETS[name]
+    return SonarGeometry(
+        angles=tuple(a for _, _, a in layout),
+        offsets=tuple((x, y) for x, y, _ in layout),
+        beam_width=_DEFAULTS["beam_width"],
+        min_range=_DEFAULTS["min_range"],
+        max_range=_DEFAULTS["max_range"],
+        sigma=_DEFAULTS["sigma"],
+    )
+
+
+def _number(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise FormatError(f"{where} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def ring_from_mapping(data: Any, source: str = "ring") -> SonarGeometry:
+    """Build a :class:`SonarGeometry` from a parsed ring file (see module docstring)."""
+    if not isinstance(data, dict):
+        raise FormatError(
+            f"{source}: a ring file is a mapping with 'transducers', got {type(data).__name__}"
+        )
+    length_unit = data.get("length_unit", "m")
+    angle_unit = data.get("angle_unit", "deg")
+    if not isinstance(length_unit, str) or length_unit not in _LENGTH:
+        raise FormatError(f"{source}: length_unit {length_unit!r} is not one of m, cm, mm")
+    if not isinstance(angle_unit, str) or angle_unit not in _ANGLE:
+        raise FormatError(f"{source}: angle_unit {angle_unit!r} is not one of deg, rad")
+    metres, radians = _LENGTH[length_unit], _ANGLE[angle_unit]
+    scale = {"beam_width": radians, "min_range": metres, "max_range": metres, "sigma": metres}
+    shared = dict(_DEFAULTS)
+    for key in _SHARED:
+        if key in data:
+            shared[key] = _number(data[key], f"{source}: {key}") * scale[key]
+    items = data.get("transducers")
+    if not isinstance(items, list) or len(items) < 2:
+        raise FormatError(f"{source}: 'transducers' must list at least two transducers")
+    angles, offsets = [], []
+    for index, item in enumerate(items):
+        where = f"{source}: transducer {index}"
+        if not isinstance(item, dict):
+            raise FormatError(f"{where} must be a mapping with x, y and heading")
+        missing = [k for k in ("x", "y", "heading") if k not in item]
+        if missing:
+            raise FormatError(f"{where} lacks {', '.join(missing)}")
+        unknown = set(item) - {"x", "y", "heading", *_SHARED}
+        if unknown:
+            raise FormatError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+        offsets.append(
+            (_number(item["x"], f"{where} x") * metres, _number(item["y"], f"{where} y") * metres)
+        )
+        angles.append(_number(item["heading"], f"{where} heading") * radians)
+        for key in _SHARED:
+            if key in item:
+                value = _number(item[key], f"{where} {key}") * scale[key]
+                if not math.isclose(value, shared[key], rel_tol=1e-9):
+                    raise ConfigError(
+                        f"{where}: {key} differs from the ring's ({item[key]} vs the shared "
+                        "value); the sonar models take one value per ring"
+                    )
+    return SonarGeometry(
+        angles=tuple(angles),
+        offsets=tuple(offsets),
+        beam_width=shared["beam_width"],
+        min_range=shared["min_range"],
+        max_range=shared["max_range"],
+        sigma=shared["sigma"],
+    )
+
+
+def load_ring(spec: str | Path) -> SonarGeometry:
+    """A ring from a preset name (``pioneer8``, ``pioneer16``) or a YAML ring file."""
+    if str(spec) in PRESETS:
+        return preset(str(spec))
+    path = Path(spec)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise InputError(
+            f"cannot read ring file {path}: {error.strerror or error} "
+            f"(or name a preset: {', '.join(PRESETS)})"
+        ) from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        line = f", line {mark.line + 1}" if mark is not None else ""
+        raise FormatError(
+            f"{path}{line}: not valid YAML ({getattr(error, 'problem', error)})"
+        ) from None
+    return ring_from_mapping(data, str(path))

@@ -1,0 +1,78 @@
+"""Tests of the realistic sonar log simulator: stops, people, drift, no-echo code, seeding."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+
+from bayesmap.sim.polygons import REALISTIC_WORLDS, random_building, world
+from bayesmap.sim.sonar import EchoKind, SonarRing
+from bayesmap.sim.sonar_log import Realism, drive, odometry, simulate_log
+
+
+@pytest.mark.parametrize("name", REALISTIC_WORLDS)
+def test_realistic_worlds_have_a_drivable_path(name: str) -> None:
+    w = world(name)
+    route = np.vstack([w.waypoints, w.waypoints[:1]])
+    room = w.free.buffer(-0.25)
+    for a, b in zip(route[:-1], route[1:], strict=True):
+        if np.any(a != b):
+            assert room.contains(shapely.LineString([a, b])), (name, a, b)
+
+
+def test_drive_turns_in_place_and_stands_still() -> None:
+    square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
+    realism = Realism(stops=2, stop_seconds=(2.0, 2.0), ring_rate=10.0)
+    poses, moved = drive(square, realism, rng=np.random.default_rng(0))
+    still = ~moved
+    assert still.sum() == 2 * 20
+    turning = np.flatnonzero(np.all(np.diff(poses[:, :2], axis=0) == 0, axis=1))
+    assert len(turning) > still.sum()  # turning in place at the corners too
+    step = np.hypot(*np.diff(poses[:, :2], axis=0).T)
+    assert step.max() == pytest.approx(realism.speed / realism.ring_rate, rel=1e-6)
+
+
+def test_odometry_drifts_with_distance_and_is_exact_without_noise() -> None:
+    poses, _ = drive(
+        np.array([[0.0, 0.0], [10.0, 0.0]]), Realism(stops=0), rng=np.random.default_rng(0)
+    )
+    exact = Realism(odometry_scale_sd=0, heading_noise=0, turn_scale_sd=0)
+    same = odometry(poses, exact, rng=np.random.default_rng(1))
+    assert np.allclose(same[:, :2], poses[:, :2], atol=1e-9)
+    assert np.allclose(np.sin(same[:, 2] - poses[:, 2]), 0.0, atol=1e-9)
+    noisy = odometry(poses, Realism(heading_noise=0.02), rng=np.random.default_rng(1))
+    error = np.hypot(*(noisy[:, :2] - poses[:, :2]).T)
+    assert error[-1] > error[len(error) // 10] > 0
+
+
+def test_simulated_log_has_people_stops_no_echo_code_and_truth() -> None:
+    ring = SonarRing.pioneer(16)
+    realism = Realism(people=3)
+    log = simulate_log(world("sonar-office-v2"), ring, realism, rng=7)
+    again = simulate_log(world("sonar-office-v2"), ring, realism, rng=7)
+    assert np.array_equal(log.ranges, again.ranges) and np.array_equal(log.odometry, again.odometry)
+    code = realism.no_echo_code * ring.max_range
+    quiet = log.kind >= EchoKind.LOST
+    quiet &= log.kind != EchoKind.PERSON
+    assert np.all(log.ranges[quiet] == code)
+    # Echoes are ranges below the max (bar the odd one noise pushes over: then no echo).
+    assert (log.ranges[~quiet] < ring.max_range).mean() > 0.99
+    assert (log.kind == EchoKind.PERSON).any() and (log.kind == EchoKind.BOUNCE).any()
+    assert np.array_equal(log.specular, np.isin(log.kind, [EchoKind.BOUNCE, EchoKind.LOST]))
+    # Standing still with nobody about, a transducer repeats its echo to the millimetre.
+    alone = simulate_log(world("sonar-office-v2"), ring, Realism(people=0), rng=7)
+    still = np.flatnonzero(np.all(np.diff(alone.poses, axis=0) == 0, axis=1))
+    assert len(still) > 20
+    assert np.array_equal(alone.ranges[still + 1], alone.ranges[still])
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_random_buildings_are_drivable(seed: int) -> None:
+    w = random_building(seed)
+    route = np.vstack([w.waypoints, w.waypoints[:1]])
+    room = w.free.buffer(-0.25)
+    for a, b in zip(route[:-1], route[1:], strict=True):
+        if np.any(a != b):
+            assert room.contains(shapely.LineString([a, b]))
+    assert random_building(seed).segments.tolist() == w.segments.tolist()

@@ -1,0 +1,148 @@
+"""Tests of ROS bag reading: bags written with rosbags' own writers (ROS 1, ROS 2, MCAP)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys import Stores, get_typestore
+
+from bayesmap.errors import FormatError
+from bayesmap.sonar.bags import read_sonar_bag
+
+TOPICS = [f"/sonar/{k}" for k in range(4)]
+RINGS = 20
+
+
+def _messages(store: str, *, tf: bool = False) -> list[tuple[str, str, int, object]]:
+    ts = get_typestore(Stores.ROS1_NOETIC if store == "ros1" else Stores.ROS2_HUMBLE)
+    t = ts.types
+    ros1 = store == "ros1"
+    time_type = t["builtin_interfaces/msg/Time"]
+
+    def header(ns: int, frame: str) -> object:
+        stamp = time_type(sec=ns // 10**9, nanosec=ns % 10**9)
+        if ros1:
+            return t["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id=frame)
+        return t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
+
+    out: list[tuple[str, str, int, object]] = []
+    for i in range(RINGS):
+        base = 10**9 + i * 100_000_000  # 10 Hz
+        for k, topic in enumerate(TOPICS):
+            ns = base + k * 5_000_000  # each transducer fires 5 ms after the last
+            value = 9.9 if k == 3 else 1.0 + 0.1 * k  # transducer 3: a no-echo code
+            msg = t["sensor_msgs/msg/Range"](
+                header=header(ns, f"sonar{k}"),
+                radiation_type=0,
+                field_of_view=0.44,
+                min_range=0.1,
+                max_range=5.0,
+                range=value,
+            )
+            out.append((topic, "sensor_msgs/msg/Range", ns, msg))
+        if i % 2 == 0:  # poses at half the rate, 1 ms off
+            ns = base + 1_000_000
+            x, yaw = 0.05 * i, 0.0
+            point = t["geometry_msgs/msg/Point"](x=x, y=0.0, z=0.0)
+            quat = t["geometry_msgs/msg/Quaternion"](
+                x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)
+            )
+            if tf:
+                move = t["geometry_msgs/msg/Transform"](
+                    translation=t["geometry_msgs/msg/Vector3"](x=x, y=0.0, z=0.0), rotation=quat
+                )
+                stamped = t["geometry_msgs/msg/TransformStamped"](
+                    header=header(ns, "odom"), child_frame_id="base_link", transform=move
+                )
+                out.append(
+                    (
+                        "/tf",
+                        "tf2_msgs/msg/TFMessage",
+                        ns,
+                        t["tf2_msgs/msg/TFMessage"](transforms=[stamped]),
+                    )
+                )
+            else:
+                cov = np.zeros(36)
+                pose = t["geometry_msgs/msg/PoseWithCovariance"](
+                    pose=t["geometry_msgs/msg/Pose"](position=point, orientation=quat),
+                    covariance=cov,
+                )
+                zero = t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
+                twist = t["geometry_msgs/msg/TwistWithCovariance"](
+                    twist=t["geometry_msgs/msg/Twist"](linear=zero, angular=zero), covariance=cov
+                )
+                odom = t["nav_msgs/msg/Odometry"](
+                    header=header(ns, "odom"), child_frame_id="base_link", pose=pose, twist=twist
+                )
+                out.append(("/odom", "nav_msgs/msg/Odometry", ns, odom))
+    return out
+
+
+def _write(tmp_path: Path, kind: str, *, tf: bool = False) -> Path:
+    store = "ros1" if kind == "ros1" else "ros2"
+    ts = get_typestore(Stores.ROS1_NOETIC if store == "ros1" else Stores.ROS2_HUMBLE)
+    messages = sorted(_messages(store, tf=tf), key=lambda m: m[2])
+    if kind == "ros1":
+        path = tmp_path / "log.bag"
+        with Writer1(path) as writer:
+            conns = {}
+            for topic, msgtype, ns, msg in messages:
+                if topic not in conns:
+                    conns[topic] = writer.add_connection(topic, msgtype, typestore=ts)
+                writer.write(conns[topic], ns, ts.serialize_ros1(msg, msgtype))
+        return path
+    path = tmp_path / f"log_{kind}"
+    plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
+    with Writer2(path, version=9, storage_plugin=plugin) as writer:
+        conns = {}
+        for topic, msgtype, ns, msg in messages:
+            if topic not in conns:
+                conns[topic] = writer.add_connection(topic, msgtype, typestore=ts)
+            writer.write(conns[topic], ns, ts.serialize_cdr(msg, msgtype))
+    return path
+
+
+@pytest.mark.parametrize("kind", ["ros1", "ros2", "mcap"])
+def test_range_topics_and_odometry_make_rings_with_poses(tmp_path: Path, kind: str) -> None:
+    log = read_sonar_bag(_write(tmp_path, kind), TOPICS)
+    assert log.ranges.shape == (RINGS - 1, 4)  # the last ring is past the last pose
+    assert np.allclose(log.ranges[:, :3], [1.0, 1.1, 1.2])
+    assert np.all(np.isinf(log.ranges[:, 3]))
+    t = log.timestamps
+    # Interpolated between half-rate poses 1 ms off; the first ring takes the nearest pose.
+    assert np.allclose(log.poses[1:, 0], 0.5 * (t[1:] - 1.001), atol=1e-6)
+    assert log.poses[0, 0] == 0.0
+    assert [row.line for row in log.skipped] == [RINGS]
+
+
+def test_tf_transforms_give_the_poses(tmp_path: Path) -> None:
+    log = read_sonar_bag(_write(tmp_path, "ros2", tf=True), TOPICS, pose_topic="/tf")
+    assert len(log.timestamps) == RINGS - 1
+    assert np.allclose(log.poses[1:, 0], 0.5 * (log.timestamps[1:] - 1.001), atol=1e-6)
+
+
+def test_unknown_topics_are_named(tmp_path: Path) -> None:
+    with pytest.raises(FormatError, match="/sonar/9"):
+        read_sonar_bag(_write(tmp_path, "ros1"), [*TOPICS[:3], "/sonar/9"])
+
+
+def test_sonar_map_reads_a_bag(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from bayesmap.cli import app
+
+    bag = _write(tmp_path, "mcap")
+    args = [
+        "sonar", "map", str(bag), "--topics", ",".join(TOPICS), "--angles-deg", "45,15,-15,-45",
+        "--max-range", "5", "--resolution", "0.1", "--out", str(tmp_path / "out"),
+    ]  # fmt: skip
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "out" / "map.png").exists()
