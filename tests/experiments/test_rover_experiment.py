@@ -25,6 +25,9 @@ KEYS = {
     "roc_auc",
     "obstacle_peak_ratio",
     "world",
+    "min_clearance_m",
+    "stalled_cycles",
+    "off_map_cycles",
 }
 
 

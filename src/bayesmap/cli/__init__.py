@@ -26,6 +26,7 @@ from rich.text import Text
 
 from bayesmap import __version__
 from bayesmap.cli import bn as bn_commands
+from bayesmap.cli import rover as rover_commands
 from bayesmap.cli import sonar as sonar_commands
 from bayesmap.errors import BayesmapError
 from bayesmap.experiments import EXPERIMENTS, ExperimentResult, load
@@ -39,6 +40,7 @@ app = typer.Typer(
 )
 app.add_typer(bn_commands.app, name="bn")
 app.add_typer(sonar_commands.app, name="sonar")
+app.add_typer(rover_commands.app, name="rover")
 console = Console(stderr=True)
 
 

@@ -102,6 +102,9 @@ class Trace:
     collisions: int = 0
     curve: list[tuple[float, float]] = field(default_factory=list)
     seconds: float = 0.0
+    min_clearance: float = math.inf
+    stalled_cycles: int = 0
+    off_map_cycles: int = 0
 
 
 def roc_auc(scores: FloatArray, labels: BoolArray) -> float | None:
@@ -146,7 +149,12 @@ def simulate(
     progress: ProgressHook,
     stage: str,
 ) -> Trace:
-    """Drive one run: sense → map → decide → move, until the stop rule or the step budget."""
+    """Drive one run: sense → map → decide → move, until the stop rule or the step budget.
+
+    Besides the path it counts, on the true pose, collisions, the smallest clearance, the
+    cycles off the mapped area, and the *stalled* cycles: those that neither lower the
+    number of uncertain cells nor shorten the path to an unchanged target.
+    """
     init_rng, sensor_rng, drive_rng = spawn(config.seed, 3)
     params = config.rover_params()
     sim_params = config.sim_params()
@@ -157,7 +165,9 @@ def simulate(
     trace = Trace(Explorer(grid, params, rule))
     state = sim_rover.initial(config.start, sim_params, rng=drive_rng)
     trace.path.append(state.pose.copy())
+    trace.min_clearance = sim_rover.clearance(state, world, sim_params)
     touching = False
+    previous: tuple[tuple[float, float] | None, float, int] = (None, math.inf, -1)
     started = time.perf_counter()
     for step in range(config.max_steps):
         if step % config.curve_every == 0:
@@ -166,12 +176,20 @@ def simulate(
         observation = sim_rover.observe(state, world, sim_params, rng=sensor_rng)
         decision = trace.explorer.step(observation.raw, observation.pose)
         trace.steps = step + 1
+        n_uncertain = trace.explorer.mapper_.n_uncertain_
+        progressed = decision.target == previous[0] and decision.target_cost < previous[1] - 1e-6
+        trace.stalled_cycles += int(n_uncertain >= previous[2] >= 0 and not progressed)
+        previous = (decision.target, decision.target_cost, n_uncertain)
         if trace.explorer.done or decision.target is None:
             break
         moved = sim_rover.transition(state, decision.command, sim_params, rng=drive_rng)
         trace.distance += float(np.hypot(*(moved.pose[:2] - state.pose[:2])))
         state = moved
         trace.path.append(state.pose.copy())
+        trace.min_clearance = min(
+            trace.min_clearance, sim_rover.clearance(state, world, sim_params)
+        )
+        trace.off_map_cycles += int(sim_rover.off_map(state, world))
         now_touching = sim_rover.collides(state, world, sim_params)
         trace.collisions += int(now_touching and not touching)
         touching = now_touching
@@ -181,7 +199,7 @@ def simulate(
     return trace
 
 
-def _run_metrics(
+def run_metrics(
     trace: Trace, world: BoxWorld, config: Config, explorer_name: str
 ) -> dict[str, Any]:
     grid = trace.explorer.grid
@@ -195,6 +213,11 @@ def _run_metrics(
         "stop_rule_met": trace.explorer.done,
         "path_length_m": round(trace.distance, 3),
         "collisions": trace.collisions,
+        "min_clearance_m": round(trace.min_clearance, 4)
+        if math.isfinite(trace.min_clearance)
+        else None,
+        "stalled_cycles": trace.stalled_cycles,
+        "off_map_cycles": trace.off_map_cycles,
         **map_metrics(grid, truth, config.h_desired),
         "coverage_curve": curve,
         "distance_to_90": None if to_90 is None else round(to_90, 3),
@@ -208,7 +231,7 @@ def _run_metrics(
     return metrics
 
 
-def _write_run(
+def write_run(
     folder: Path, trace: Trace, world: BoxWorld, metrics: dict[str, Any], title: str
 ) -> list[Path]:
     grid = trace.explorer.grid
@@ -254,6 +277,8 @@ def _write_run(
         grid.resolution,
         grid.origin,
         unknown_mask=grid.unobserved(),
+        entropy=grid.entropy,
+        certain_below=float(metrics["h_desired_bits"]),
     )
     write_json(folder / "metrics.json", metrics)
     return figures
@@ -344,10 +369,10 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
         for explorer_name in explorers:
             stage = name if explorer_name == "entropy" else f"{name} (frontier)"
             trace = simulate(world, config, explorer_name, RUNS[name][1], hook, stage)
-            metrics = _run_metrics(trace, world, config, explorer_name)
+            metrics = run_metrics(trace, world, config, explorer_name)
             folder = out / name if explorer_name == "entropy" else out / "frontier" / name
             title = name if explorer_name == "entropy" else f"{name}, frontier explorer"
-            figures += _write_run(folder, trace, world, metrics, title)
+            figures += write_run(folder, trace, world, metrics, title)
             metric_files.append(folder / "metrics.json")
             results[name][explorer_name] = metrics
             curves[stage] = trace.curve
