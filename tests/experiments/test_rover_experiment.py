@@ -46,8 +46,6 @@ def test_writes_every_output(small_run: tuple[Path, ExperimentResult]) -> None:
     for run in ("obstacles-flat", "empty-random"):
         for folder in (out / run, out / "frontier" / run):
             for name in (
-                "probability.png",
-                "entropy.png",
                 "path.png",
                 "map.npz",
                 "map.yaml",
@@ -62,6 +60,8 @@ def test_writes_every_output(small_run: tuple[Path, ExperimentResult]) -> None:
         grid = OccupancyGrid.load_npz(out / run / "map.npz")
         ros = read_ros_map(out / run / "map.yaml")
         assert ros.probability.shape == grid.shape
+        certain = (grid.entropy < 0.3) & ~grid.unobserved()
+        assert np.all(ros.occupancy[~certain] == -1)  # uncertain cells are unknown in the file
     flat = json.loads((out / "obstacles-flat" / "metrics.json").read_text())
     assert flat["world"] == "rover-field-obstacles-v1"
     empty = json.loads((out / "empty-random" / "metrics.json").read_text())

@@ -34,7 +34,7 @@ from bayesmap.rover.params import RoverParams
 from bayesmap.rover.targets import EntropyTarget, FrontierTarget, TargetRule
 from bayesmap.sim import rover as sim_rover
 from bayesmap.sim.world2d import BoxWorld, box_world, occupancy_truth
-from bayesmap.viz.rover import coverage_figure, map_figure, maps_pair_figure
+from bayesmap.viz.rover import coverage_figure, maps_pair_figure
 
 __all__ = ["RUNS", "Config", "map_metrics", "roc_auc", "run"]
 
@@ -71,6 +71,8 @@ class Config(BaseModel):
     compass_sigma_deg: float = Field(2.0, ge=0)
     baseline: bool = True
     curve_every: int = Field(20, ge=1)
+    title_note: str = ""
+    """Appended to every figure title, to say what a variant run shows."""
 
     def rover_params(self) -> RoverParams:
         """The rover brain's parameters."""
@@ -239,31 +241,6 @@ def write_run(
     boxes = world.boxes if world.boxes.size else None
     figures = [
         write_bytes(
-            folder / "probability.png",
-            map_figure(
-                grid.probability,
-                grid.extent,
-                title=f"{title}: P(O | R, r, x)",
-                label="probability",
-                path=path,
-                boxes=boxes,
-                path_colour="white",
-            ),
-        ),
-        write_bytes(
-            folder / "entropy.png",
-            map_figure(
-                grid.entropy,
-                grid.extent,
-                title=f"{title}: H(O | R, r, x)",
-                label="entropy [bits]",
-                cmap="magma",
-                path=path,
-                boxes=boxes,
-                path_colour="cyan",
-            ),
-        ),
-        write_bytes(
             folder / "path.png",
             maps_pair_figure(
                 grid.probability, grid.entropy, grid.extent, title=title, path=path, boxes=boxes
@@ -343,9 +320,9 @@ def _summary(config: Config, results: dict[str, dict[str, dict[str, Any]]]) -> s
                 )
     lines += [
         "",
-        "Figures: `<run>/path.png` (both maps with the path), `<run>/probability.png`, "
-        "`<run>/entropy.png`, `coverage.png`. Maps: `<run>/map.npz`, `<run>/map.yaml` + "
-        "`map.pgm` (ROS map_server). The decision network: `decision_network.xmlbif`.",
+        "Figures: `<run>/path.png` (both maps with the path), `coverage.png`. "
+        "Maps: `<run>/map.npz`, `<run>/map.yaml` + `map.pgm` (ROS map_server, trinary: free "
+        "or occupied only below H_desired). The decision network: `decision_network.xmlbif`.",
         "",
     ]
     return "\n".join(lines)
@@ -372,6 +349,7 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
             metrics = run_metrics(trace, world, config, explorer_name)
             folder = out / name if explorer_name == "entropy" else out / "frontier" / name
             title = name if explorer_name == "entropy" else f"{name}, frontier explorer"
+            title += f" ({config.title_note})" if config.title_note else ""
             figures += write_run(folder, trace, world, metrics, title)
             metric_files.append(folder / "metrics.json")
             results[name][explorer_name] = metrics

@@ -85,7 +85,7 @@ def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) 
         max_steps=config.max_steps,
         progress=progress,
     )
-    figures = tuple(out / name for name in ("path.png", "probability.png", "entropy.png"))
+    figures = (out / "path.png",)
     headline: dict[str, float | int | str] = {
         key: value  # type: ignore[misc]
         for key, value in metrics.items()

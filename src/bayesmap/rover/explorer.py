@@ -21,7 +21,13 @@ from bayesmap.rover.mapping import IRMapper, local_patch
 from bayesmap.rover.network import CycleInputs, DecisionNetwork
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.planning import LocalPlan, local_plan
-from bayesmap.rover.safety import Safety, drive_command, footprint_safety, reading_points
+from bayesmap.rover.safety import (
+    Safety,
+    drive_command,
+    footprint_safety,
+    hazard_cells,
+    reading_points,
+)
 from bayesmap.rover.targets import TargetRule
 from bayesmap.sensing.ir import ranger_poses
 
@@ -165,13 +171,14 @@ class Explorer:
         grid = self.grid
         reach = p.lookahead + p.footprint_radius + p.safety_margin + grid.resolution
         xc, yc, prob = local_patch(grid, grid.probability, pose[0], pose[1], reach, 0.0)
-        likely = prob >= p.p_block
+        likely = hazard_cells(prob, p)
         unknown = prob == grid.prior
         sensors = ranger_poses(pose, p.sensor_angles, p.sensor_offset)
         self.recent_hits_.append(
             reading_points(sensors, self.mapper_.last_ranges_, self.mapper_.last_above_noise_, p)
         )
         hits = np.concatenate(list(self.recent_hits_))
+        hits = hits[np.hypot(hits[:, 0] - pose[0], hits[:, 1] - pose[1]) <= reach]
         cells = np.stack([xc[likely], yc[likely]], axis=1)
         unseen = np.stack([xc[unknown], yc[unknown]], axis=1)
         return footprint_safety(
@@ -183,7 +190,7 @@ class Explorer:
         p = self.params
         if safety.safe[index]:
             return drive_command(heading, psi, p)
-        if safety.here < p.safety_margin and safety.ahead:
+        if safety.here < p.safety_margin and safety.ahead and safety.back_clear:
             return (-p.speed, 0.0)
         error = math.remainder(heading - psi, 2.0 * math.pi)
         return (0.0, math.copysign(p.pivot_rate, error if error != 0 else 1.0))

@@ -7,7 +7,8 @@ would follow toward each candidate heading for the next ``lookahead`` metres, tu
 included, against
 
 - cells of the map that are likely obstacles (``p >= p_block``), each a square of the
-  grid's resolution;
+  grid's resolution, and their neighbours not yet shown certainly free (a cell the edge of
+  an obstacle only clips gets mixed evidence and can look free-ish);
 - the points the rangers read right now (any reading above ``2 sigma_r``, before eq. 33
   confirms it), spread over the ranger's angle of view;
 - cells never observed (still at the prior): the rangers look ahead only, so a turn can
@@ -29,8 +30,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy import ndimage
 
 from bayesmap._typing import BoolArray, FloatArray
+from bayesmap.grid.entropy import probability_at_entropy
 from bayesmap.rover.decisions import wrap
 from bayesmap.rover.params import RoverParams
 
@@ -167,12 +170,15 @@ class Safety:
     ahead
         Whether the nearest obstacle lies ahead of the rover (within ±90° of its heading),
         so that backing off moves away from it.
+    back_clear
+        Whether backing off one cycle keeps the footprint at least as clear as it is now.
     """
 
     safe: BoolArray
     clearance: FloatArray
     here: float
     ahead: bool
+    back_clear: bool
 
 
 def footprint_safety(
@@ -228,9 +234,28 @@ def footprint_safety(
         under = distance[0, 0, :] < params.footprint_radius  # already beneath the body
         safe &= ~(unseen & ~under).any(axis=(1, 2))
     points = np.concatenate([cells, hits])
-    ahead = False
+    ahead, back_clear = False, True
     if points.size:
         dx, dy = points[:, 0] - pose[0], points[:, 1] - pose[1]
         k = int(np.argmin(np.hypot(dx, dy)))
         ahead = bool(abs(float(wrap(math.atan2(dy[k], dx[k]) - pose[2]))) < math.pi / 2)
-    return Safety(np.asarray(safe), np.asarray(clearance), float(gap[0, 0]), ahead)
+        step = params.speed * params.dt
+        bx, by = pose[0] - step * math.cos(pose[2]), pose[1] - step * math.sin(pose[2])
+        back = np.minimum(
+            square_distance(bx, by, cells[:, 0], cells[:, 1], resolution / 2).min(initial=np.inf),
+            np.hypot(hits[:, 0] - bx, hits[:, 1] - by).min(initial=np.inf),
+        )
+        back_clear = bool(back - params.footprint_radius >= gap[0, 0])
+    return Safety(np.asarray(safe), np.asarray(clearance), float(gap[0, 0]), ahead, back_clear)
+
+
+def hazard_cells(probability: npt.ArrayLike, params: RoverParams) -> BoolArray:
+    """Cells the footprint keeps its margin from: likely obstacles and their doubtful neighbours.
+
+    Likely: ``p >= p_block``. Doubtful neighbour: 8-connected to a likely cell and not
+    certainly free (``p`` above the probability whose entropy is ``h_desired``).
+    """
+    p = np.asarray(probability, dtype=np.float64)
+    likely = p >= params.p_block
+    near = ndimage.binary_dilation(likely, structure=np.ones((3, 3), dtype=bool))
+    return np.asarray(likely | (near & (p >= probability_at_entropy(params.h_desired))))
