@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
 from bayesmap.errors import BayesmapError
-from bayesmap.experiments import rover_world
+from bayesmap.experiments import rover_log, rover_world
 from bayesmap.sim.worlds import generate_world, save_world
 
 app = typer.Typer(
@@ -19,6 +19,8 @@ app = typer.Typer(
     no_args_is_help=True,
 )
 _console = Console(stderr=True)
+LengthUnit = Literal["mm", "cm", "m"]
+AngleUnit = Literal["rad", "deg", "decideg"]
 
 
 def _fail(error: BayesmapError) -> typer.Exit:
@@ -82,3 +84,43 @@ def generate_command(
         )
         path = save_world(out / f"world_{k:02d}.json", spec)
         typer.echo(f"{path}: {spec.world.width:g} m, {len(spec.world.boxes)} boxes")
+
+
+@app.command("map")
+def map_command(
+    log: Annotated[Path, typer.Argument(help="CSV drive log: columns x, y, heading, ir_0, ...")],
+    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    calibration: Annotated[
+        Path | None,
+        typer.Option(
+            "--calibration",
+            help="IR fit as JSON {a, b, c}, or CSV of (raw, distance) pairs to fit "
+            "(default: the paper's §5.1 fit).",
+        ),
+    ] = None,
+    distance_unit: Annotated[
+        LengthUnit, typer.Option("--distance-unit", help="Unit of calibration distances.")
+    ] = "m",
+    position_unit: Annotated[LengthUnit, typer.Option("--position-unit")] = "m",
+    heading_unit: Annotated[AngleUnit, typer.Option("--heading-unit")] = "rad",
+    resolution: Annotated[float, typer.Option("--resolution", help="Cell side [m].")] = 0.5,
+    strict: Annotated[bool, typer.Option("--strict", help="Abort at the first bad row.")] = False,
+) -> None:
+    """Replay a logged drive through the rover's sensing and mapping; write the maps."""
+    try:
+        summary = rover_log.map_log(
+            log,
+            out,
+            calibration=calibration,
+            distance_unit=distance_unit,
+            position_unit=position_unit,
+            heading_unit=heading_unit,
+            resolution=resolution,
+            strict=strict,
+        )
+    except BayesmapError as error:
+        raise _fail(error) from None
+    typer.echo(
+        f"{summary['rows']} rows ({summary['rows_skipped']} skipped), coverage "
+        f"{summary['coverage']:.3f}; wrote {out}"
+    )

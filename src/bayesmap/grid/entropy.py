@@ -36,7 +36,7 @@ def probability_at_entropy(h: float) -> float:
     Examples
     --------
     >>> round(probability_at_entropy(0.3), 4)
-    0.0533
+    0.0532
     """
     lo, hi = 0.0, 0.5
     for _ in range(60):

@@ -142,7 +142,7 @@ class IRMapper:
         previous = np.zeros_like(readings) if self.previous_raw_ is None else self.previous_raw_
         contacts = contact(readings, previous, sigma_r=p.sigma_r)
         above_noise = readings > 2.0 * p.sigma_r
-        ranges = range_from_raw(readings)
+        ranges = range_from_raw(readings, p.ir_fit)
         self.previous_raw_ = readings
         self.last_contacts_, self.last_ranges_ = contacts, ranges
         self.last_above_noise_ = above_noise

@@ -6,7 +6,15 @@ import math
 from dataclasses import dataclass
 
 from bayesmap.errors import ConfigError
-from bayesmap.sensing.ir import R_MAX, RANGER_ANGLES, RANGER_OFFSET, SIGMA_R, W_R
+from bayesmap.sensing.ir import (
+    R_MAX,
+    RANGER_ANGLES,
+    RANGER_OFFSET,
+    RAW_FIT,
+    SIGMA_R,
+    W_R,
+    Calibration,
+)
 
 
 @dataclass(frozen=True)
@@ -25,6 +33,8 @@ class RoverParams:
         Lower bound on ``beta_r`` (see :func:`bayesmap.sensing.fusion.ir_cell_evidence`).
     sigma_r
         RMS noise of an IR reading [ADC units], for contact detection (eq. 33).
+    ir_fit
+        ``(a, b, c)`` of the rangers' ADC fit ``r_raw = (a r + b) / (r + c)`` (§5.1).
     w_r
         Angular sensitivity of a ranger [rad] (eq. 34).
     sigma_xy
@@ -78,6 +88,7 @@ class RoverParams:
     r_max: float = R_MAX
     reliability_floor: float = 0.5
     sigma_r: float = SIGMA_R
+    ir_fit: Calibration = RAW_FIT
     w_r: float = W_R
     sigma_xy: float = 0.25
     sensor_angles: tuple[float, ...] = RANGER_ANGLES
