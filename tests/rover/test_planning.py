@@ -10,13 +10,14 @@ from scipy.sparse.csgraph import dijkstra
 
 from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.params import RoverParams
-from bayesmap.rover.planning import footprint_kernel, local_plan
+from bayesmap.rover.planning import crossing_costs, footprint_kernel, local_plan
 
 PARAMS = RoverParams(d_max=4.0)
 
 
-def _oracle(passable: np.ndarray, start: tuple[int, int], res: float) -> np.ndarray:
+def _oracle(costs: np.ndarray, start: tuple[int, int], res: float) -> np.ndarray:
     """Shortest 8-connected paths where an edge costs the mean of its two cells (MCP_Geometric)."""
+    passable = np.isfinite(costs)
     ny, nx = passable.shape
     index = np.arange(ny * nx).reshape(ny, nx)
     rows, cols, weights = [], [], []
@@ -27,7 +28,7 @@ def _oracle(passable: np.ndarray, start: tuple[int, int], res: float) -> np.ndar
                 if 0 <= k < ny and 0 <= m < nx and passable[i, j] and passable[k, m]:
                     rows.append(index[i, j])
                     cols.append(index[k, m])
-                    weights.append(np.hypot(di, dj) * res)
+                    weights.append(np.hypot(di, dj) * res * (costs[i, j] + costs[k, m]) / 2)
     graph = coo_matrix((weights, (rows, cols)), shape=(ny * nx, ny * nx))
     return dijkstra(graph, directed=False, indices=index[start]).reshape(ny, nx)
 
@@ -37,20 +38,19 @@ def _oracle(passable: np.ndarray, start: tuple[int, int], res: float) -> np.ndar
 def test_path_costs_match_dijkstra(seed: int) -> None:
     rng = np.random.default_rng(seed)
     grid = OccupancyGrid(10.0, 10.0, 0.5, prior=0.2)
-    grid.probability[rng.uniform(size=grid.shape) < 0.25] = 0.9
+    grid.probability[rng.uniform(size=grid.shape) < 0.06] = 0.9
     x, y = 5.1, 4.9
     grid.probability[grid.world_to_cell(x, y)] = 0.2
     plan = local_plan(grid, x, y, PARAMS)
-    # the patch lies inside the map here; with footprint 0.2 m < half a cell only the
-    # likely cells themselves are blocked
-    patch = grid.probability[
-        plan.row0 : plan.row0 + plan.cost.shape[0], plan.col0 : plan.col0 + plan.cost.shape[1]
-    ]
+    rows = slice(plan.row0, plan.row0 + plan.cost.shape[0])
+    cols = slice(plan.col0, plan.col0 + plan.cost.shape[1])
+    patch = grid.probability[rows, cols]  # the patch lies inside the map here
+    costs = crossing_costs(patch, np.ones(patch.shape, dtype=bool), PARAMS, 0.5)
     start = grid.world_to_cell(x, y)
-    expected = _oracle(
-        patch < PARAMS.p_block, (int(start[0]) - plan.row0, int(start[1]) - plan.col0), 0.5
-    )
-    np.testing.assert_allclose(plan.cost, expected)
+    i, j = int(start[0]) - plan.row0, int(start[1]) - plan.col0
+    costs[i, j] = 1.0  # the rover's own cell
+    np.testing.assert_allclose(plan.cost, _oracle(costs, (i, j), 0.5))
+    assert np.isinf(plan.cost[patch >= PARAMS.p_block]).all()
 
 
 def test_waypoint_leads_around_a_wall_and_unreachable_is_none() -> None:

@@ -32,6 +32,10 @@ from bayesmap.rover.targets import TargetRule
 from bayesmap.sensing.ir import ranger_poses
 
 
+_HEMMED_IN = 9
+"""With fewer reachable cells than this, the plan is not trusted to reject targets."""
+
+
 @dataclass(frozen=True)
 class Decision:
     """The outcome of one cycle.
@@ -154,7 +158,15 @@ class Explorer:
     def _target(
         self, plan: LocalPlan, pose: tuple[float, float, float]
     ) -> tuple[tuple[float, float] | None, tuple[float, float] | None]:
-        """The rule's target and the waypoint toward it; unreachable targets are rejected."""
+        """The rule's target and the waypoint toward it; unreachable targets are rejected.
+
+        When the plan reaches next to nothing (the rover hemmed in by hazards on a noisy
+        map), nothing is rejected: the rover steers at the target and the footprint check
+        keeps it safe while it turns and looks around.
+        """
+        if int(np.isfinite(plan.cost).sum()) < _HEMMED_IN:
+            target = self.target_rule.select(self.grid, pose, plan, self.mapper_.uncertain_)
+            return target, target
         for _ in range(8):
             target = self.target_rule.select(self.grid, pose, plan, self.mapper_.uncertain_)
             if target is None:

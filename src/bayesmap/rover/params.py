@@ -110,7 +110,7 @@ class RoverParams:
     margin_sigmas: float = 3.0
     lookahead: float = 0.6
     hit_memory: int = 50
-    target_timeout: int = 150
+    target_timeout: int = 60
 
     def __post_init__(self) -> None:
         checks = {

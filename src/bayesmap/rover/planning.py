@@ -4,9 +4,12 @@ The paper steers straight at its target (eq. 40), so a target behind a wall pull
 into the wall. Here the cost of reaching each cell of the local area (radius ``d_max``) is
 the length of the shortest 8-connected path through passable cells, computed with
 scikit-image's minimum-cost-path solver (:class:`skimage.graph.MCP_Geometric`, Dijkstra).
-A cell is passable when the footprint centred on it would not overlap a likely obstacle
-(``p >= p_block``) and it lies on the map; cells never observed count as passable
-(optimistic planning: the footprint check of :mod:`bayesmap.rover.safety` guards the drive).
+A cell is passable when the footprint centred on it would not overlap a hazard (a likely
+obstacle or its doubtful neighbour, :func:`~bayesmap.rover.safety.hazard_cells`) and it lies
+on the map; a passable cell within the safety margin of a hazard costs ``_NEAR_COST`` times
+as much to cross, so paths keep to open ground and squeeze through a narrow gap only when
+there is no other way. Cells never observed count as passable (optimistic planning: the
+footprint check of :mod:`bayesmap.rover.safety` guards the drive).
 The rover then steers toward a waypoint along that path instead of at the target itself.
 Cost depends on ``d_max`` only, never on the size of the map.
 """
@@ -25,10 +28,13 @@ from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.mapping import local_patch
 from bayesmap.rover.params import RoverParams
-from bayesmap.rover.safety import square_distance
+from bayesmap.rover.safety import hazard_cells, square_distance
 
 _WAYPOINT_AHEAD = 1.5
 """Path length [m] from the rover to the waypoint it steers toward."""
+
+_NEAR_COST = 5.0
+"""Cost per metre of crossing a cell within the safety margin of a hazard (1 elsewhere)."""
 
 
 def footprint_kernel(radius: float, resolution: float) -> BoolArray:
@@ -38,13 +44,17 @@ def footprint_kernel(radius: float, resolution: float) -> BoolArray:
     return np.asarray(square_distance(di, dj, 0.0, 0.0, resolution / 2) < radius)
 
 
-def passable_cells(
+def crossing_costs(
     probability: npt.ArrayLike, on_map: npt.ArrayLike, params: RoverParams, resolution: float
-) -> BoolArray:
-    """Cells where the footprint fits: on the map and clear of every likely obstacle."""
-    blocked = (np.asarray(probability) >= params.p_block) | ~np.asarray(on_map, dtype=bool)
+) -> FloatArray:
+    """Cost per metre of each cell: ``inf`` where the footprint would overlap a hazard or
+    leave the map, ``_NEAR_COST`` within the safety margin of a hazard, 1 elsewhere."""
+    hazard = hazard_cells(probability, params)
+    blocked = hazard | ~np.asarray(on_map, dtype=bool)
     kernel = footprint_kernel(params.footprint_radius, resolution)
-    return np.asarray(~ndimage.binary_dilation(blocked, structure=kernel))
+    near_kernel = footprint_kernel(params.footprint_radius + params.safety_margin, resolution)
+    costs = np.where(ndimage.binary_dilation(hazard, structure=near_kernel), _NEAR_COST, 1.0)
+    return np.asarray(np.where(ndimage.binary_dilation(blocked, structure=kernel), np.inf, costs))
 
 
 @dataclass
@@ -56,7 +66,8 @@ class LocalPlan:
     xc, yc
         ``(n, n)`` cell centres [m].
     cost
-        ``(n, n)`` path length [m] from the rover's cell; ``inf`` where unreachable.
+        ``(n, n)`` path cost [m] from the rover's cell (length, with cells near hazards
+        counting ``_NEAR_COST`` times); ``inf`` where unreachable.
     row0, col0
         Grid indices of the patch's first cell (may be negative, off the map).
     resolution
@@ -109,11 +120,10 @@ def local_plan(grid: OccupancyGrid, x: float, y: float, params: RoverParams) -> 
     """Path costs from ``(x, y)`` [m] over the local area of radius ``d_max`` (Dijkstra)."""
     xc, yc, prob = local_patch(grid, grid.probability, x, y, params.d_max, np.nan)
     on_map = np.isfinite(prob)
-    passable = passable_cells(np.nan_to_num(prob, nan=0.0), on_map, params, grid.resolution)
+    costs = crossing_costs(np.nan_to_num(prob, nan=0.0), on_map, params, grid.resolution)
     n = prob.shape[0]
     i0 = int(np.clip(math.floor((y - yc[0, 0]) / grid.resolution + 0.5), 0, n - 1))
     j0 = int(np.clip(math.floor((x - xc[0, 0]) / grid.resolution + 0.5), 0, n - 1))
-    costs = np.where(passable, 1.0, np.inf)
     costs[i0, j0] = 1.0  # the rover's own cell: it is there, whatever the map says
     solver = MCP_Geometric(costs, fully_connected=True)
     cumulative, _ = solver.find_costs([(i0, j0)])

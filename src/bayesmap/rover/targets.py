@@ -70,7 +70,8 @@ class EntropyTarget:
     nearest by path length within ``delta_h`` of it. A target is kept (hysteresis) until
     its entropy falls below ``h_desired``, the rover comes within ``d_min`` of it, or it
     times out: a target not reached within ``target_timeout`` cycles plus twice the cycles
-    its path length needs is blacklisted, as is one the planner finds unreachable. When
+    its path cost needs is blacklisted with the uncertain cells within ``d_min`` of it, and
+    one the planner finds unreachable is blacklisted alone. When
     nothing local qualifies, the nearest uncertain cell of the whole map is taken, found
     block by block (:class:`~bayesmap.rover.mapping.UncertainBlocks`), so that the search
     does not grow with the map. ``None`` when no such cell is left.
@@ -112,7 +113,7 @@ class EntropyTarget:
                 and math.hypot(self.target_[0] - x, self.target_[1] - y) >= p.d_min
             )
             if kept and self._age > self._deadline:
-                self.reject(self.target_)
+                self._give_up_around(grid, self.target_)
             elif kept:
                 return self.target_
         self.target_ = self._local(grid, plan) or self._global(grid, x, y, uncertain)
@@ -123,6 +124,21 @@ class EntropyTarget:
                 cost = math.hypot(self.target_[0] - x, self.target_[1] - y)
             self._deadline = p.target_timeout + int(2.0 * cost / (p.speed * p.dt))
         return self.target_
+
+    def _give_up_around(self, grid: OccupancyGrid, target: tuple[float, float]) -> None:
+        """Blacklist a timed-out target and the uncertain cells within ``d_min`` of it.
+
+        What kept the rover from one of them (a gap it cannot pass) keeps it from its
+        neighbours too; giving them up one by one would cost a timeout each.
+        """
+        p = self.params
+        window = grid.window(target[0], target[1], p.d_min)
+        xc, yc = grid.window_centers(window)
+        near = (np.hypot(xc - target[0], yc - target[1]) <= p.d_min) & (
+            grid.entropy[window.rows, window.cols] >= p.h_desired
+        )
+        self.blacklist_.update(zip(xc[near].tolist(), yc[near].tolist(), strict=True))
+        self.reject(target)
 
     def _local(self, grid: OccupancyGrid, plan: LocalPlan) -> tuple[float, float] | None:
         p = self.params
