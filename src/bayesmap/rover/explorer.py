@@ -31,7 +31,6 @@ from bayesmap.rover.safety import (
 from bayesmap.rover.targets import TargetRule
 from bayesmap.sensing.ir import ranger_poses
 
-
 _HEMMED_IN = 9
 """With fewer reachable cells than this, the plan is not trusted to reject targets."""
 
