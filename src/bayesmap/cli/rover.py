@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -12,7 +13,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
 from bayesmap.errors import BayesmapError
 from bayesmap.experiments import rover_log, rover_world
-from bayesmap.sim.worlds import generate_world, save_world
+from bayesmap.sim.worlds import WORLD_SCHEMA, generate_world, save_world
 
 app = typer.Typer(
     help="The micro-rover (Post et al. 2016): run it on a world file, generate worlds.",
@@ -124,3 +125,9 @@ def map_command(
         f"{summary['rows']} rows ({summary['rows_skipped']} skipped), coverage "
         f"{summary['coverage']:.3f}; wrote {out}"
     )
+
+
+@app.command("schema")
+def schema_command() -> None:
+    """Print the JSON Schema of WORLD.json files."""
+    typer.echo(json.dumps(WORLD_SCHEMA, indent=2))
