@@ -36,7 +36,7 @@ from bayesmap.sim import rover as sim_rover  # noqa: E402
 from bayesmap.sim.world2d import box_world  # noqa: E402
 
 CYCLES = 5000
-REPEATS = 2
+REPEATS = 1
 
 
 def record(cycles: int, seed: int = 1) -> list[tuple[np.ndarray, np.ndarray]]:

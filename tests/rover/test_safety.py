@@ -11,6 +11,7 @@ from bayesmap.rover.params import RoverParams
 from bayesmap.rover.safety import (
     drive_command,
     footprint_safety,
+    hazard_cells,
     predicted_centres,
     reading_points,
     square_distance,
@@ -96,3 +97,46 @@ def test_drive_command_pivots_beyond_90_degrees() -> None:
     assert drive_command(math.pi, 0.0, PARAMS)[0] == 0.0
     v, w = drive_command(0.2, 0.0, PARAMS)
     assert v == PARAMS.speed and w == pytest.approx(0.4)
+
+
+def test_the_body_may_not_sweep_unseen_cells_unless_already_on_them() -> None:
+    under = [(0.25, 0.25)]  # overlaps the footprint now: allowed
+    beside = [(0.25, -0.75)]  # never seen, on the way when turning right
+    safety = footprint_safety(
+        (0.0, 0.0, 0.0),
+        THETA,
+        np.zeros((0, 2)),
+        0.5,
+        np.zeros((0, 2)),
+        FIELD,
+        PARAMS,
+        np.array(under + beside),
+    )
+    right = int(np.argmin(np.abs(np.angle(np.exp(1j * (THETA - math.radians(-80)))))))
+    assert safety.safe[0] and not safety.safe[right]
+
+
+def test_hazards_are_likely_cells_and_their_doubtful_neighbours() -> None:
+    p = np.full((5, 5), 0.01)
+    p[2, 2] = 0.9
+    p[2, 3] = 0.3  # clipped by the obstacle's edge: mixed evidence
+    p[0, 0] = 0.3  # far from any likely cell
+    hazard = hazard_cells(p, PARAMS)
+    assert hazard[2, 2] and hazard[2, 3] and not hazard[0, 0] and not hazard[1, 1]
+
+
+def test_backing_off_is_allowed_only_away_from_obstacles() -> None:
+    ahead = footprint_safety(
+        (0.0, 0.0, 0.0), THETA, np.array([[0.6, 0.0]]), 0.5, np.zeros((0, 2)), FIELD, PARAMS
+    )
+    assert ahead.ahead and ahead.back_clear and ahead.here < PARAMS.safety_margin
+    boxed = footprint_safety(
+        (0.0, 0.0, 0.0),
+        THETA,
+        np.array([[0.6, 0.0], [-0.6, 0.0]]),
+        0.5,
+        np.zeros((0, 2)),
+        FIELD,
+        PARAMS,
+    )
+    assert not boxed.back_clear
