@@ -81,17 +81,31 @@ def test_window_off_the_map_is_empty() -> None:
     )
 
 
-def test_set_probability_keeps_minimum_entropy() -> None:
-    grid = OccupancyGrid(5.0, 5.0, 1.0, prior=0.2)
+def test_set_probability_keeps_minimum_entropy_until_contradicted() -> None:
+    grid = OccupancyGrid(5.0, 5.0, 1.0, prior=0.2, initial_entropy=1.0)
     window = grid.window(2.5, 2.5, 0.4)
     assert window.shape == (1, 1)
     grid.set_probability(window, [[0.9]])
     first = float(grid.entropy[2, 2])
     assert first == pytest.approx(float(binary_entropy_bits(0.9)))
-    grid.set_probability(window, [[0.5]])  # more uncertain: entropy must not rise
-    assert grid.probability[2, 2] == 0.5 and grid.entropy[2, 2] == first
+    grid.set_probability(window, [[0.95]])  # agrees: the minimum is kept
+    second = float(grid.entropy[2, 2])
+    assert second == pytest.approx(float(binary_entropy_bits(0.95))) and second < first
+    grid.set_probability(window, [[0.5]])  # contradicts: certainty is not locked
+    assert grid.probability[2, 2] == 0.5 and grid.entropy[2, 2] == 1.0
     grid.set_probability(window, [[0.99]])
-    assert grid.entropy[2, 2] < first
+    assert grid.entropy[2, 2] == pytest.approx(float(binary_entropy_bits(0.99)))
+
+
+def test_first_sighting_painted_free_is_not_locked_certain() -> None:
+    """A cell read free (0.03) and then an obstacle (0.6, 0.97) ends certain *occupied*."""
+    grid = OccupancyGrid(5.0, 5.0, 1.0, prior=0.2)
+    window = grid.window(2.5, 2.5, 0.4)
+    for p in (0.03, 0.6, 0.97):
+        grid.set_probability(window, [[p]])
+    assert grid.entropy[2, 2] == pytest.approx(float(binary_entropy_bits(0.97)))
+    grid.set_probability(window, [[0.6]])
+    assert grid.entropy[2, 2] == pytest.approx(float(binary_entropy_bits(0.6)))
     with pytest.raises(InputError):
         grid.set_probability(window, [[1.5]])
     with pytest.raises(InputError):

@@ -27,7 +27,7 @@ def test_files_are_written_as_map_saver_writes_them(tmp_path: Path) -> None:
     assert yaml_path.name == "map.yaml" and pgm_path.name == "map.pgm"
     assert yaml_path.read_text() == (
         "image: map.pgm\nresolution: 0.500000\norigin: [-1.000000, 2.000000, 0.000000]\n"
-        "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n\n"
+        "mode: trinary\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n\n"
     )
     data = pgm_path.read_bytes()
     header = b"P5\n# CREATOR: Map_generator.cpp 0.500 m/pix\n4 2\n255\n"
@@ -99,6 +99,11 @@ def test_negate_and_comments(tmp_path: Path) -> None:
         "image: x.pgm\nresolution: -1\norigin: [0, 0, 0]\n",
         "image: missing.pgm\nresolution: 0.5\norigin: [0, 0, 0]\n",
         "just text without colon\n",
+        "image: x.pgm\nresolution: 0.5\norigin: [0, 0, 0]\nmode: fancy\n",
+        "image: x.pgm\nresolution: 0.5\norigin: [0, 0, 0]\nnegate: 2\n",
+        "image: x.pgm\nresolution: 0.5\norigin: [0, 0, 0]\nfree_thresh: 0.7\n",
+        "image: x.pgm\nresolution: 0.5\norigin: [0, 0, .nan]\n",
+        "image: x.pgm\nresolution: [0.5\n",
     ],
 )
 def test_bad_yaml_raises_format_error(tmp_path: Path, yaml_text: str) -> None:
@@ -122,3 +127,29 @@ def test_fuzzed_files_raise_only_format_error(tmp_path: Path, image: bytes, yaml
             continue
         assert loaded.probability.ndim == 2
         assert np.all((loaded.probability >= 0) & (loaded.probability <= 1))
+
+
+def test_uncertain_cells_are_written_unknown(tmp_path: Path) -> None:
+    """A cell is free or occupied in the file only when its entropy is below 0.3 bits."""
+    p = np.array([[0.2, 0.2, 0.97, 0.97]])
+    entropy = np.array([[1.0, 0.1, 0.9, 0.15]])  # never seen, seen free, doubtful, certain
+    yaml_path, _ = write_ros_map(tmp_path / "m", p, 0.5, entropy=entropy)
+    assert read_ros_map(yaml_path).occupancy.tolist() == [[-1, 0, -1, 100]]
+
+
+def test_modes_negate_and_yaw_follow_map_server(tmp_path: Path) -> None:
+    pgm = b"P5\n4 1\n255\n" + bytes([0, 100, 180, 254])
+    (tmp_path / "m.pgm").write_bytes(pgm)
+    head = "image: m.pgm\nresolution: 0.1\norigin: [1.0, 2.0, 0.5]\n"
+    expected = {
+        "mode: trinary\n": [100, -1, -1, 0],
+        "mode: scale\n": [100, 90, 21, 0],  # p = 155/255, 75/255 -> 99 (p - 0.196) / 0.454
+        "mode: raw\n": [0, 100, 180, 254],
+        "mode: raw\nnegate: 1\n": [255, 155, 75, 1],
+        "mode: trinary\nnegate: 1\n": [0, -1, 100, 100],
+    }
+    for extra, values in expected.items():
+        (tmp_path / "m.yaml").write_text(head + extra)
+        loaded = read_ros_map(tmp_path / "m.yaml")
+        assert loaded.occupancy.tolist() == [values], extra
+        assert loaded.yaw == 0.5 and loaded.origin == (1.0, 2.0)

@@ -25,8 +25,8 @@ def test_exploration_target_brute_force(seed: int, margin: float, d_min: float) 
     rng = np.random.default_rng(seed)
     xc, yc = rng.uniform(-10, 10, 40), rng.uniform(-10, 10, 40)
     h = np.round(rng.uniform(0.5, 1.0, 40), 2)
-    pick = exploration_target(h, xc, yc, (0.0, 0.0), d_max=8.0, d_min=d_min, margin=margin)
     d = np.hypot(xc, yc)
+    pick = exploration_target(h, d, d_max=8.0, d_min=d_min, margin=margin)
     ok = [i for i in range(40) if d_min <= d[i] < 8.0]
     if not ok:
         assert pick == -1
@@ -66,27 +66,25 @@ def test_collision_probability_brute_force(weighted: bool) -> None:
     xc, yc = rng.uniform(-9, 9, 300), rng.uniform(-9, 9, 300)
     p = rng.uniform(size=300)
     theta = np.linspace(0, 2 * np.pi, 12, endpoint=False)
-    got, _ = collision_probability(
+    got = collision_probability(
         p, xc, yc, (0.0, 0.0), theta, d_max=8.0, clearance=0.5, distance_weighted=weighted
     )
     np.testing.assert_allclose(got, _brute_collision(p, xc, yc, theta, 8.0, 0.5, weighted))
 
 
-def test_closer_obstacles_count_more_and_block() -> None:
+def test_closer_obstacles_count_more() -> None:
     xc = np.arange(0.25, 8.0, 0.5)
     yc = np.zeros_like(xc)
     near, far = np.full(xc.size, 0.02), np.full(xc.size, 0.02)
     near[1], far[12] = 0.9, 0.9
     theta = np.array([0.0])
-    kw = dict(d_max=8.0, clearance=0.3, stop_distance=1.0, p_block=0.5)
-    p_near, blocked_near = collision_probability(near, xc, yc, (0.0, 0.0), theta, **kw)
-    p_far, blocked_far = collision_probability(far, xc, yc, (0.0, 0.0), theta, **kw)
+    p_near = collision_probability(near, xc, yc, (0.0, 0.0), theta, d_max=8.0, clearance=0.3)
+    p_far = collision_probability(far, xc, yc, (0.0, 0.0), theta, d_max=8.0, clearance=0.3)
     assert p_near[0] > p_far[0]
-    assert blocked_near[0] and not blocked_far[0]
-    flat_near, _ = collision_probability(
+    flat_near = collision_probability(
         near, xc, yc, (0.0, 0.0), theta, d_max=8.0, clearance=0.3, distance_weighted=False
     )
-    flat_far, _ = collision_probability(
+    flat_far = collision_probability(
         far, xc, yc, (0.0, 0.0), theta, d_max=8.0, clearance=0.3, distance_weighted=False
     )
     assert flat_near[0] == pytest.approx(flat_far[0])  # eq. 41 ignores distance

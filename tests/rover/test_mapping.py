@@ -5,13 +5,20 @@ from __future__ import annotations
 import numpy as np
 
 from bayesmap.grid import OccupancyGrid
-from bayesmap.rover.mapping import IRMapper, local_patch
+from bayesmap.rover.mapping import IRMapper, UncertainBlocks, local_patch
 from bayesmap.rover.params import RoverParams
+from bayesmap.rover.planning import local_plan
 from bayesmap.rover.targets import EntropyTarget, FrontierTarget, clear_of_obstacles
 from bayesmap.sensing.ir import ranger_poses, raw_from_range
 from bayesmap.sim.ir import IRRangers
 
 PARAMS = RoverParams()
+
+
+def _select(rule, grid: OccupancyGrid, pose: tuple[float, float, float]):  # type: ignore[no-untyped-def]
+    plan = local_plan(grid, pose[0], pose[1], rule.params)
+    blocks = UncertainBlocks(grid.entropy >= rule.params.h_desired)
+    return rule.select(grid, pose, plan, blocks)
 
 
 def _raw(r: float) -> np.ndarray:
@@ -60,21 +67,21 @@ def test_entropy_target_prefers_high_entropy_then_nearest() -> None:
     grid = OccupancyGrid(20.0, 20.0, 0.5, prior=0.2, initial_entropy=0.1)
     rows, cols = grid.world_to_cell(np.array([5.2, 8.2]), np.array([5.2, 5.2]))
     grid.entropy[rows, cols] = [0.98, 1.0]
-    assert EntropyTarget(PARAMS).select(grid, (3.0, 5.2, 0.0)) == (5.25, 5.25)  # within margin
+    assert _select(EntropyTarget(PARAMS), grid, (3.0, 5.2, 0.0)) == (5.25, 5.25)  # within margin
     tight = EntropyTarget(RoverParams(target_margin=0.0))
-    assert tight.select(grid, (3.0, 5.2, 0.0)) == (8.25, 5.25)
+    assert _select(tight, grid, (3.0, 5.2, 0.0)) == (8.25, 5.25)
     grid.entropy[:] = 0.1
-    assert EntropyTarget(PARAMS).select(grid, (3.0, 5.2, 0.0)) is None
+    assert _select(EntropyTarget(PARAMS), grid, (3.0, 5.2, 0.0)) is None
 
 
 def test_frontier_target_picks_unknown_next_to_open() -> None:
     grid = OccupancyGrid(10.0, 10.0, 0.5, prior=0.2)
     grid.probability[:, :8] = 0.05  # x < 4 m explored and free
     grid.entropy[:, :8] = 0.1
-    target = FrontierTarget(PARAMS).select(grid, (1.0, 5.0, 0.0))
+    target = _select(FrontierTarget(PARAMS), grid, (1.0, 5.0, 0.0))
     assert target is not None and target[0] == 4.25  # the first unknown column
     grid.entropy[:] = 0.1
-    assert FrontierTarget(PARAMS).select(grid, (1.0, 5.0, 0.0)) is None
+    assert _select(FrontierTarget(PARAMS), grid, (1.0, 5.0, 0.0)) is None
 
 
 def test_targets_keep_clear_of_likely_obstacles() -> None:
@@ -84,7 +91,7 @@ def test_targets_keep_clear_of_likely_obstacles() -> None:
     grid.probability[grid.world_to_cell(5.7, 5.2)] = 0.9
     clear = clear_of_obstacles(grid.probability, PARAMS, grid.resolution)
     assert not clear[grid.world_to_cell(5.2, 5.2)] and clear[grid.world_to_cell(8.2, 5.2)]
-    assert EntropyTarget(PARAMS).select(grid, (3.0, 5.2, 0.0)) == (8.25, 5.25)
+    assert _select(EntropyTarget(PARAMS), grid, (3.0, 5.2, 0.0)) == (8.25, 5.25)
 
 
 def test_default_ranger_geometry_matches_the_simulated_rover() -> None:
@@ -101,3 +108,38 @@ def test_default_ranger_geometry_matches_the_simulated_rover() -> None:
     expected = pose[:2] + 0.15 * np.array([np.cos(2.5), np.sin(2.5)])
     np.testing.assert_allclose(rangers.poses(pose)[:, :2], np.tile(expected, (3, 1)))
     np.testing.assert_allclose(rangers.poses(pose)[:, 2], 2.5 + np.radians([30.0, 0.0, -30.0]))
+
+
+def test_uncertain_blocks_track_the_map_incrementally() -> None:
+    rng = np.random.default_rng(5)
+    grid = OccupancyGrid(23.0, 17.0, 0.5, prior=0.2)
+    mapper = IRMapper(grid, PARAMS)
+    pose = np.array([2.0, 2.0, 0.3])
+    for _ in range(60):
+        raw = np.clip(np.rint(raw_from_range(rng.uniform(0.3, 3.0, 3))), 0, 255)
+        mapper.update(raw, pose)
+        pose = pose + [0.3 * np.cos(pose[2]), 0.3 * np.sin(pose[2]), rng.normal(0, 0.3)]
+        fresh = UncertainBlocks(grid.entropy >= PARAMS.h_desired)
+        np.testing.assert_array_equal(mapper.uncertain_.counts, fresh.counts)
+    assert mapper.n_uncertain_ == int(np.count_nonzero(grid.entropy >= PARAMS.h_desired))
+
+
+def test_entropy_target_keeps_its_target_then_blacklists_it_on_timeout() -> None:
+    grid = OccupancyGrid(20.0, 20.0, 0.5, prior=0.2, initial_entropy=0.1)
+    rows, cols = grid.world_to_cell(np.array([6.2, 9.2]), np.array([5.2, 5.2]))
+    grid.entropy[rows, cols] = [1.0, 0.99]
+    rule = EntropyTarget(RoverParams(target_timeout=5))
+    first = _select(rule, grid, (3.0, 5.2, 0.0))
+    assert first == (6.25, 5.25)
+    grid.entropy[rows[1], cols[1]] = 1.0  # a rival appears: hysteresis keeps the target
+    assert _select(rule, grid, (3.0, 5.2, 0.0)) == first
+    for _ in range(5 + 2 * 33 + 2):  # timeout + twice the cycles its 3.25 m need
+        target = _select(rule, grid, (3.0, 5.2, 0.0))
+    assert first in rule.blacklist_ and target == (9.25, 5.25)
+
+
+def test_the_global_fallback_finds_the_nearest_uncertain_cell_of_a_large_map() -> None:
+    grid = OccupancyGrid(200.0, 200.0, 0.5, prior=0.2, initial_entropy=0.1)
+    for x, y in [(150.2, 20.2), (30.2, 180.2), (120.2, 120.2)]:
+        grid.entropy[grid.world_to_cell(x, y)] = 1.0
+    assert _select(EntropyTarget(PARAMS), grid, (100.0, 100.0, 0.0)) == (120.25, 120.25)

@@ -11,15 +11,28 @@ from hypothesis import strategies as st
 
 from bayesmap import bn
 from bayesmap.bn.model import NodeKind
-from bayesmap.errors import ConfigError
+from bayesmap.errors import ConfigError, InputError
 from bayesmap.rover.decisions import movement_distribution, navigation_goal
-from bayesmap.rover.network import DecisionNetwork, heading_states
+from bayesmap.rover.network import CycleInputs, DecisionNetwork, heading_states
 from bayesmap.rover.params import RoverParams
 from bayesmap.sensing.fusion import opinion_pool
 from bayesmap.sensing.ir import angular_weight, beta_r, sensor_posterior
 
 PARAMS = RoverParams(n_headings=12)
 NETWORK = DecisionNetwork(PARAMS)
+FAR = np.full(3, 7.1)  # what the rangers read with nothing in range
+ALL_SAFE = np.ones(PARAMS.n_headings, dtype=bool)
+
+
+def _inputs(p_t, p_o, contacts=(False,) * 3, ranges=FAR, heading=0.0, safe=ALL_SAFE):  # type: ignore[no-untyped-def]
+    return CycleInputs(
+        contacts=np.asarray(contacts, dtype=bool),
+        ranges=np.asarray(ranges, dtype=float),
+        p_t=np.asarray(p_t, dtype=float),
+        p_o=np.asarray(p_o, dtype=float),
+        heading=heading,
+        safe=np.asarray(safe, dtype=bool),
+    )
 
 
 @settings(max_examples=40, deadline=None)
@@ -31,8 +44,10 @@ def test_network_heading_distribution_equals_eq_43(seed: int) -> None:
     p_o = rng.uniform(size=theta.size) ** rng.uniform(0.2, 3.0)
     p_o[rng.uniform(size=theta.size) < 0.2] = 1.0  # blocked headings
     contacts = rng.uniform(size=3) < 0.5
-    ranges = rng.uniform(0.2, 7.0, size=3)
-    index, distribution = NETWORK.decide(p_t, p_o, contacts, ranges)
+    ranges = rng.uniform(PARAMS.r_max, 7.0, size=3)  # nothing within r_max
+    index, distribution = NETWORK.decide(
+        _inputs(p_t, p_o, contacts, ranges, rng.uniform(-np.pi, np.pi))
+    )
     expected = movement_distribution(p_t, np.minimum(p_o, 1 - 1e-9))
     np.testing.assert_allclose(distribution, expected, atol=1e-9)
     assert index == int(np.argmax(expected))
@@ -64,21 +79,34 @@ def test_network_has_the_node_kinds_of_fig_8(tmp_path: Path) -> None:
     assert back.parents("ProbabilityMap") == ("CollisionAvoidance", "SensorFusion")
 
 
-def test_the_data_node_reads_the_map_once_per_query() -> None:
-    network = DecisionNetwork(PARAMS)
+def test_an_obstacle_read_straight_ahead_turns_the_rover_through_the_network() -> None:
+    """Same map, same target ahead: only the readings differ, and the heading changes."""
     theta = np.asarray(PARAMS.headings)
-    p_o = np.linspace(0.0, 0.9, theta.size)
-    calls = []
-
-    def read_map() -> np.ndarray:
-        calls.append(1)
-        return p_o
-
     p_t = navigation_goal(theta, 0.0)
-    index, distribution = network.decide(p_t, read_map, [False] * 3, [7.0] * 3)
-    assert len(calls) == 1
-    np.testing.assert_allclose(distribution, movement_distribution(p_t, p_o), atol=1e-12)
-    np.testing.assert_allclose(network.collision(), p_o)
+    p_o = np.full(theta.size, 0.2)
+    clear_index, _ = NETWORK.decide(_inputs(p_t, p_o))
+    assert clear_index == 0
+    blocked_index, distribution = NETWORK.decide(
+        _inputs(p_t, p_o, contacts=(False, True, False), ranges=(7.1, 0.4, 7.1))
+    )
+    assert blocked_index != 0 and distribution[0] < distribution[blocked_index]
+    fused = NETWORK.fused([False, True, False], [7.1, 0.4, 7.1])
+    assert fused > PARAMS.prior  # the sensor branch carries the contact
+
+
+def test_unsafe_footprint_headings_are_not_chosen() -> None:
+    theta = np.asarray(PARAMS.headings)
+    p_t = navigation_goal(theta, 0.0)
+    p_o = np.full(theta.size, 0.2)
+    safe = ALL_SAFE.copy()
+    safe[[0, 1, 11]] = False
+    index, distribution = NETWORK.decide(_inputs(p_t, p_o, safe=safe))
+    assert index in (2, 10) and distribution[[0, 1, 11]].max() < 1e-6
+
+
+def test_inputs_of_the_wrong_size_are_an_input_error() -> None:
+    with pytest.raises(InputError):
+        NETWORK.decide(_inputs(np.ones(5), np.ones(12)))
 
 
 @pytest.mark.parametrize("n", [3, 361, 720])

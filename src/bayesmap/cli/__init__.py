@@ -30,6 +30,7 @@ from bayesmap import __version__
 from bayesmap._io import terminate_as_exit
 from bayesmap.cli import blackboard as blackboard_commands
 from bayesmap.cli import bn as bn_commands
+from bayesmap.cli import rover as rover_commands
 from bayesmap.cli import sonar as sonar_commands
 from bayesmap.cli import sweep as sweep_commands
 from bayesmap.cli._console import console as make_console
@@ -50,6 +51,7 @@ app.add_typer(sonar_commands.app, name="sonar")
 app.command()(sweep_commands.sweep)
 app.command()(sweep_commands.report)
 console = make_console(stderr=True)
+app.add_typer(rover_commands.app, name="rover")
 
 
 def _version(value: bool) -> None:

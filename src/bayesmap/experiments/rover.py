@@ -10,7 +10,6 @@ name (``rover-field-empty-v1`` / ``rover-field-obstacles-v1``).
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 import time
@@ -41,7 +40,7 @@ from bayesmap.rover.params import RoverParams
 from bayesmap.rover.targets import EntropyTarget, FrontierTarget, TargetRule
 from bayesmap.sim import rover as sim_rover
 from bayesmap.sim.world2d import BoxWorld, box_world, occupancy_truth
-from bayesmap.viz.rover import coverage_figure, map_figure, maps_pair_figure
+from bayesmap.viz.rover import coverage_figure, maps_pair_figure
 
 __all__ = ["RUNS", "Config", "map_metrics", "roc_auc", "run"]
 
@@ -78,6 +77,8 @@ class Config(BaseModel):
     compass_sigma_deg: float = Field(2.0, ge=0)
     baseline: bool = True
     curve_every: int = Field(20, ge=1)
+    title_note: str = ""
+    """Appended to every figure title, to say what a variant run shows."""
 
     def rover_params(self) -> RoverParams:
         """The rover brain's parameters."""
@@ -109,6 +110,9 @@ class Trace:
     collisions: int = 0
     curve: list[tuple[float, float]] = field(default_factory=list)
     seconds: float = 0.0
+    min_clearance: float = math.inf
+    stalled_cycles: int = 0
+    off_map_cycles: int = 0
 
 
 def roc_auc(scores: FloatArray, labels: BoolArray) -> float | None:
@@ -153,7 +157,12 @@ def simulate(
     progress: ProgressHook,
     stage: str,
 ) -> Trace:
-    """Drive one run: sense → map → decide → move, until the stop rule or the step budget."""
+    """Drive one run: sense → map → decide → move, until the stop rule or the step budget.
+
+    Besides the path it counts, on the true pose, collisions, the smallest clearance, the
+    cycles off the mapped area, and the *stalled* cycles: those that neither lower the
+    number of uncertain cells nor shorten the path to an unchanged target.
+    """
     init_rng, sensor_rng, drive_rng = spawn(config.seed, 3)
     params = config.rover_params()
     sim_params = config.sim_params()
@@ -164,7 +173,9 @@ def simulate(
     trace = Trace(Explorer(grid, params, rule))
     state = sim_rover.initial(config.start, sim_params, rng=drive_rng)
     trace.path.append(state.pose.copy())
+    trace.min_clearance = sim_rover.clearance(state, world, sim_params)
     touching = False
+    previous: tuple[tuple[float, float] | None, float, int] = (None, math.inf, -1)
     started = time.perf_counter()
     for step in range(config.max_steps):
         if step % config.curve_every == 0:
@@ -173,12 +184,20 @@ def simulate(
         observation = sim_rover.observe(state, world, sim_params, rng=sensor_rng)
         decision = trace.explorer.step(observation.raw, observation.pose)
         trace.steps = step + 1
+        n_uncertain = trace.explorer.mapper_.n_uncertain_
+        progressed = decision.target == previous[0] and decision.target_cost < previous[1] - 1e-6
+        trace.stalled_cycles += int(n_uncertain >= previous[2] >= 0 and not progressed)
+        previous = (decision.target, decision.target_cost, n_uncertain)
         if trace.explorer.done or decision.target is None:
             break
         moved = sim_rover.transition(state, decision.command, sim_params, rng=drive_rng)
         trace.distance += float(np.hypot(*(moved.pose[:2] - state.pose[:2])))
         state = moved
         trace.path.append(state.pose.copy())
+        trace.min_clearance = min(
+            trace.min_clearance, sim_rover.clearance(state, world, sim_params)
+        )
+        trace.off_map_cycles += int(sim_rover.off_map(state, world))
         now_touching = sim_rover.collides(state, world, sim_params)
         trace.collisions += int(now_touching and not touching)
         touching = now_touching
@@ -188,33 +207,7 @@ def simulate(
     return trace
 
 
-def _init_cannot_steer_frontier(config: Config) -> bool:
-    """Whether the frontier explorer decides alike under flat and random entropy init.
-
-    It reads the entropy layer only through ``H >= H_desired`` (its goals and the stop
-    rule), and a cell's entropy is the minimum of its initial value and every ``H(p)`` it
-    has had (``OccupancyGrid.update``). If every initial value, at least ``1 − δ_h``, is at
-    least ``H_desired``, each threshold test comes out the same under both inits.
-    """
-    return 1.0 - config.delta_h >= config.h_desired
-
-
-def _frontier_with_random_init(flat: Trace, world: BoxWorld, config: Config) -> Trace:
-    """The frontier run under random entropy init, derived exactly from its flat-init run.
-
-    The decisions, path and probability layer are the flat run's (see
-    :func:`_init_cannot_steer_frontier`); the entropy layer is the flat run's, which is the
-    running minimum of ``H(p)``, lowered further to the random initial values where those
-    are smaller — what :func:`simulate` would compute, without driving the run again.
-    """
-    init_rng = spawn(config.seed, 3)[0]
-    initial = _initial_grid(world, config, True, init_rng).entropy
-    derived = copy.deepcopy(flat)
-    np.minimum(derived.explorer.grid.entropy, initial, out=derived.explorer.grid.entropy)
-    return derived
-
-
-def _run_metrics(
+def run_metrics(
     trace: Trace, world: BoxWorld, config: Config, explorer_name: str
 ) -> dict[str, Any]:
     grid = trace.explorer.grid
@@ -228,6 +221,11 @@ def _run_metrics(
         "stop_rule_met": trace.explorer.done,
         "path_length_m": round(trace.distance, 3),
         "collisions": trace.collisions,
+        "min_clearance_m": round(trace.min_clearance, 4)
+        if math.isfinite(trace.min_clearance)
+        else None,
+        "stalled_cycles": trace.stalled_cycles,
+        "off_map_cycles": trace.off_map_cycles,
         **map_metrics(grid, truth, config.h_desired),
         "coverage_curve": curve,
         "distance_to_90": None if to_90 is None else round(to_90, 3),
@@ -241,38 +239,13 @@ def _run_metrics(
     return metrics
 
 
-def _write_run(
+def write_run(
     folder: Path, trace: Trace, world: BoxWorld, metrics: dict[str, Any], title: str
 ) -> list[Path]:
     grid = trace.explorer.grid
     path = np.asarray(trace.path)[:, :2]
     boxes = world.boxes if world.boxes.size else None
     figures = [
-        write_bytes(
-            folder / "probability.png",
-            map_figure(
-                grid.probability,
-                grid.extent,
-                title=f"{title}: P(O | R, r, x)",
-                label="probability",
-                path=path,
-                boxes=boxes,
-                path_colour="white",
-            ),
-        ),
-        write_bytes(
-            folder / "entropy.png",
-            map_figure(
-                grid.entropy,
-                grid.extent,
-                title=f"{title}: H(O | R, r, x)",
-                label="entropy [bits]",
-                cmap="magma",
-                path=path,
-                boxes=boxes,
-                path_colour="cyan",
-            ),
-        ),
         write_bytes(
             folder / "path.png",
             maps_pair_figure(
@@ -287,6 +260,8 @@ def _write_run(
         grid.resolution,
         grid.origin,
         unknown_mask=grid.unobserved(),
+        entropy=grid.entropy,
+        certain_below=float(metrics["h_desired_bits"]),
     )
     write_json(folder / "metrics.json", metrics)
     return figures
@@ -351,9 +326,9 @@ def _summary(config: Config, results: dict[str, dict[str, dict[str, Any]]]) -> s
                 )
     lines += [
         "",
-        "Figures: `<run>/path.png` (both maps with the path), `<run>/probability.png`, "
-        "`<run>/entropy.png`, `coverage.png`. Maps: `<run>/map.npz`, `<run>/map.yaml` + "
-        "`map.pgm` (ROS map_server). The decision network: `decision_network.xmlbif`.",
+        "Figures: `<run>/path.png` (both maps with the path), `coverage.png`. "
+        "Maps: `<run>/map.npz`, `<run>/map.yaml` + `map.pgm` (ROS map_server, trinary: free "
+        "or occupied only below H_desired). The decision network: `decision_network.xmlbif`.",
         "",
     ]
     return "\n".join(lines)
@@ -373,25 +348,17 @@ def _run(
     figures: list[Path] = []
     metric_files: list[Path] = []
     curves: dict[str, list[tuple[float, float]]] = {}
-    frontier_flat: dict[str, Trace] = {}
     for name in config.runs:
         world = box_world(RUNS[name][0])
         results[name] = {}
         for explorer_name in explorers:
             stage = name if explorer_name == "entropy" else f"{name} (frontier)"
-            randomised = RUNS[name][1]
-            flat = frontier_flat.get(world.name) if explorer_name == "frontier" else None
-            if randomised and flat is not None and _init_cannot_steer_frontier(config):
-                trace = _frontier_with_random_init(flat, world, config)
-                hook(stage, config.max_steps, config.max_steps)
-            else:
-                trace = simulate(world, config, explorer_name, randomised, hook, stage)
-            if explorer_name == "frontier" and not randomised:
-                frontier_flat[world.name] = trace
-            metrics = _run_metrics(trace, world, config, explorer_name)
+            trace = simulate(world, config, explorer_name, RUNS[name][1], hook, stage)
+            metrics = run_metrics(trace, world, config, explorer_name)
             folder = out / name if explorer_name == "entropy" else out / "frontier" / name
             title = name if explorer_name == "entropy" else f"{name}, frontier explorer"
-            figures += _write_run(folder, trace, world, metrics, title)
+            title += f" ({config.title_note})" if config.title_note else ""
+            figures += write_run(folder, trace, world, metrics, title)
             metric_files.append(folder / "metrics.json")
             results[name][explorer_name] = metrics
             curves[stage] = trace.curve

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import numpy.typing as npt
 
@@ -23,3 +25,24 @@ def binary_entropy_bits(p: npt.ArrayLike) -> FloatArray:
     with np.errstate(divide="ignore", invalid="ignore"):
         terms = -q * np.log2(q) - (1.0 - q) * np.log2(1.0 - q)
     return np.asarray(np.nan_to_num(terms, nan=0.0))
+
+
+@functools.lru_cache(maxsize=16)
+def probability_at_entropy(h: float) -> float:
+    """The probability ``p <= 1/2`` whose Bernoulli entropy is ``h`` [bits] (bisection).
+
+    Cells with ``p`` below it (or above ``1 - p``) have entropy below ``h``.
+
+    Examples
+    --------
+    >>> round(probability_at_entropy(0.3), 4)
+    0.0532
+    """
+    lo, hi = 0.0, 0.5
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        if float(binary_entropy_bits(mid)) < h:
+            lo = mid
+        else:
+            hi = mid
+    return lo

@@ -209,10 +209,14 @@ class OccupancyGrid:
     def set_probability(
         self, window: Window, probability: npt.ArrayLike, mask: npt.ArrayLike | None = None
     ) -> None:
-        """Write ``probability`` into ``window`` and lower its entropy to ``H(p)`` where smaller.
+        """Write ``probability`` into ``window`` and update its entropy (eq. 37, amended).
 
-        The entropy layer keeps, per cell, the minimum over time of the Bernoulli entropy
-        of the cell's probability [bits] (Post et al. 2016 eq. 37, measured in bits). With
+        Post et al. 2016 eq. 37 keeps, per cell, the minimum over time of the Bernoulli
+        entropy of its probability [bits]. Taken literally, a cell once read as "certainly
+        free" stays certain after later readings make it an obstacle again. Here a write that
+        makes a cell *less* certain (``H(p_new) > H(p_old)``: the new evidence contradicts
+        what the cell held) resets its entropy to ``H(p_new)``; a write that agrees keeps the
+        minimum. So the minimum runs over the readings since the last contradiction. With
         ``mask`` (booleans of ``window.shape``) only the cells it marks are written.
         """
         values = np.asarray(probability, dtype=np.float64)
@@ -222,17 +226,15 @@ class OccupancyGrid:
             )
         if values.size and not (np.all(values >= 0.0) and np.all(values <= 1.0)):
             raise InputError("probabilities written to the grid must lie in [0, 1]")
-        block = self.probability[window.rows, window.cols]
-        entropy = self.entropy[window.rows, window.cols]
-        if mask is None:
-            block[...] = values
-            np.minimum(entropy, binary_entropy_bits(values), out=entropy)
-            return
-        chosen = np.asarray(mask, dtype=bool)
+        chosen = np.ones(window.shape, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
         if chosen.shape != window.shape:
             raise InputError(f"mask has shape {chosen.shape}, window is {window.shape}")
+        block = self.probability[window.rows, window.cols]
+        entropy = self.entropy[window.rows, window.cols]
+        h_new = binary_entropy_bits(values[chosen])
+        contradicted = h_new > binary_entropy_bits(block[chosen])
+        entropy[chosen] = np.where(contradicted, h_new, np.minimum(entropy[chosen], h_new))
         block[chosen] = values[chosen]
-        entropy[chosen] = np.minimum(entropy[chosen], binary_entropy_bits(values[chosen]))
 
     def unobserved(self) -> BoolArray:
         """Cells no reading has informed: probability still exactly the prior (Yamauchi 1997)."""

@@ -7,16 +7,22 @@ anything else, and every cell of ``unknown_mask``, is unknown (pixel 205). The Y
 (p = 50/255 = 0.19608) as unknown, not free. ``origin`` is the lower-left corner of cell
 (0, 0) and image row 0 is the *top* of the map, so rows are flipped on the way out and in.
 
-Reading follows ``map_server``'s ``image_loader``: ``p = (255 - x) / 255`` (or ``x / 255``
-with ``negate: 1``), ``x`` the mean of the colour channels; :func:`classify` applies its
-trinary thresholds (``p > occupied_thresh`` → 100, ``p < free_thresh`` → 0, else −1).
+Written maps are honest about certainty: with ``entropy`` given, a cell is written free or
+occupied only when its entropy is below ``certain_below`` (0.3 bits by default, i.e.
+``p < 0.053`` or ``p > 0.947``), unknown otherwise; the YAML says ``mode: trinary``.
+
+Reading follows ``map_server``'s ``image_loader``: the YAML is parsed with PyYAML's safe
+loader; ``p = (255 - x) / 255`` (or ``x / 255`` with ``negate: 1``), ``x`` the mean of the
+colour channels; :func:`occupancy_values` applies the YAML's ``mode``: ``trinary``
+(``p > occupied_thresh`` → 100, ``p < free_thresh`` → 0, else −1, as :func:`classify`),
+``scale`` (between the thresholds, ``99 (p - free) / (occupied - free)``) or ``raw`` (the
+pixel value, after ``negate``). The origin's yaw is returned with the map.
 """
 
 from __future__ import annotations
 
 import io
 import math
-import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
+import yaml
 from PIL import Image, UnidentifiedImageError
 
 from bayesmap._io import read_input, write_bytes, write_text
@@ -38,16 +45,33 @@ OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.196
 SAVE_FREE = 0.25
 SAVE_OCCUPIED = 0.65
+CERTAIN_BELOW = 0.3
+"""Entropy [bits] below which a written cell may be free or occupied (else unknown)."""
 MODES = ("trinary", "scale", "raw")
-"""map_server's interpretations of a map image."""
 
 
 class RosMap(NamedTuple):
-    """A map read from ROS files: probability ``(ny, nx)``, resolution [m], origin (x, y) [m]."""
+    """A map read from ROS files.
+
+    Attributes
+    ----------
+    probability
+        ``(ny, nx)`` occupancy probability by map_server's rule, row 0 at the bottom.
+    resolution
+        Cell side [m].
+    origin
+        ``(x, y)`` [m] of the lower-left corner of cell (0, 0).
+    yaw
+        Rotation of the map about its origin [rad] (the third ``origin`` value).
+    occupancy
+        ``(ny, nx)`` int16 values map_server would publish for the YAML's ``mode``.
+    """
 
     probability: FloatArray
     resolution: float
     origin: tuple[float, float]
+    yaw: float = 0.0
+    occupancy: npt.NDArray[np.int16] | None = None
 
 
 @dataclass(frozen=True)
@@ -70,6 +94,8 @@ def write_ros_map(
     origin: tuple[float, float] = (0.0, 0.0),
     *,
     unknown_mask: npt.ArrayLike | None = None,
+    entropy: npt.ArrayLike | None = None,
+    certain_below: float = CERTAIN_BELOW,
     save_free: float = SAVE_FREE,
     save_occupied: float = SAVE_OCCUPIED,
 ) -> tuple[Path, Path]:
@@ -87,6 +113,8 @@ def write_ros_map(
         World ``(x, y)`` [m] of the lower-left corner of cell (0, 0); yaw is written as 0.
     unknown_mask
         ``(ny, nx)`` booleans: cells to write as unknown whatever their probability.
+    entropy, certain_below
+        ``(ny, nx)`` entropy [bits]: cells at or above ``certain_below`` are written unknown.
     save_free, save_occupied
         ``map_saver``'s ``--free 25 --occ 65`` thresholds, as probabilities.
 
@@ -94,6 +122,9 @@ def write_ros_map(
     -------
     (yaml_path, pgm_path)
     """
+    if entropy is not None:
+        uncertain = np.asarray(entropy, dtype=np.float64) >= certain_below
+        unknown_mask = uncertain if unknown_mask is None else uncertain | np.asarray(unknown_mask)
     pixels = ros_pixels(
         probability, unknown_mask=unknown_mask, save_free=save_free, save_occupied=save_occupied
     )
@@ -110,6 +141,7 @@ def write_ros_map(
         f"image: {pgm_path.name}\n"
         f"resolution: {resolution:f}\n"
         f"origin: [{float(origin[0]):f}, {float(origin[1]):f}, {0.0:f}]\n"
+        "mode: trinary\n"
         "negate: 0\n"
         f"occupied_thresh: {OCCUPIED_THRESH}\n"
         f"free_thresh: {FREE_THRESH}\n\n",
@@ -177,119 +209,94 @@ def saved_classes(
     return cells
 
 
-def read_ros_metadata(yaml_path: str | Path, *, limits: ReadLimits | None = None) -> RosMapMetadata:
-    """Parse a map_server YAML file (the flat ``key: value`` subset ROS writes).
-
-    ``mode`` must be one of :data:`MODES` and ``0 <= free_thresh < occupied_thresh <= 1``.
-    """
-    path = Path(yaml_path)
-    text = _yaml_text(path, limits or DEFAULT_LIMITS)
-    fields: dict[str, tuple[str, int]] = {}
-    for lineno, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        key, sep, value = line.partition(":")
-        if not sep or not key.strip():
-            raise FormatError(f"expected 'key: value', got {raw.strip()!r}", path=path, line=lineno)
-        fields[key.strip()] = (value.strip().strip("'\""), lineno)
+def _yaml_fields(path: Path, limits: ReadLimits) -> dict[str, object]:
+    """The YAML mapping of a map_server file (a regular file within ``limits``), parsed with
+    PyYAML's safe loader."""
+    data = read_input(path, max_bytes=limits.max_bytes)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise FormatError(f"map YAML is not UTF-8 text ({error})", path=path) from None
+    try:
+        fields = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        line = None if mark is None else mark.line + 1
+        problem = getattr(error, "problem", None) or "invalid YAML"
+        raise FormatError(f"not valid YAML: {problem}", path=path, line=line) from None
+    if not isinstance(fields, dict):
+        raise FormatError("map YAML must be a mapping of 'key: value' fields", path=path)
     for key in ("image", "resolution", "origin"):
         if key not in fields:
             raise FormatError(f"map YAML lacks the required field {key!r}", path=path, element=key)
+    return fields
 
-    def number(key: str, default: float | None = None) -> float:
-        if key not in fields:
-            assert default is not None
-            return default
-        value, line = fields[key]
-        try:
-            result = float(value)
-        except ValueError:
-            raise FormatError(
-                f"{key} must be a number, got {value!r}", path=path, line=line, element=key
-            ) from None
-        if not math.isfinite(result):
-            raise FormatError(
-                f"{key} must be finite, got {value!r}", path=path, line=line, element=key
-            )
-        return result
 
-    origin_text, origin_line = fields["origin"]
-    match = re.fullmatch(r"\[(.*)\]", origin_text)
-    parts = [part.strip() for part in match.group(1).split(",")] if match else []
-    try:
-        origin = tuple(float(part) for part in parts)
-    except ValueError:
-        origin = ()
-    if len(origin) != 3 or not all(math.isfinite(v) for v in origin):
+def _number(fields: dict[str, object], key: str, path: Path, default: float | None = None) -> float:
+    value = fields.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise FormatError(f"{key} must be a finite number, got {value!r}", path=path, element=key)
+    return float(value)
+
+
+def read_ros_metadata(yaml_path: str | Path, *, limits: ReadLimits | None = None) -> RosMapMetadata:
+    """Parse and check a map_server YAML file (PyYAML safe loader), within ``limits``."""
+    path = Path(yaml_path)
+    fields = _yaml_fields(path, limits or DEFAULT_LIMITS)
+    origin = fields["origin"]
+    if not (isinstance(origin, list) and len(origin) == 3):
         raise FormatError(
-            f"origin must be [x, y, yaw], got {origin_text!r}",
-            path=path,
-            line=origin_line,
-            element="origin",
+            f"origin must be [x, y, yaw], got {origin!r}", path=path, element="origin"
         )
-    resolution = number("resolution")
+    x, y, yaw = (_number({"origin": v}, "origin", path) for v in origin)
+    resolution = _number(fields, "resolution", path)
     if resolution <= 0:
         raise FormatError(
-            f"resolution must be positive, got {resolution}",
-            path=path,
-            line=fields["resolution"][1],
-            element="resolution",
+            f"resolution must be positive, got {resolution}", path=path, element="resolution"
         )
-    negate_text = fields.get("negate", ("0", 0))[0].lower()
-    if negate_text not in ("0", "1", "true", "false"):
+    negate = fields.get("negate", 0)
+    if negate not in (0, 1):  # True and False compare equal to 1 and 0
+        raise FormatError(f"negate must be 0 or 1, got {negate!r}", path=path, element="negate")
+    occupied = _number(fields, "occupied_thresh", path, OCCUPIED_THRESH)
+    free = _number(fields, "free_thresh", path, FREE_THRESH)
+    if not 0.0 <= free < occupied <= 1.0:
         raise FormatError(
-            f"negate must be 0 or 1, got {negate_text!r}",
+            f"need 0 <= free_thresh < occupied_thresh <= 1, got {free} and {occupied}",
             path=path,
-            line=fields["negate"][1],
-            element="negate",
+            element="free_thresh",
         )
-    image = Path(fields["image"][0])
-    occupied_thresh = number("occupied_thresh", OCCUPIED_THRESH)
-    free_thresh = number("free_thresh", FREE_THRESH)
-    _check_thresholds(free_thresh, occupied_thresh, path)
-    mode, mode_line = fields.get("mode", ("trinary", 0))
-    _check_mode(mode, path, mode_line)
+    mode = fields.get("mode", "trinary")
+    if mode not in MODES:
+        raise FormatError(
+            f"mode must be one of {', '.join(MODES)}, got {mode!r}", path=path, element="mode"
+        )
+    if not isinstance(fields["image"], str) or not fields["image"]:
+        raise FormatError("image must name the map's image file", path=path, element="image")
+    image = Path(fields["image"])
     return RosMapMetadata(
         image=image if image.is_absolute() else path.parent / image,
         resolution=resolution,
-        origin=(origin[0], origin[1], origin[2]),
-        negate=negate_text in ("1", "true"),
-        occupied_thresh=occupied_thresh,
-        free_thresh=free_thresh,
-        mode=mode,
+        origin=(x, y, yaw),
+        negate=bool(negate),
+        occupied_thresh=occupied,
+        free_thresh=free,
+        mode=str(mode),
     )
 
 
-def _yaml_text(path: Path, limits: ReadLimits) -> str:
-    """The text of a map YAML: a regular file, at most ``limits.max_bytes``, UTF-8."""
-    data = read_input(path, max_bytes=limits.max_bytes)
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as error:
-        raise FormatError(f"map YAML is not UTF-8 text ({error})", path=path) from None
-
-
-def _check_thresholds(free_thresh: float, occupied_thresh: float, path: Path) -> None:
-    """map_server's thresholds are probabilities with ``free_thresh < occupied_thresh``."""
-    if not 0.0 <= free_thresh < occupied_thresh <= 1.0:
-        raise FormatError(
-            f"need 0 <= free_thresh < occupied_thresh <= 1, got free_thresh {free_thresh} "
-            f"and occupied_thresh {occupied_thresh}",
-            path=path,
-            element="free_thresh/occupied_thresh",
-        )
-
-
-def _check_mode(mode: str, path: Path, line: int) -> None:
-    """``mode`` is one of map_server's: trinary, scale or raw."""
-    if mode not in MODES:
-        raise FormatError(
-            f"mode must be one of {', '.join(MODES)}, got {mode!r}",
-            path=path,
-            line=line or None,
-            element="mode",
-        )
+def occupancy_values(pixels: npt.ArrayLike, meta: RosMapMetadata) -> npt.NDArray[np.int16]:
+    """The values map_server publishes for grey levels ``pixels`` (0..255) under ``meta.mode``."""
+    x = np.asarray(pixels, dtype=np.float64)
+    x = 255.0 - x if meta.negate else x
+    if meta.mode == "raw":
+        return np.asarray(np.rint(x), dtype=np.int16)
+    p = (255.0 - x) / 255.0
+    values = classify(p, meta.occupied_thresh, meta.free_thresh).astype(np.int16)
+    if meta.mode == "scale":
+        between = values == -1
+        ratio = (p[between] - meta.free_thresh) / (meta.occupied_thresh - meta.free_thresh)
+        values[between] = np.rint(99.0 * ratio).astype(np.int16)
+    return values
 
 
 def read_ros_map(yaml_path: str | Path, *, limits: ReadLimits | None = None) -> RosMap:
@@ -317,7 +324,13 @@ def read_ros_map(yaml_path: str | Path, *, limits: ReadLimits | None = None) -> 
             f"map image must be a non-empty 2-D image, got {pixels.shape}", path=meta.image
         )
     p = pixels / 255.0 if meta.negate else (255.0 - pixels) / 255.0
-    return RosMap(np.ascontiguousarray(p[::-1]), meta.resolution, (meta.origin[0], meta.origin[1]))
+    return RosMap(
+        np.ascontiguousarray(p[::-1]),
+        meta.resolution,
+        (meta.origin[0], meta.origin[1]),
+        meta.origin[2],
+        np.ascontiguousarray(occupancy_values(pixels, meta)[::-1]),
+    )
 
 
 def _image_grey_levels(path: Path, limits: ReadLimits) -> FloatArray:

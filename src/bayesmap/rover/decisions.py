@@ -22,9 +22,7 @@ def wrap(angle: npt.ArrayLike) -> FloatArray:
 
 def exploration_target(
     entropy: npt.ArrayLike,
-    xc: npt.ArrayLike,
-    yc: npt.ArrayLike,
-    rover: tuple[float, float],
+    distance: npt.ArrayLike,
     *,
     d_max: float,
     d_min: float = 0.0,
@@ -34,22 +32,21 @@ def exploration_target(
 
     Eq. 38 takes the cell of largest entropy ``H`` within ``d_max`` of the rover; eq. 39
     prefers, among the cells whose entropy is within ``margin`` (``delta_h``) of that
-    largest value, the one nearest the rover. ``margin = 0`` gives eq. 38 with ties broken
-    toward the rover. Cells closer than ``d_min`` are not candidates.
+    largest value, the one nearest the rover. ``distance`` [m] is each cell's distance from
+    the rover: the straight line of the paper, or a path length over the map (``inf`` for
+    cells that cannot be reached). ``margin = 0`` gives eq. 38 with ties broken toward the
+    rover. Cells closer than ``d_min`` are not candidates; nor are cells of NaN entropy.
 
     Examples
     --------
     >>> H = np.array([0.9, 1.0, 0.97])
-    >>> exploration_target(H, [1.0, 5.0, 2.0], [0.0, 0.0, 0.0], (0.0, 0.0), d_max=8.0)
+    >>> exploration_target(H, [1.0, 5.0, 2.0], d_max=8.0)
     1
-    >>> exploration_target(H, [1.0, 5.0, 2.0], [0.0, 0.0, 0.0], (0.0, 0.0), d_max=8.0, margin=0.05)
+    >>> exploration_target(H, [1.0, 5.0, 2.0], d_max=8.0, margin=0.05)
     2
     """
     h = np.asarray(entropy, dtype=np.float64).ravel()
-    d = np.hypot(
-        np.asarray(xc, dtype=np.float64).ravel() - rover[0],
-        np.asarray(yc, dtype=np.float64).ravel() - rover[1],
-    )
+    d = np.asarray(distance, dtype=np.float64).ravel()
     candidate = (d < d_max) & (d >= d_min) & np.isfinite(h)
     if not np.any(candidate):
         return -1
@@ -101,23 +98,18 @@ def collision_probability(
     d_max: float,
     clearance: float,
     distance_weighted: bool = True,
-    stop_distance: float = 0.0,
-    p_block: float = 1.0,
-) -> tuple[FloatArray, BoolArray]:
-    """``P(O | R, d, theta_m)`` for each heading ``theta_m`` (eq. 42, or eq. 41), and blocking.
+) -> FloatArray:
+    """``P(O | R, d, theta_m)`` for each heading ``theta_m`` (eq. 42, or eq. 41).
 
     The cells swept by a corridor of half-width ``clearance`` [m] along the heading, out to
     ``d_max``, are summed, each weighted by ``d_max - |x - x_bar|`` (eq. 42; weight 1 for
     eq. 41), and normalised by the sum of the weights so that the result is a probability.
-    A heading whose corridor holds no cell gets 0.
-
-    The second result marks the headings whose corridor holds a likely obstacle
-    (``p >= p_block``) within ``stop_distance`` [m] — a safety rule added to the paper;
-    callers set ``P(O | theta) = 1`` there.
+    A heading whose corridor holds no cell gets 0. The rover's footprint is checked apart
+    from this (:mod:`bayesmap.rover.safety`).
     """
     p = np.asarray(probability, dtype=np.float64).ravel()
     t = np.asarray(theta, dtype=np.float64).ravel()
-    near, inside, along, distance = _corridor(
+    near, inside, _, distance = _corridor(
         np.asarray(xc, dtype=np.float64),
         np.asarray(yc, dtype=np.float64),
         rover,
@@ -131,9 +123,7 @@ def collision_probability(
     total = weight.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         value = weight @ p / total
-    likely = (p >= p_block) & (distance <= stop_distance + clearance)
-    blocked = (inside[:, likely] & (along[:, likely] <= stop_distance)).any(axis=1)
-    return np.asarray(np.where(total > 0, value, 0.0)), np.asarray(blocked)
+    return np.asarray(np.where(total > 0, value, 0.0))
 
 
 def movement_distribution(p_t: npt.ArrayLike, p_o: npt.ArrayLike) -> FloatArray:

@@ -8,6 +8,7 @@ simulator.
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,11 +16,23 @@ import numpy.typing as npt
 
 from bayesmap._typing import FloatArray
 from bayesmap.grid import OccupancyGrid
-from bayesmap.rover.decisions import collision_probability, navigation_goal, wrap
+from bayesmap.rover.decisions import collision_probability, navigation_goal
 from bayesmap.rover.mapping import IRMapper, local_patch
-from bayesmap.rover.network import DecisionNetwork, Evaluator
+from bayesmap.rover.network import CycleInputs, DecisionNetwork, Evaluator
 from bayesmap.rover.params import RoverParams
+from bayesmap.rover.planning import LocalPlan, local_plan
+from bayesmap.rover.safety import (
+    Safety,
+    drive_command,
+    footprint_safety,
+    hazard_cells,
+    reading_points,
+)
 from bayesmap.rover.targets import TargetRule
+from bayesmap.sensing.ir import ranger_poses
+
+_HEMMED_IN = 9
+"""With fewer reachable cells than this, the plan is not trusted to reject targets."""
 
 
 @dataclass(frozen=True)
@@ -29,7 +42,7 @@ class Decision:
     Attributes
     ----------
     command
-        ``(speed [m/s], yaw_rate [rad/s])`` for the drive.
+        ``(speed [m/s], yaw_rate [rad/s])`` for the drive; a negative speed backs off.
     heading
         The chosen world heading [rad].
     target
@@ -37,7 +50,12 @@ class Decision:
     p_move
         ``P(Motors)`` over the ``M`` headings, as the network answered.
     p_collision
-        ``P(O | theta_m)`` over the headings (eq. 42, blocked headings at 1).
+        ``P(O | theta_m)`` over the headings (eq. 42).
+    safety
+        The footprint check of the headings (:mod:`bayesmap.rover.safety`).
+    target_cost
+        Path length [m] to the target over the local map (straight-line distance when the
+        target lies beyond it; ``nan`` without a target).
     """
 
     command: tuple[float, float]
@@ -45,10 +63,19 @@ class Decision:
     target: tuple[float, float] | None
     p_move: FloatArray
     p_collision: FloatArray
+    safety: Safety
+    target_cost: float
 
 
 class Explorer:
-    """The rover's brain for mapping an area (Post et al. 2016 §4).
+    """The rover's brain for mapping an area (Post et al. 2016 §4, made safe and complete).
+
+    Each cycle: fold the readings into the maps (eqs. 31–37); plan path costs over the local
+    area (:mod:`bayesmap.rover.planning`); let the target rule pick or keep a target;
+    steer toward a waypoint on the path to it (eq. 40); read eq. 42 off the map; check the
+    footprint along every heading (:mod:`bayesmap.rover.safety`); ask the decision network;
+    drive. When no heading is safe the rover stops and turns in place, or backs off when
+    its footprint is already within the margin of an obstacle ahead.
 
     Parameters
     ----------
@@ -68,6 +95,9 @@ class Explorer:
         The IR mapper holding the maps.
     network_
         The decision network queried every cycle.
+    recent_hits_
+        The points read by the rangers in the last ``hit_memory`` cycles [m]: the footprint
+        keeps its margin from them as from the map, without the map's cell quantisation.
     """
 
     def __init__(
@@ -81,6 +111,7 @@ class Explorer:
         self.target_rule = target_rule
         self.mapper_ = IRMapper(grid, params)
         self.network_ = DecisionNetwork(params, evaluator)
+        self.recent_hits_: deque[FloatArray] = deque(maxlen=params.hit_memory)
         self._theta = np.asarray(params.headings)
 
     @property
@@ -97,46 +128,89 @@ class Explorer:
         """Run one cycle on ADC readings ``raw`` taken at estimated ``pose = (x, y, heading)``."""
         p = self.params
         x, y, psi = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
-        self.mapper_.update(raw, (x, y, psi))
-        target = self.target_rule.select(self.grid, (x, y, psi))
-        theta_t = psi if target is None else math.atan2(target[1] - y, target[0] - x)
-        blocked = np.zeros(p.n_headings, dtype=bool)
-
-        def read_map() -> FloatArray:
-            """The data node's view of the map: eq. 42 per heading, blocked headings at 1."""
-            xc, yc, prob = local_patch(self.grid, self.grid.probability, x, y, p.d_max, p.prior)
-            p_o, blocked[:] = collision_probability(
-                prob,
-                xc,
-                yc,
-                (x, y),
-                self._theta,
-                d_max=p.d_max,
-                clearance=p.clearance,
-                distance_weighted=p.distance_weighted,
-                stop_distance=p.stop_distance,
-                p_block=p.p_block,
-            )
-            return np.asarray(np.where(blocked, 1.0, p_o))
-
-        p_t = navigation_goal(self._theta, theta_t)
-        index, p_move = self.network_.decide(
-            p_t, read_map, self.mapper_.last_contacts_, self.mapper_.last_ranges_
+        mapper = self.mapper_
+        mapper.update(raw, (x, y, psi))
+        plan = local_plan(self.grid, x, y, p)
+        target, waypoint = self._target(plan, (x, y, psi))
+        theta_t = psi if waypoint is None else math.atan2(waypoint[1] - y, waypoint[0] - x)
+        safety = self._safety((x, y, psi))
+        xc, yc, prob = local_patch(self.grid, self.grid.probability, x, y, p.d_max, p.prior)
+        p_o = collision_probability(
+            prob,
+            xc,
+            yc,
+            (x, y),
+            self._theta,
+            d_max=p.d_max,
+            clearance=p.clearance,
+            distance_weighted=p.distance_weighted,
         )
-        p_o = self.network_.collision()
+        inputs = CycleInputs(
+            contacts=mapper.last_contacts_,
+            ranges=mapper.last_ranges_,
+            p_t=navigation_goal(self._theta, theta_t),
+            p_o=p_o,
+            heading=psi,
+            safe=safety.safe,
+        )
+        index, p_move = self.network_.decide(inputs)
         heading = float(self._theta[index])
-        if target is None:
-            command = (0.0, 0.0)
-        else:
-            facing = int(np.argmin(np.abs(wrap(self._theta - psi))))
-            command = self._drive(heading, psi, bool(blocked[index] or blocked[facing]))
-        return Decision(command, heading, target, p_move, p_o)
+        command = (0.0, 0.0) if target is None else self._drive(heading, psi, safety, index)
+        cost = math.nan
+        if target is not None:
+            cost = plan.cost_to(*target)
+            if math.isnan(cost):
+                cost = math.hypot(target[0] - x, target[1] - y)
+        return Decision(command, heading, target, p_move, p_o, safety, cost)
 
-    def _drive(self, heading: float, psi: float, blocked: bool) -> tuple[float, float]:
-        """Turn toward ``heading``; pivot in place when blocked or facing away (skid steer)."""
+    def _target(
+        self, plan: LocalPlan, pose: tuple[float, float, float]
+    ) -> tuple[tuple[float, float] | None, tuple[float, float] | None]:
+        """The rule's target and the waypoint toward it; unreachable targets are rejected.
+
+        When the plan reaches next to nothing (the rover hemmed in by hazards on a noisy
+        map), nothing is rejected: the rover steers at the target and the footprint check
+        keeps it safe while it turns and looks around.
+        """
+        if int(np.isfinite(plan.cost).sum()) < _HEMMED_IN:
+            target = self.target_rule.select(self.grid, pose, plan, self.mapper_.uncertain_)
+            return target, target
+        for _ in range(8):
+            target = self.target_rule.select(self.grid, pose, plan, self.mapper_.uncertain_)
+            if target is None:
+                return None, None
+            waypoint = plan.waypoint(target)
+            if waypoint is not None:
+                return target, waypoint
+            self.target_rule.reject(target)
+        return target, None
+
+    def _safety(self, pose: tuple[float, float, float]) -> Safety:
+        """The footprint check of every heading against the map and the current readings."""
         p = self.params
-        error = float(wrap(heading - psi))
-        if blocked or abs(error) > math.pi / 2:
-            return (0.0, math.copysign(p.pivot_rate, error if error != 0 else 1.0))
-        limit = p.speed / p.min_turn_radius
-        return (p.speed, float(np.clip(2.0 * error, -limit, limit)))
+        grid = self.grid
+        reach = p.lookahead + p.footprint_radius + p.safety_margin + grid.resolution
+        xc, yc, prob = local_patch(grid, grid.probability, pose[0], pose[1], reach, 0.0)
+        likely = hazard_cells(prob, p)
+        unknown = prob == grid.prior
+        sensors = ranger_poses(pose, p.sensor_angles, p.sensor_offset)
+        self.recent_hits_.append(
+            reading_points(sensors, self.mapper_.last_ranges_, self.mapper_.last_above_noise_, p)
+        )
+        hits = np.concatenate(list(self.recent_hits_))
+        hits = hits[np.hypot(hits[:, 0] - pose[0], hits[:, 1] - pose[1]) <= reach]
+        cells = np.stack([xc[likely], yc[likely]], axis=1)
+        unseen = np.stack([xc[unknown], yc[unknown]], axis=1)
+        return footprint_safety(
+            pose, self._theta, cells, grid.resolution, hits, grid.extent, p, unseen
+        )
+
+    def _drive(self, heading: float, psi: float, safety: Safety, index: int) -> tuple[float, float]:
+        """Drive toward a safe heading; otherwise stop and turn in place, or back off."""
+        p = self.params
+        if safety.safe[index]:
+            return drive_command(heading, psi, p)
+        if safety.here < p.safety_margin and safety.ahead and safety.back_clear:
+            return (-p.speed, 0.0)
+        error = math.remainder(heading - psi, 2.0 * math.pi)
+        return (0.0, math.copysign(p.pivot_rate, error if error != 0 else 1.0))

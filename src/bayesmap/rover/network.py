@@ -8,20 +8,30 @@ Nodes (kind in brackets, §3.4):
 - ``SensorFusion`` [C]: the linear opinion pool of the rangers toward the heading, eq. 35,
   with the angular weights of eq. 34;
 - ``CollisionAvoidance`` [C]: a candidate heading ``theta_m`` (uniform a priori);
-- ``ProbabilityMap`` [D]: whether the corridor along the candidate heading is ``clear`` or
-  holds an ``obstacle``, read from the live probability map at query time
-  (``P(obstacle | theta_m)`` = eq. 42); observed ``clear``, it turns the candidate heading's
-  distribution into ``∝ 1 - P(O | theta_m)``. Its parent ``SensorFusion`` records that the
-  map is what the fused readings were written into; the table does not depend on it;
+- ``ProbabilityMap`` [D]: whether the way along the candidate heading is ``clear`` or
+  holds an ``obstacle``. Given ``SensorFusion = free`` it is read from the probability map
+  (``P(obstacle | theta_m)`` = eq. 42); given ``SensorFusion = obstacle`` the current
+  readings add an obstacle ahead: ``P(clear | theta_m) = (1 - P_O(theta_m)) (1 - a(theta_m))``
+  with ``a`` a Gaussian of the heading's angle from the rover's heading over the rangers'
+  view, scaled by how close the nearest reading is (1 at the rangers, 0 at ``r_max``).
+  Observed ``clear``, it turns the candidate heading's distribution into
+  ``∝ P(clear | theta_m)``, so a reading straight ahead steers the rover through the network;
 - ``NavigationGoal`` [C]: a heading toward the target (eq. 40), or ``any``, with the weights
   of the two terms of eq. 43;
 - ``MovementModel`` [A]: follows the navigation goal's heading, or the collision-avoidance
-  heading when the goal says ``any``; so ``P(M) ∝ P(T) + (1 - P(O))``, eq. 43;
+  heading when the goal says ``any``; so ``P(M) ∝ P(T) + (1 - P(O))``, eq. 43, when no
+  ranger reads anything within ``r_max``;
+- ``Footprint`` [D]: whether the rover's body stays clear of likely obstacles on the way
+  to each heading (:mod:`bayesmap.rover.safety`, ours), observed ``clear``: headings whose
+  swept footprint is unsafe get likelihood ``1e-9``;
 - ``Motors`` [B]: the heading commanded.
 
-A cycle's question is ``P(Motors | IR_k = o_k, ProbabilityMap = clear)``; its argmax is the
-heading (§4.5). :func:`bayesmap.rover.decisions.movement_distribution` is the same number
-computed directly; the tests check they agree.
+A cycle's question is ``P(Motors | IR_k = o_k, ProbabilityMap = clear, Footprint = clear)``;
+its argmax is the heading (§4.5). The inputs of a cycle (readings, map, goal, footprint)
+are handed to :meth:`DecisionNetwork.decide` as one :class:`CycleInputs`; the data nodes'
+sources read them from there. :func:`bayesmap.rover.decisions.movement_distribution` is the
+same number computed directly when nothing is in range and every heading is safe; the
+tests check they agree.
 """
 
 from __future__ import annotations
@@ -32,9 +42,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._typing import FloatArray
+from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.bn.model import BayesNet, DataSource, NodeKind
 from bayesmap.errors import InputError
+from bayesmap.rover.decisions import wrap
 from bayesmap.rover.params import RoverParams
 from bayesmap.sensing.fusion import opinion_pool
 from bayesmap.sensing.ir import angular_weight, beta_r, sensor_posterior
@@ -42,26 +53,40 @@ from bayesmap.sensing.ir import angular_weight, beta_r, sensor_posterior
 _P_O_MAX = 1.0 - 1e-9
 """``P(O | theta)`` is capped below 1 so that ``clear`` never has probability zero."""
 
-
-MapReader = Callable[[], npt.ArrayLike]
-"""Reads ``P(O | theta_m)`` for the ``M`` headings off the live probability map (eq. 42)."""
+_UNSAFE = 1e-9
+"""Likelihood of ``Footprint = clear`` for a heading whose swept footprint is unsafe."""
 
 Evaluator = Callable[[BayesNet, str, Mapping[str, str]], npt.ArrayLike]
 """Answers ``P(target | evidence)`` on the network, e.g. through generated C code
 (:func:`bayesmap.rover.native.compiled_evaluator`); the default asks the Python engine."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class CycleInputs:
-    """What the data sources read during one query (set by :meth:`DecisionNetwork.decide`).
+    """Everything one query reads: the readings, the map's answer, the goal, the footprint.
 
-    ``p_o`` is filled from ``read_map`` the first time a node's source needs it.
+    Attributes
+    ----------
+    contacts
+        ``(n,)`` contact flags of the rangers (eq. 33).
+    ranges
+        ``(n,)`` read ranges [m].
+    p_t
+        ``(M,)`` ``P(T | R, d, theta_t)`` at the headings (eq. 40).
+    p_o
+        ``(M,)`` ``P(O | theta_m)`` read off the probability map (eq. 42).
+    heading
+        The rover's heading [rad], to place the readings among the world headings.
+    safe
+        ``(M,)`` headings whose swept footprint is clear (:mod:`bayesmap.rover.safety`).
     """
 
+    contacts: BoolArray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     ranges: FloatArray = field(default_factory=lambda: np.zeros(0))
     p_t: FloatArray = field(default_factory=lambda: np.zeros(0))
-    p_o: FloatArray | None = None
-    read_map: MapReader | None = None
+    p_o: FloatArray = field(default_factory=lambda: np.zeros(0))
+    heading: float = 0.0
+    safe: BoolArray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
 
 def heading_states(n: int) -> tuple[str, ...]:
@@ -86,7 +111,9 @@ class DecisionNetwork:
         self.inputs_ = CycleInputs()
         self.n_sensors = len(params.sensor_angles)
         self.net = self._build()
-        self._evidence: dict[str, str] = {"ProbabilityMap": "clear"}
+        self._theta = np.asarray(params.headings)
+        self._view = float(np.max(np.abs(params.sensor_angles))) + params.w_r
+        self._evidence: dict[str, str] = {"ProbabilityMap": "clear", "Footprint": "clear"}
 
     def _build(self) -> BayesNet:
         p = self.params
@@ -146,6 +173,14 @@ class DecisionNetwork:
             cpt=follow,
         )
         net.add_variable(
+            "Footprint",
+            ["clear", "blocked"],
+            parents=["MovementModel"],
+            kind=NodeKind.DATA,
+            cpt=np.full((2, m), 0.5),
+            source=self._footprint_source,
+        )
+        net.add_variable(
             "Motors", headings, parents=["MovementModel"], kind=NodeKind.BUS, cpt=np.eye(m)
         )
         return net
@@ -173,55 +208,57 @@ class DecisionNetwork:
         obstacle = opinion_pool(states.T.astype(float), alpha[:, None], axis=0)
         return np.stack([1.0 - obstacle, obstacle]).reshape((2,) + (2,) * n)
 
-    def collision(self) -> FloatArray:
-        """This cycle's ``P(O | theta_m)``, read off the map on first use (capped below 1)."""
+    def reading_ahead(self) -> FloatArray:
+        """``a(theta_m)``: how strongly the current readings put an obstacle on each heading.
+
+        A Gaussian of the heading's angle from the rover's heading, of width the rangers'
+        view (widest mounting angle + ``w_r``), times ``1 - r / r_max`` for the nearest read
+        range ``r`` (0 when nothing is read within ``r_max``).
+        """
         inputs = self.inputs_
-        if inputs.p_o is None:
-            if inputs.read_map is None:
-                raise InputError("the decision network has no map to read this cycle")
-            inputs.p_o = np.minimum(np.asarray(inputs.read_map(), dtype=np.float64), _P_O_MAX)
-        return inputs.p_o
+        nearest = float(np.min(inputs.ranges, initial=np.inf))
+        closeness = float(np.clip(1.0 - nearest / self.params.r_max, 0.0, 1.0))
+        offset = wrap(self._theta - inputs.heading)
+        return np.asarray(closeness * np.exp(-((offset / self._view) ** 2)))
 
     def _map_source(self, evidence: Mapping[str, str]) -> FloatArray:
         del evidence
-        p_o = self.collision()
-        column = np.stack([1.0 - p_o, p_o])
-        return np.repeat(column[:, :, None], 2, axis=2)
+        clear = 1.0 - self.inputs_.p_o
+        with_reading = clear * (1.0 - self.reading_ahead())
+        table = np.stack([np.stack([clear, with_reading], axis=1)])
+        return np.concatenate([table, 1.0 - table])
 
     def _goal_source(self, evidence: Mapping[str, str]) -> FloatArray:
         del evidence
         p_t = self.inputs_.p_t
-        free = float(np.sum(1.0 - self.collision()))
+        free = float(np.sum(1.0 - self.inputs_.p_o))
         return np.asarray(np.append(p_t, free) / (p_t.sum() + free))
 
-    # --------------------------------------------------------------- queries
-    def decide(
-        self,
-        p_t: npt.ArrayLike,
-        p_o: npt.ArrayLike | MapReader,
-        contacts: npt.ArrayLike,
-        ranges: npt.ArrayLike,
-    ) -> tuple[int, FloatArray]:
-        """Ask the network ``P(Motors | readings, map clear)``; return (argmax, distribution).
+    def _footprint_source(self, evidence: Mapping[str, str]) -> FloatArray:
+        del evidence
+        clear = np.where(self.inputs_.safe, 1.0, _UNSAFE)
+        return np.stack([clear, 1.0 - clear])
 
-        Parameters
-        ----------
-        p_t
-            ``P(T | R, d, theta_t)`` at the ``M`` headings (eq. 40).
-        p_o
-            ``P(O | theta_m)`` at the headings, or a :data:`MapReader` that the
-            ``ProbabilityMap`` data node calls to read them off the live map (eq. 42).
-        contacts, ranges
-            The rangers' contact flags (eq. 33) and read ranges [m].
-        """
-        reader = p_o if callable(p_o) else None
+    # --------------------------------------------------------------- queries
+    def decide(self, inputs: CycleInputs) -> tuple[int, FloatArray]:
+        """Ask ``P(Motors | readings, map clear, footprint clear)``: (argmax, distribution)."""
+        m = self.params.n_headings
+        shapes = {"p_t": inputs.p_t.shape, "p_o": inputs.p_o.shape, "safe": inputs.safe.shape}
+        wrong = {k: v for k, v in shapes.items() if v != (m,)}
+        if wrong or inputs.contacts.shape != (self.n_sensors,):
+            raise InputError(
+                f"decision inputs need {m} headings and {self.n_sensors} rangers, got "
+                f"{shapes} and contacts {inputs.contacts.shape}"
+            )
         self.inputs_ = CycleInputs(
-            ranges=np.asarray(ranges, dtype=np.float64),
-            p_t=np.asarray(p_t, dtype=np.float64),
-            p_o=None if callable(p_o) else np.minimum(np.asarray(p_o, dtype=np.float64), _P_O_MAX),
-            read_map=reader,
+            contacts=inputs.contacts,
+            ranges=inputs.ranges,
+            p_t=inputs.p_t,
+            p_o=np.minimum(inputs.p_o, _P_O_MAX),
+            heading=inputs.heading,
+            safe=inputs.safe,
         )
-        for k, o in enumerate(np.asarray(contacts).astype(bool)):
+        for k, o in enumerate(inputs.contacts.astype(bool)):
             self._evidence[f"IR_{k}"] = "contact" if o else "no_contact"
         if self.evaluator is not None:
             distribution = np.asarray(self.evaluator(self.net, "Motors", self._evidence), float)
@@ -233,11 +270,7 @@ class DecisionNetwork:
 
     def fused(self, contacts: npt.ArrayLike, ranges: npt.ArrayLike) -> float:
         """``P(SensorFusion = obstacle | readings)``: eq. 35 straight ahead, from the network."""
-        self.inputs_ = CycleInputs(
-            ranges=np.asarray(ranges, dtype=np.float64), p_t=self.inputs_.p_t, p_o=self.inputs_.p_o
-        )
-        evidence = {
-            f"IR_{k}": ("contact" if o else "no_contact")
-            for k, o in enumerate(np.asarray(contacts).astype(bool))
-        }
+        flags = np.asarray(contacts).astype(bool)
+        self.inputs_ = CycleInputs(contacts=flags, ranges=np.asarray(ranges, dtype=np.float64))
+        evidence = {f"IR_{k}": ("contact" if o else "no_contact") for k, o in enumerate(flags)}
         return float(self.net.posterior("SensorFusion", evidence)["obstacle"])

@@ -6,7 +6,15 @@ import math
 from dataclasses import dataclass
 
 from bayesmap.errors import ConfigError
-from bayesmap.sensing.ir import R_MAX, RANGER_ANGLES, RANGER_OFFSET, SIGMA_R, W_R
+from bayesmap.sensing.ir import (
+    R_MAX,
+    RANGER_ANGLES,
+    RANGER_OFFSET,
+    RAW_FIT,
+    SIGMA_R,
+    W_R,
+    Calibration,
+)
 
 
 @dataclass(frozen=True)
@@ -25,6 +33,8 @@ class RoverParams:
         Lower bound on ``beta_r`` (see :func:`bayesmap.sensing.fusion.ir_cell_evidence`).
     sigma_r
         RMS noise of an IR reading [ADC units], for contact detection (eq. 33).
+    ir_fit
+        ``(a, b, c)`` of the rangers' ADC fit ``r_raw = (a r + b) / (r + c)`` (§5.1).
     w_r
         Angular sensitivity of a ranger [rad] (eq. 34).
     sigma_xy
@@ -47,13 +57,30 @@ class RoverParams:
         Half-width of the corridor swept along each heading (eqs. 41–42) [m].
     distance_weighted
         Use eq. 42 (closer obstacles count more) rather than eq. 41.
-    stop_distance, p_block
-        A heading whose corridor holds a cell with probability at least ``p_block`` closer
-        than ``stop_distance`` [m] is blocked (``P(O | theta) = 1``).
+    p_block
+        Cells with at least this probability are likely obstacles: the footprint keeps off
+        them, paths go around them, and targets keep ``clearance`` from them.
     h_desired
         Mapping is done when every cell's entropy is below this [bits].
     speed, min_turn_radius, pivot_rate
         The rover's drive limits: speed [m/s], turning radius [m], pivot rate [rad/s].
+    dt
+        Length of one cycle [s].
+    footprint_radius
+        Radius of the rover's body [m]; the safety check keeps it off likely obstacles.
+    position_sigma
+        Standard deviation of the position estimate per axis [m] (GPS error).
+    margin_sigmas
+        The safety margin grows by this many ``position_sigma``.
+    lookahead
+        Distance [m] along the path each candidate heading would drive that the footprint
+        check covers (the next cycle's arc, turning included, and on along the new heading).
+    hit_memory
+        Cycles for which the points the rangers read stay obstacles to the footprint check
+        (about the GPS error's correlation time, so they stay where the map put them).
+    target_timeout
+        Cycles a target may stay unreached beyond the time its path cost needs at
+        ``speed``, before it is blacklisted.
     """
 
     prior: float = 0.2
@@ -61,6 +88,7 @@ class RoverParams:
     r_max: float = R_MAX
     reliability_floor: float = 0.5
     sigma_r: float = SIGMA_R
+    ir_fit: Calibration = RAW_FIT
     w_r: float = W_R
     sigma_xy: float = 0.25
     sensor_angles: tuple[float, ...] = RANGER_ANGLES
@@ -71,12 +99,18 @@ class RoverParams:
     n_headings: int = 36
     clearance: float = 0.6
     distance_weighted: bool = True
-    stop_distance: float = 1.0
     p_block: float = 0.5
     h_desired: float = 0.3
     speed: float = 0.25
     min_turn_radius: float = 0.4
     pivot_rate: float = 0.8
+    dt: float = 0.4
+    footprint_radius: float = 0.2
+    position_sigma: float = 0.1
+    margin_sigmas: float = 3.0
+    lookahead: float = 0.6
+    hit_memory: int = 50
+    target_timeout: int = 60
 
     def __post_init__(self) -> None:
         checks = {
@@ -100,10 +134,24 @@ class RoverParams:
             )
             > 0,
             "at least one sensor angle": len(self.sensor_angles) > 0,
+            "dt, footprint_radius, lookahead > 0": min(
+                self.dt, self.footprint_radius, self.lookahead
+            )
+            > 0,
+            "position_sigma, margin_sigmas >= 0": min(self.position_sigma, self.margin_sigmas) >= 0,
+            "target_timeout, hit_memory >= 1": min(self.target_timeout, self.hit_memory) >= 1,
         }
         failed = [name for name, ok in checks.items() if not ok]
         if failed:
             raise ConfigError(f"RoverParams: need {', '.join(failed)}")
+
+    @property
+    def safety_margin(self) -> float:
+        """Clearance [m] kept between the footprint's edge and a likely obstacle's edge.
+
+        ``margin_sigmas * position_sigma``: it grows with the position uncertainty.
+        """
+        return self.margin_sigmas * self.position_sigma
 
     @property
     def headings(self) -> tuple[float, ...]:

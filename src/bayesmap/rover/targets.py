@@ -1,7 +1,8 @@
 """Where to go next: the paper's entropy rule (eqs. 38–39) and a frontier baseline (Yamauchi 1997).
 
-Both are target rules with ``select(grid, pose) -> (x, y) | None``; ``None`` means nothing
-is left to explore.
+Both are target rules with ``select(grid, pose, plan, uncertain) -> (x, y) | None``
+(``None``: nothing is left to explore) and ``reject(target)``, which blacklists a target
+the rover cannot reach.
 """
 
 from __future__ import annotations
@@ -16,14 +17,28 @@ from scipy import ndimage
 
 from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.decisions import exploration_target
+from bayesmap.rover.mapping import UncertainBlocks
 from bayesmap.rover.params import RoverParams
+from bayesmap.rover.planning import LocalPlan
+
+Cell = tuple[int, int]
 
 
 class TargetRule(Protocol):
     """Chooses the next exploration target on the map."""
 
-    def select(self, grid: OccupancyGrid, pose: npt.ArrayLike) -> tuple[float, float] | None:
+    def select(
+        self,
+        grid: OccupancyGrid,
+        pose: npt.ArrayLike,
+        plan: LocalPlan,
+        uncertain: UncertainBlocks,
+    ) -> tuple[float, float] | None:
         """The target ``(x, y)`` [m], or ``None`` when exploration is complete."""
+        ...
+
+    def reject(self, target: tuple[float, float]) -> None:
+        """Never choose ``target`` again: the rover cannot reach it."""
         ...
 
 
@@ -46,39 +61,146 @@ def clear_of_obstacles(
 
 
 class EntropyTarget:
-    """The paper's rule: largest entropy within ``d_max``, nearest within ``delta_h`` (eqs. 38–39).
+    """The paper's rule (eqs. 38–39) on path costs, with hysteresis, timeout and blacklist.
 
-    Only the local area of radius ``d_max`` is searched (§4.4), and only cells clear of
-    likely obstacles (:func:`clear_of_obstacles`). When nothing there is above
-    ``h_desired`` the nearest such cell of the whole map is taken instead (the paper does
-    not say what happens then); ``None`` when no such cell is left.
+    Within the local area the candidates are the cells reachable over the map
+    (:class:`~bayesmap.rover.planning.LocalPlan`) with a path shorter than ``d_max``, clear
+    of likely obstacles (:func:`clear_of_obstacles`) and not blacklisted; among those
+    whose entropy is at least ``h_desired``, eq. 38 takes the largest entropy and eq. 39 the
+    nearest by path length within ``delta_h`` of it. A target is kept (hysteresis) until
+    its entropy falls below ``h_desired``, the rover comes within ``d_min`` of it, or it
+    times out: a target not reached within ``target_timeout`` cycles plus twice the cycles
+    its path cost needs is blacklisted with the uncertain cells within ``d_min`` of it, and
+    one the planner finds unreachable is blacklisted alone. When
+    nothing local qualifies, the nearest uncertain cell of the whole map is taken, found
+    block by block (:class:`~bayesmap.rover.mapping.UncertainBlocks`), so that the search
+    does not grow with the map. ``None`` when no such cell is left.
+
+    Attributes
+    ----------
+    target_
+        The current target ``(x, y)`` [m], or ``None``.
+    blacklist_
+        Targets ``(x, y)`` [m] (cell centres) never to be chosen again.
     """
 
     def __init__(self, params: RoverParams) -> None:
         self.params = params
+        self.target_: tuple[float, float] | None = None
+        self.blacklist_: set[tuple[float, float]] = set()
+        self._age = 0
+        self._deadline = 0
 
-    def select(self, grid: OccupancyGrid, pose: npt.ArrayLike) -> tuple[float, float] | None:
+    def reject(self, target: tuple[float, float]) -> None:
+        self.blacklist_.add(target)
+        if target == self.target_:
+            self.target_ = None
+
+    def select(
+        self,
+        grid: OccupancyGrid,
+        pose: npt.ArrayLike,
+        plan: LocalPlan,
+        uncertain: UncertainBlocks,
+    ) -> tuple[float, float] | None:
         p = self.params
         x, y = float(np.asarray(pose)[0]), float(np.asarray(pose)[1])
-        window = grid.window(x, y, p.d_max)
-        if window.size:
-            xc, yc = grid.window_centers(window)
-            clear = clear_of_obstacles(
-                grid.probability[window.rows, window.cols], p, grid.resolution
+        if self.target_ is not None:
+            self._age += 1
+            cell = grid.world_to_cell(*self.target_)
+            kept = (
+                grid.entropy[int(cell[0]), int(cell[1])] >= p.h_desired
+                and math.hypot(self.target_[0] - x, self.target_[1] - y) >= p.d_min
             )
-            entropy = np.where(clear, grid.entropy[window.rows, window.cols], np.nan)
-            pick = exploration_target(
-                entropy, xc, yc, (x, y), d_max=p.d_max, d_min=p.d_min, margin=p.target_margin
-            )
-            if pick >= 0 and entropy.flat[pick] >= p.h_desired:
-                return float(xc.flat[pick]), float(yc.flat[pick])
-        clear = clear_of_obstacles(grid.probability, p, grid.resolution)
-        rows, cols = np.nonzero((grid.entropy >= p.h_desired) & clear)
-        if rows.size == 0:
+            if kept and self._age > self._deadline:
+                self._give_up_around(grid, self.target_)
+            elif kept:
+                return self.target_
+        self.target_ = self._local(grid, plan) or self._global(grid, x, y, uncertain)
+        self._age = 0
+        if self.target_ is not None:
+            cost = plan.cost_to(*self.target_)
+            if not math.isfinite(cost):
+                cost = math.hypot(self.target_[0] - x, self.target_[1] - y)
+            self._deadline = p.target_timeout + int(2.0 * cost / (p.speed * p.dt))
+        return self.target_
+
+    def _give_up_around(self, grid: OccupancyGrid, target: tuple[float, float]) -> None:
+        """Blacklist a timed-out target and the uncertain cells within ``d_min`` of it.
+
+        What kept the rover from one of them (a gap it cannot pass) keeps it from its
+        neighbours too; giving them up one by one would cost a timeout each.
+        """
+        p = self.params
+        window = grid.window(target[0], target[1], p.d_min)
+        xc, yc = grid.window_centers(window)
+        near = (np.hypot(xc - target[0], yc - target[1]) <= p.d_min) & (
+            grid.entropy[window.rows, window.cols] >= p.h_desired
+        )
+        self.blacklist_.update(zip(xc[near].tolist(), yc[near].tolist(), strict=True))
+        self.reject(target)
+
+    def _local(self, grid: OccupancyGrid, plan: LocalPlan) -> tuple[float, float] | None:
+        p = self.params
+        rows = np.arange(plan.row0, plan.row0 + plan.cost.shape[0])
+        cols = np.arange(plan.col0, plan.col0 + plan.cost.shape[1])
+        r_ok, c_ok = (rows >= 0) & (rows < grid.shape[0]), (cols >= 0) & (cols < grid.shape[1])
+        if not (r_ok.any() and c_ok.any()):
             return None
-        xs, ys = grid.cell_centers(rows, cols)
-        k = int(np.argmin(np.hypot(xs - x, ys - y)))
-        return float(xs[k]), float(ys[k])
+        rr, cc = rows[r_ok], cols[c_ok]
+        entropy = grid.entropy[np.ix_(rr, cc)].copy()
+        clear = clear_of_obstacles(grid.probability[np.ix_(rr, cc)], p, grid.resolution)
+        entropy[~clear | (entropy < p.h_desired)] = np.nan
+        for r, c in _cells(grid, self.blacklist_):
+            i, j = r - rr[0], c - cc[0]
+            if 0 <= i < entropy.shape[0] and 0 <= j < entropy.shape[1]:
+                entropy[i, j] = np.nan
+        cost = plan.cost[np.ix_(r_ok, c_ok)]
+        pick = exploration_target(
+            entropy, cost, d_max=p.d_max, d_min=p.d_min, margin=p.target_margin
+        )
+        if pick < 0:
+            return None
+        i, j = divmod(pick, entropy.shape[1])
+        xs, ys = grid.cell_centers(rr[i], cc[j])
+        return float(xs), float(ys)
+
+    def _global(
+        self, grid: OccupancyGrid, x: float, y: float, uncertain: UncertainBlocks
+    ) -> tuple[float, float] | None:
+        p = self.params
+        row, col = grid.world_to_cell(x, y)
+        k = int(math.ceil(p.clearance / grid.resolution)) + 1
+        for flat in uncertain.nearest_first(float(row), float(col)):
+            block = uncertain.block(int(flat))
+            r0, c0 = max(block.row0 - k, 0), max(block.col0 - k, 0)
+            padded = grid.probability[r0 : block.row1 + k, c0 : block.col1 + k]
+            clear = clear_of_obstacles(padded, p, grid.resolution)
+            entropy = grid.entropy[block.rows, block.cols]
+            inner = clear[block.row0 - r0 :, block.col0 - c0 :][
+                : entropy.shape[0], : entropy.shape[1]
+            ]
+            rows, cols = np.nonzero((entropy >= p.h_desired) & inner)
+            rows, cols = rows + block.row0, cols + block.col0
+            banned = _cells(grid, self.blacklist_)
+            keep = [(int(r), int(c)) not in banned for r, c in zip(rows, cols, strict=True)]
+            rows, cols = rows[keep], cols[keep]
+            xs, ys = grid.cell_centers(rows, cols)
+            d = np.hypot(xs - x, ys - y)
+            far = d >= p.d_min
+            if far.any():
+                j = int(np.argmin(np.where(far, d, np.inf)))
+                return float(xs[j]), float(ys[j])
+        return None
+
+
+def _cells(grid: OccupancyGrid, points: set[tuple[float, float]]) -> set[Cell]:
+    """The grid cells ``(row, col)`` holding ``points`` [m]."""
+    cells = set()
+    for x, y in points:
+        row, col = grid.world_to_cell(x, y)
+        cells.add((int(row), int(col)))
+    return cells
 
 
 class FrontierTarget:
@@ -93,7 +215,8 @@ class FrontierTarget:
     nearest to the rover by a breadth-first search through passable cells, skipping cells
     closer than ``d_min`` or not clear of likely obstacles (:func:`clear_of_obstacles`).
     A goal is kept while it is unknown or above ``h_desired``, for at most ``replan_every``
-    calls (Yamauchi's timeout). With no frontier left, the nearest cell whose
+    calls (Yamauchi's timeout), after which it is blacklisted, as are goals the planner
+    finds unreachable. With no frontier left, the nearest cell whose
     entropy is still at least ``h_desired`` is the goal, so that the stop rule can be met;
     ``None`` when no such cell is clear of obstacles.
 
@@ -108,19 +231,35 @@ class FrontierTarget:
         self.min_size = min_size
         self.replan_every = replan_every
         self.target_: tuple[float, float] | None = None
+        self.blacklist_: set[tuple[float, float]] = set()
         self._age = 0
 
-    def select(self, grid: OccupancyGrid, pose: npt.ArrayLike) -> tuple[float, float] | None:
+    def reject(self, target: tuple[float, float]) -> None:
+        self.blacklist_.add(target)
+        if target == self.target_:
+            self.target_ = None
+
+    def select(
+        self,
+        grid: OccupancyGrid,
+        pose: npt.ArrayLike,
+        plan: LocalPlan,
+        uncertain_blocks: UncertainBlocks,
+    ) -> tuple[float, float] | None:
+        del plan, uncertain_blocks  # the baseline searches the whole map
         uncertain = grid.entropy >= self.params.h_desired
         if not uncertain.any():
             self.target_ = None
             return None
         unknown = grid.unobserved()
         self._age += 1
-        if self.target_ is not None and self._age < self.replan_every:
+        if self.target_ is not None:
             rows, cols = grid.world_to_cell(*self.target_)
-            if unknown[int(rows), int(cols)] or uncertain[int(rows), int(cols)]:
+            pending = unknown[int(rows), int(cols)] or uncertain[int(rows), int(cols)]
+            if pending and self._age < self.replan_every:
                 return self.target_
+            if pending:
+                self.reject(self.target_)
         self._age = 0
         x, y = float(np.asarray(pose)[0]), float(np.asarray(pose)[1])
         self.target_ = self._plan(grid, unknown, uncertain, x, y)
@@ -143,6 +282,9 @@ class FrontierTarget:
         xs, ys = grid.cell_centers(rows, cols)
         distance_to_rover = np.hypot(xs - x, ys - y)
         clear = clear_of_obstacles(grid.probability, p, grid.resolution)
+        for r, c in _cells(grid, self.blacklist_):
+            if 0 <= r < clear.shape[0] and 0 <= c < clear.shape[1]:
+                clear[r, c] = False
         far = (distance_to_rover >= p.d_min) & clear
         labels, n = ndimage.label(frontier, structure=np.ones((3, 3), dtype=bool))
         if n:

@@ -76,6 +76,7 @@ def ir_cell_evidence(
     w_r: float,
     sigma_xy: float,
     reliability_floor: float = 0.5,
+    above_noise: npt.ArrayLike | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Pooled obstacle evidence and its strength for cells at ``(xc, yc)`` [m].
 
@@ -103,6 +104,12 @@ def ir_cell_evidence(
         fall below 1/2 beyond ~1.27 m, where eq. 32 would turn a contact into evidence of
         free space; the default floor of 1/2 makes such readings uninformative instead.
         Use 0 for the literal paper.
+    above_noise
+        ``(n,)`` readings above the noise level now (``r_raw > 2 sigma_r``), whether or not
+        eq. 33 confirms them yet. Such a ranger's beam is free only up to ``r - sigma_xy``:
+        the first reading of a new obstacle is not yet a contact, but neither is it
+        evidence that the obstacle's cell is free (the paper would paint it free; ours).
+        ``None``: the contact flags alone decide.
 
     Returns
     -------
@@ -121,7 +128,8 @@ def ir_cell_evidence(
     distance = np.hypot(dx, dy)
     off_axis = np.angle(np.exp(1j * (np.arctan2(dy, dx) - st)))
     hit = o & (r <= r_max)
-    free_limit = np.where(hit, r - sigma_xy, r_max)
+    seen = o if above_noise is None else np.asarray(above_noise).astype(bool).reshape(-1) | o
+    free_limit = np.where(seen & (r <= r_max), r - sigma_xy, r_max)
     w_free = np.exp(-((off_axis / w_r) ** 2)) * (distance < free_limit)
     s_free = sensor_posterior(
         beta_r(distance, r_max=r_max, beta_b=beta_b, floor=reliability_floor), prior, 0

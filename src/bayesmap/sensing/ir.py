@@ -12,8 +12,10 @@ import math
 
 import numpy as np
 import numpy.typing as npt
+from scipy.optimize import curve_fit
 
 from bayesmap._typing import BoolArray, FloatArray
+from bayesmap.errors import InputError
 
 R_MAX = 2.0
 """Maximum range of the Beaver's IR rangers [m] (§4.1, §5.1)."""
@@ -23,6 +25,9 @@ SIGMA_R = 2.777
 
 RAW_FIT = (-7.933, 56.61, 0.07544)
 """First-order rational fit ``r_raw = (a r + b) / (r + c)`` of §5.1: ``(a, b, c)``."""
+
+Calibration = tuple[float, float, float]
+"""``(a, b, c)`` of the ADC fit ``r_raw = (a r + b) / (r + c)`` (§5.1), ``r`` in metres."""
 
 RANGER_ANGLES = (math.radians(30.0), 0.0, -math.radians(30.0))
 """Mounting angles of the three rangers relative to the rover's heading [rad] (§4.2)."""
@@ -105,31 +110,75 @@ def angular_weight(theta: npt.ArrayLike, w_r: float) -> FloatArray:
     return np.asarray(np.exp(-((t / w_r) ** 2)) / (w_r**2 * np.sqrt(2.0 * np.pi)))
 
 
-def raw_from_range(r: npt.ArrayLike) -> FloatArray:
+def raw_from_range(r: npt.ArrayLike, fit: Calibration = RAW_FIT) -> FloatArray:
     """Noise-free ADC reading of an IR ranger at range ``r`` [m] (§5.1 fit; ``inf`` → asymptote).
 
-    ``r_raw = (-7.933 r + 56.61) / (r + 0.07544)`` (unclipped, unquantised).
+    ``r_raw = (a r + b) / (r + c)`` with the paper's ``(a, b, c) = (-7.933, 56.61, 0.07544)``
+    by default (unclipped, unquantised).
     """
-    a, b, c = RAW_FIT
+    a, b, c = fit
     distance = np.asarray(r, dtype=np.float64)
     with np.errstate(invalid="ignore"):
         value = (a * distance + b) / (distance + c)
     return np.asarray(np.where(np.isinf(distance), a, value))
 
 
-def range_from_raw(raw: npt.ArrayLike) -> FloatArray:
-    """Range [m] from an ADC reading, the §5.1 transfer function.
+def range_from_raw(raw: npt.ArrayLike, fit: Calibration = RAW_FIT) -> FloatArray:
+    """Range [m] from an ADC reading: the inverse of the fit, ``r = (b - c r_raw) / (r_raw - a)``.
 
-    ``r = -0.08 (943 r_raw - 707625) / (1000 r_raw + 7933)``, the inverse of
-    :func:`raw_from_range`.
+    With the paper's fit this is its transfer function
+    ``r = -0.08 (943 r_raw - 707625) / (1000 r_raw + 7933)`` (§5.1).
 
     Examples
     --------
     >>> round(float(range_from_raw(raw_from_range(1.5))), 9)
     1.5
+    >>> round(float(range_from_raw(30.0)), 6) == round(-0.08 * (943 * 30 - 707625) / 37933, 6)
+    True
     """
+    a, b, c = fit
     value = np.asarray(raw, dtype=np.float64)
-    return np.asarray(-0.08 * (943.0 * value - 707625.0) / (1000.0 * value + 7933.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.asarray((b - c * value) / (value - a))
+
+
+def fit_calibration(raw: npt.ArrayLike, distance: npt.ArrayLike) -> Calibration:
+    """Fit ``r_raw = (a r + b) / (r + c)`` to calibration pairs, as §5.1 did (least squares).
+
+    Parameters
+    ----------
+    raw
+        ADC readings.
+    distance
+        The true ranges [m] at which they were taken.
+
+    Raises
+    ------
+    InputError
+        Fewer than 3 finite pairs, or no fit that falls with range.
+    """
+    x = np.asarray(distance, dtype=np.float64).ravel()
+    y = np.asarray(raw, dtype=np.float64).ravel()
+    ok = np.isfinite(x) & np.isfinite(y) & (x > 0)
+    if x.shape != y.shape or ok.sum() < 3:
+        raise InputError(
+            f"an IR calibration needs at least 3 finite (raw, distance > 0) pairs, got {ok.sum()}"
+        )
+
+    def model(r: FloatArray, a: float, b: float, c: float) -> FloatArray:
+        return (a * r + b) / (r + c)
+
+    try:
+        found, _ = curve_fit(model, x[ok], y[ok], p0=RAW_FIT, maxfev=20000)
+    except (RuntimeError, ValueError) as error:
+        raise InputError(
+            f"the IR calibration pairs admit no fit r_raw = (a r + b)/(r + c): {error}"
+        ) from None
+    a, b, c = (float(v) for v in found)
+    span = np.linspace(x[ok].min(), x[ok].max(), 50)
+    if not (c > -x[ok].min() and np.all(np.diff(model(span, a, b, c)) < 0)):
+        raise InputError("the fitted IR calibration does not fall with range; check the pairs")
+    return (a, b, c)
 
 
 def ranger_poses(pose: npt.ArrayLike, angles: npt.ArrayLike, offset: float) -> FloatArray:

@@ -22,7 +22,7 @@ import numpy.typing as npt
 from bayesmap._typing import FloatArray
 from bayesmap.errors import ConfigError
 from bayesmap.sim import ir
-from bayesmap.sim.world2d import BoxWorld, circle_hits
+from bayesmap.sim.world2d import BoxWorld, box_distance, circle_hits
 
 
 @dataclass(frozen=True)
@@ -110,12 +110,13 @@ def transition(
 ) -> RoverState:
     """Drive one period with ``command = (speed [m/s], yaw_rate [rad/s])``, limits enforced.
 
-    Speed is clipped to ``[0, params.speed]``; while moving, the yaw rate is clipped so the
-    turning radius stays at least ``min_turn_radius``; at zero speed the rover pivots at up to
-    ``pivot_rate``. The pose is integrated exactly along the arc.
+    Speed is clipped to ``[-params.speed, params.speed]`` (negative: backing off); while
+    moving, the yaw rate is clipped so the turning radius stays at least
+    ``min_turn_radius``; at zero speed the rover pivots at up to ``pivot_rate``. The pose is
+    integrated exactly along the arc.
     """
-    v = float(np.clip(command[0], 0.0, params.speed))
-    limit = v / params.min_turn_radius if v > 0 else params.pivot_rate
+    v = float(np.clip(command[0], -params.speed, params.speed))
+    limit = abs(v) / params.min_turn_radius if v != 0 else params.pivot_rate
     w = float(np.clip(command[1], -limit, limit))
     x, y, psi = state.pose
     dt = params.dt
@@ -148,3 +149,14 @@ def observe(
 def collides(state: RoverState, world: BoxWorld, params: RoverParams) -> bool:
     """Whether the rover's footprint touches an obstacle."""
     return circle_hits(world.boxes, float(state.pose[0]), float(state.pose[1]), params.radius)
+
+
+def clearance(state: RoverState, world: BoxWorld, params: RoverParams) -> float:
+    """Distance [m] from the rover's footprint to the nearest obstacle (negative: overlap)."""
+    return box_distance(world.boxes, float(state.pose[0]), float(state.pose[1])) - params.radius
+
+
+def off_map(state: RoverState, world: BoxWorld) -> bool:
+    """Whether the rover's centre is outside the mapped area ``[0, width] x [0, height]``."""
+    x, y = float(state.pose[0]), float(state.pose[1])
+    return not (0.0 <= x <= world.width and 0.0 <= y <= world.height)

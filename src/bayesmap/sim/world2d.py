@@ -12,6 +12,7 @@ Registered worlds (Post et al. 2016 §5):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +21,15 @@ import numpy.typing as npt
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.errors import ConfigError
 
-__all__ = ["WORLDS", "BoxWorld", "box_world", "circle_hits", "occupancy_truth", "ray_cast"]
+__all__ = [
+    "WORLDS",
+    "BoxWorld",
+    "box_distance",
+    "box_world",
+    "circle_hits",
+    "occupancy_truth",
+    "ray_cast",
+]
 
 
 @dataclass(frozen=True)
@@ -103,14 +112,19 @@ def ray_cast(boxes: npt.ArrayLike, origins: npt.ArrayLike, angles: npt.ArrayLike
     return np.asarray(t.min(axis=1))
 
 
-def circle_hits(boxes: npt.ArrayLike, x: float, y: float, radius: float) -> bool:
-    """Whether a disc of ``radius`` [m] at ``(x, y)`` touches any box."""
+def box_distance(boxes: npt.ArrayLike, x: float, y: float) -> float:
+    """Distance [m] from ``(x, y)`` to the nearest box (0 inside one, ``inf`` with none)."""
     b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     if b.shape[0] == 0:
-        return False
+        return math.inf
     nx = np.clip(x, b[:, 0], b[:, 2])
     ny = np.clip(y, b[:, 1], b[:, 3])
-    return bool(np.any(np.hypot(nx - x, ny - y) <= radius))
+    return float(np.min(np.hypot(nx - x, ny - y)))
+
+
+def circle_hits(boxes: npt.ArrayLike, x: float, y: float, radius: float) -> bool:
+    """Whether a disc of ``radius`` [m] at ``(x, y)`` touches any box."""
+    return box_distance(boxes, x, y) <= radius
 
 
 def occupancy_truth(

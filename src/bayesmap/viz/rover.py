@@ -28,8 +28,9 @@ def _png(fig: Figure) -> bytes:
 def _draw_extras(
     ax: Axes, path: npt.ArrayLike | None, boxes: npt.ArrayLike | None, colour: str
 ) -> None:
+    """Obstacle outlines, path and start, each labelled once for the legend."""
     if boxes is not None:
-        for xmin, ymin, xmax, ymax in np.asarray(boxes, dtype=float).reshape(-1, 4):
+        for k, (xmin, ymin, xmax, ymax) in enumerate(np.asarray(boxes, dtype=float).reshape(-1, 4)):
             ax.add_patch(
                 Rectangle(
                     (xmin, ymin),
@@ -39,13 +40,23 @@ def _draw_extras(
                     edgecolor="red",
                     linewidth=1.2,
                     linestyle="--",
+                    label="true obstacle" if k == 0 else None,
                 )
             )
     if path is not None:
         xy = np.asarray(path, dtype=float)
         if xy.size:
-            ax.plot(xy[:, 0], xy[:, 1], color=colour, linewidth=0.7)
-            ax.plot(xy[0, 0], xy[0, 1], marker="o", color=colour, markersize=4)
+            ax.plot(xy[:, 0], xy[:, 1], color=colour, linewidth=0.7, label="path")
+            ax.plot(
+                xy[0, 0],
+                xy[0, 1],
+                marker="o",
+                color=colour,
+                markeredgecolor="black",
+                markersize=6,
+                linestyle="none",
+                label="start",
+            )
 
 
 def _layer_panel(
@@ -77,34 +88,19 @@ def _layer_panel(
     ax.set_xlabel("x [m]")
 
 
-def map_figure(
-    layer: npt.ArrayLike,
-    extent: tuple[float, float, float, float],
-    *,
-    title: str,
-    label: str,
-    cmap: str = "viridis",
-    path: npt.ArrayLike | None = None,
-    boxes: npt.ArrayLike | None = None,
-    path_colour: str = "black",
-) -> bytes:
-    """One map layer in [0, 1] (row 0 at the bottom) with an optional path and obstacle outlines."""
-    fig = Figure(figsize=(4.8, 4.0), layout="constrained")
-    ax = fig.subplots()
-    _layer_panel(
-        fig,
-        ax,
-        layer,
-        extent,
-        cmap=cmap,
-        label=label,
-        path=path,
-        boxes=boxes,
-        path_colour=path_colour,
-    )
-    ax.set_ylabel("y [m]")
-    ax.set_title(title, fontsize=10)
-    return _png(fig)
+def _legend_below(fig: Figure, ax: Axes) -> None:
+    """One legend for the path, start and true obstacles, under the map(s)."""
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        fig.legend(
+            handles,
+            labels,
+            loc="outside lower center",
+            ncols=len(handles),
+            fontsize=8,
+            facecolor="0.55",
+            framealpha=1.0,
+        )
 
 
 def maps_pair_figure(
@@ -117,7 +113,7 @@ def maps_pair_figure(
     boxes: npt.ArrayLike | None = None,
 ) -> bytes:
     """Probability and entropy maps side by side with the path, as in Figs. 11–14."""
-    fig = Figure(figsize=(10.0, 4.2), layout="constrained")
+    fig = Figure(figsize=(10.5, 5.0), layout="constrained")
     axes = fig.subplots(1, 2)
     panels = [
         (probability, "(a) P(O | R, r, x)", "viridis", "probability", "white"),
@@ -136,23 +132,32 @@ def maps_pair_figure(
             path_colour=colour,
         )
         ax.set_title(sub, fontsize=10)
-    axes[0].set_ylabel("y [m]")
+        ax.set_ylabel("y [m]")
     fig.suptitle(title, fontsize=11)
+    _legend_below(fig, axes[0])
     return _png(fig)
 
 
 def coverage_figure(curves: Mapping[str, Sequence[tuple[float, float]]], *, title: str) -> bytes:
-    """Coverage (fraction of cells below ``H_desired``) against distance driven, per run."""
-    fig = Figure(figsize=(6.0, 4.0))
+    """Coverage (fraction of cells below ``H_desired``) against distance driven, per run.
+
+    Curves that are identical point for point (the frontier rule ignores the entropy
+    initialisation) are drawn once, their names joined, so no line hides another.
+    """
+    fig = Figure(figsize=(7.0, 4.6), layout="constrained")
     ax = fig.subplots()
+    merged: dict[bytes, tuple[list[str], npt.NDArray[np.float64]]] = {}
     for name, curve in curves.items():
         xy = np.asarray(curve, dtype=float).reshape(-1, 2)
-        ax.plot(xy[:, 0], xy[:, 1], label=name, linestyle="--" if "frontier" in name else "-")
-    ax.axhline(0.9, color="grey", linewidth=0.8, linestyle=":")
+        merged.setdefault(xy.tobytes(), ([], xy))[0].append(name)
+    for names, xy in merged.values():
+        label = " = ".join(names)
+        ax.plot(xy[:, 0], xy[:, 1], label=label, linestyle="--" if "frontier" in label else "-")
+    ax.axhline(0.9, color="grey", linewidth=0.8, linestyle=":", label="90 % coverage")
     ax.set_xlabel("distance driven [m]")
     ax.set_ylabel("coverage")
     ax.set_ylim(0.0, 1.0)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7, loc="lower right")
     ax.set_title(title, fontsize=10)
     return _png(fig)

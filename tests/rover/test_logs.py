@@ -1,0 +1,91 @@
+"""Logged drives and IR calibrations: the real-data path of ``bayesmap rover map``."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from bayesmap.cli import app
+from bayesmap.errors import FormatError, InputError
+from bayesmap.grid import OccupancyGrid
+from bayesmap.rover.logs import read_calibration, read_rover_log
+from bayesmap.sensing.ir import RAW_FIT, fit_calibration, raw_from_range
+from bayesmap.sim import rover as sim_rover
+from bayesmap.sim.world2d import box_world
+
+runner = CliRunner()
+
+
+def _drive_log(path: Path, rng: np.random.Generator) -> None:
+    """A simulated drive past the paper's box at (7, 10), written in cm and degrees."""
+    world = box_world("rover-field-obstacles-v1")
+    params = sim_rover.RoverParams()
+    state = sim_rover.initial([4.0, 10.0, 0.0], params, rng=rng)
+    lines = ["t,x,y,heading,ir_0,ir_1,ir_2"]
+    for k in range(60):
+        obs = sim_rover.observe(state, world, params, rng=rng)
+        x, y, heading = obs.pose
+        lines.append(
+            f"{0.4 * k:.1f},{100 * x:.2f},{100 * y:.2f},{math.degrees(heading):.3f},"
+            + ",".join(f"{v:.0f}" for v in obs.raw)
+        )
+        command = (0.25, 0.0) if k < 25 else (0.0, 0.8)  # approach, then turn in place
+        state = sim_rover.transition(state, command, params, rng=rng)
+    lines.insert(10, "1.0,nan,3,4,5,6,7")  # line 11: a NaN
+    lines.insert(20, "# a comment")
+    lines.insert(30, "2.0,100,100,0,5,6")  # line 31: a field short
+    lines.insert(40, "3.0,100,100,0,5,6,300")  # line 41: reading out of range
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_fit_recovers_the_paper_calibration() -> None:
+    rng = np.random.default_rng(0)
+    distance = np.linspace(0.1, 2.0, 40)
+    raw = raw_from_range(distance) + rng.normal(0, 0.3, distance.size)
+    fit = fit_calibration(raw, distance)
+    np.testing.assert_allclose(raw_from_range(distance, fit), raw_from_range(distance), atol=0.5)
+    with pytest.raises(InputError):
+        fit_calibration([1.0, 2.0], [0.5, 1.0])
+
+
+def test_map_command_replays_a_log_with_a_fitted_calibration(tmp_path: Path) -> None:
+    rng = np.random.default_rng(4)
+    _drive_log(tmp_path / "drive.csv", rng)
+    distance = np.linspace(10, 200, 25)  # cm
+    pairs = ["raw,distance"] + [
+        f"{r:.2f},{d:.1f}" for r, d in zip(raw_from_range(distance / 100), distance, strict=True)
+    ]
+    (tmp_path / "cal.csv").write_text("\n".join(pairs) + "\n")
+    out = tmp_path / "out"
+    args = ["rover", "map", str(tmp_path / "drive.csv"), "--out", str(out)]
+    units = ["--position-unit", "cm", "--heading-unit", "deg"]
+    calibration = ["--calibration", str(tmp_path / "cal.csv"), "--distance-unit", "cm"]
+    result = runner.invoke(app, [*args, *units, *calibration])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert [row["line"] for row in summary["skipped"]] == [11, 31, 41]
+    assert summary["rows"] == 60
+    np.testing.assert_allclose([summary["calibration"][k] for k in "abc"], RAW_FIT, rtol=5e-3)
+    grid = OccupancyGrid.load_npz(out / "map.npz")
+    box = grid.world_to_cell(6.6, 10.0)  # the face of the 1 m box at (7, 10) it drove at
+    before = grid.world_to_cell(5.5, 10.0)
+    assert grid.probability[box] > 0.5 > 0.1 > grid.probability[before]
+    strict = runner.invoke(app, [*args, *units, "--strict"])
+    assert strict.exit_code == 1 and "line 11" in strict.output
+
+
+def test_bad_logs_and_calibrations_are_format_errors(tmp_path: Path) -> None:
+    (tmp_path / "a.csv").write_text("x,y,heading,ir_0\n1,2,3,4\n")
+    with pytest.raises(FormatError, match="ir_1"):
+        read_rover_log(tmp_path / "a.csv", 3)
+    (tmp_path / "c.json").write_text('{"a": 1, "b": "x"}')
+    with pytest.raises(FormatError):
+        read_calibration(tmp_path / "c.json")
+    (tmp_path / "c.csv").write_text("raw,distance\n10,1\n20,oops\n")
+    with pytest.raises(FormatError, match="line 3|two numbers"):
+        read_calibration(tmp_path / "c.csv")

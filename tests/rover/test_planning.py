@@ -1,0 +1,76 @@
+"""Path costs over the local map (scikit-image MCP) against a scipy.sparse.csgraph oracle."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from bayesmap.grid import OccupancyGrid
+from bayesmap.rover.params import RoverParams
+from bayesmap.rover.planning import crossing_costs, footprint_kernel, local_plan
+
+PARAMS = RoverParams(d_max=4.0)
+
+
+def _oracle(costs: np.ndarray, start: tuple[int, int], res: float) -> np.ndarray:
+    """Shortest 8-connected paths where an edge costs the mean of its two cells (MCP_Geometric)."""
+    passable = np.isfinite(costs)
+    ny, nx = passable.shape
+    index = np.arange(ny * nx).reshape(ny, nx)
+    rows, cols, weights = [], [], []
+    for di, dj in [(0, 1), (1, 0), (1, 1), (1, -1)]:
+        for i in range(ny):
+            for j in range(nx):
+                k, m = i + di, j + dj
+                if 0 <= k < ny and 0 <= m < nx and passable[i, j] and passable[k, m]:
+                    rows.append(index[i, j])
+                    cols.append(index[k, m])
+                    weights.append(np.hypot(di, dj) * res * (costs[i, j] + costs[k, m]) / 2)
+    graph = coo_matrix((weights, (rows, cols)), shape=(ny * nx, ny * nx))
+    return dijkstra(graph, directed=False, indices=index[start]).reshape(ny, nx)
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_path_costs_match_dijkstra(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    grid = OccupancyGrid(10.0, 10.0, 0.5, prior=0.2)
+    grid.probability[rng.uniform(size=grid.shape) < 0.06] = 0.9
+    x, y = 5.1, 4.9
+    grid.probability[grid.world_to_cell(x, y)] = 0.2
+    plan = local_plan(grid, x, y, PARAMS)
+    rows = slice(plan.row0, plan.row0 + plan.cost.shape[0])
+    cols = slice(plan.col0, plan.col0 + plan.cost.shape[1])
+    patch = grid.probability[rows, cols]  # the patch lies inside the map here
+    costs = crossing_costs(patch, np.ones(patch.shape, dtype=bool), PARAMS, 0.5)
+    start = grid.world_to_cell(x, y)
+    i, j = int(start[0]) - plan.row0, int(start[1]) - plan.col0
+    costs[i, j] = 1.0  # the rover's own cell
+    np.testing.assert_allclose(plan.cost, _oracle(costs, (i, j), 0.5))
+    assert np.isinf(plan.cost[patch >= PARAMS.p_block]).all()
+
+
+def test_waypoint_leads_around_a_wall_and_unreachable_is_none() -> None:
+    grid = OccupancyGrid(12.0, 12.0, 0.5, prior=0.2)
+    grid.probability[8:16, 12] = 0.95  # a wall at x = 6..6.5 from y = 4 to 8
+    plan = local_plan(grid, 4.0, 6.0, PARAMS)
+    target = (8.0, 6.0)
+    assert plan.cost_to(*target) > 4.0 + 0.5  # longer than the straight line
+    waypoint = plan.waypoint(target)
+    assert waypoint is not None and (waypoint[1] > 7.5 or waypoint[1] < 4.5 or waypoint[0] < 6.0)
+    grid.probability[2:22, 18] = 0.95  # close the target into a pocket
+    grid.probability[2:22, 12] = 0.95
+    grid.probability[2, 12:19] = 0.95
+    grid.probability[21, 12:19] = 0.95
+    closed = local_plan(grid, 4.0, 6.0, PARAMS)
+    assert closed.waypoint((7.5, 6.0)) is None
+    assert np.isnan(closed.cost_to(30.0, 30.0))
+
+
+def test_footprint_kernel_grows_with_the_radius() -> None:
+    assert footprint_kernel(0.2, 0.5).sum() == 1
+    assert footprint_kernel(0.3, 0.5).sum() == 5
+    assert footprint_kernel(0.4, 0.5).sum() == 9

@@ -1,0 +1,142 @@
+"""The footprint check: the body's swept path, turning included, against map and readings."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bayesmap.rover.params import RoverParams
+from bayesmap.rover.safety import (
+    drive_command,
+    footprint_safety,
+    hazard_cells,
+    predicted_centres,
+    reading_points,
+    square_distance,
+)
+from bayesmap.sensing.ir import ranger_poses
+
+PARAMS = RoverParams(n_headings=36)
+THETA = np.asarray(PARAMS.headings)
+FIELD = (-50.0, 50.0, -50.0, 50.0)
+
+
+def _safety(cells: list[tuple[float, float]], params: RoverParams = PARAMS, hits=None):  # type: ignore[no-untyped-def]
+    return footprint_safety(
+        (0.0, 0.0, 0.0),
+        THETA,
+        np.array(cells, dtype=float).reshape(-1, 2),
+        0.5,
+        np.zeros((0, 2)) if hits is None else hits,
+        FIELD,
+        params,
+    )
+
+
+def test_straight_path_drives_lookahead_and_pivot_stays_in_place() -> None:
+    centres = predicted_centres((1.0, 2.0, 0.0), [0.0, math.pi], PARAMS)
+    straight, behind = centres
+    np.testing.assert_allclose(straight[0], [1.0, 2.0])
+    assert straight[-1, 0] == pytest.approx(1.0 + PARAMS.lookahead, abs=1e-9)
+    np.testing.assert_allclose(straight[:, 1], 2.0, atol=1e-12)
+    # a heading behind: the rover first pivots in place, then drives
+    assert np.allclose(behind[:5], [1.0, 2.0])
+    driven = np.hypot(*np.diff(behind, axis=0).T).sum()
+    assert driven == pytest.approx(PARAMS.lookahead, rel=0.05)
+    assert behind[-1, 0] < 1.0  # and it ends up behind where it started
+
+
+def test_turning_arc_respects_the_turning_radius() -> None:
+    centres = predicted_centres((0.0, 0.0, 0.0), [math.radians(80)], PARAMS)[0]
+    # the first 0.2 s at the full turning rate lie on the circle of radius R about (0, R)
+    r = PARAMS.min_turn_radius
+    assert np.hypot(centres[1, 0], centres[1, 1] - r) == pytest.approx(r, abs=1e-9)
+
+
+def test_a_corner_beside_the_rover_blocks_turning_into_it() -> None:
+    """The issue's case: an obstacle beside the body, outside the rangers' view."""
+    side = _safety([(0.25, -0.85)])  # a cell right of the rover, 0.4 m from its edge
+    right = int(np.argmin(np.abs(np.angle(np.exp(1j * (THETA - math.radians(-80)))))))
+    assert not side.safe[right]  # turning right sweeps the body into it
+    assert side.safe[0] and side.safe[9]  # straight on and left are fine
+
+
+def test_margin_grows_with_position_uncertainty() -> None:
+    cell = [(1.0, 0.75)]  # its edge is 0.5 m from the straight path's centre line
+    assert _safety(cell, RoverParams(position_sigma=0.05)).safe[0]
+    assert not _safety(cell, RoverParams(position_sigma=0.2)).safe[0]
+
+
+def test_a_reading_ahead_blocks_driving_ahead() -> None:
+    sensors = ranger_poses((0.0, 0.0, 0.0), PARAMS.sensor_angles, PARAMS.sensor_offset)
+    hits = reading_points(sensors, [7.0, 0.45, 7.0], [False, True, False], PARAMS)
+    safety = _safety([], hits=hits)
+    assert not safety.safe[0] and safety.safe[18] and safety.ahead
+    assert reading_points(sensors, [7.0, 7.0, 7.0], [True] * 3, PARAMS).shape == (0, 2)
+
+
+def test_paths_may_not_leave_the_map() -> None:
+    safety = footprint_safety(
+        (0.3, 5.0, math.pi), THETA, np.zeros((0, 2)), 0.5, np.zeros((0, 2)), (0, 10, 0, 10), PARAMS
+    )
+    assert not safety.safe[18] and safety.safe[0]
+
+
+def test_square_distance_brute_force() -> None:
+    rng = np.random.default_rng(3)
+    px, py = rng.uniform(-2, 2, (2, 200))
+    edge = np.linspace(-0.25, 0.25, 401)
+    gx, gy = np.meshgrid(edge, edge)
+    brute = np.array([np.hypot(gx - x, gy - y).min() for x, y in zip(px, py, strict=True)])
+    np.testing.assert_allclose(square_distance(px, py, 0.0, 0.0, 0.25), brute, atol=2e-3)
+
+
+def test_drive_command_pivots_beyond_90_degrees() -> None:
+    assert drive_command(math.pi, 0.0, PARAMS)[0] == 0.0
+    v, w = drive_command(0.2, 0.0, PARAMS)
+    assert v == PARAMS.speed and w == pytest.approx(0.4)
+
+
+def test_the_body_may_not_sweep_unseen_cells_unless_already_on_them() -> None:
+    under = [(0.25, 0.25)]  # overlaps the footprint now: allowed
+    beside = [(0.25, -0.75)]  # never seen, on the way when turning right
+    safety = footprint_safety(
+        (0.0, 0.0, 0.0),
+        THETA,
+        np.zeros((0, 2)),
+        0.5,
+        np.zeros((0, 2)),
+        FIELD,
+        PARAMS,
+        np.array(under + beside),
+    )
+    right = int(np.argmin(np.abs(np.angle(np.exp(1j * (THETA - math.radians(-80)))))))
+    assert safety.safe[0] and not safety.safe[right]
+
+
+def test_hazards_are_likely_cells_and_their_doubtful_neighbours() -> None:
+    p = np.full((5, 5), 0.01)
+    p[2, 2] = 0.9
+    p[2, 3] = 0.3  # clipped by the obstacle's edge: mixed evidence
+    p[0, 0] = 0.3  # far from any likely cell
+    hazard = hazard_cells(p, PARAMS)
+    assert hazard[2, 2] and hazard[2, 3] and not hazard[0, 0] and not hazard[1, 1]
+
+
+def test_backing_off_is_allowed_only_away_from_obstacles() -> None:
+    ahead = footprint_safety(
+        (0.0, 0.0, 0.0), THETA, np.array([[0.6, 0.0]]), 0.5, np.zeros((0, 2)), FIELD, PARAMS
+    )
+    assert ahead.ahead and ahead.back_clear and ahead.here < PARAMS.safety_margin
+    boxed = footprint_safety(
+        (0.0, 0.0, 0.0),
+        THETA,
+        np.array([[0.6, 0.0], [-0.6, 0.0]]),
+        0.5,
+        np.zeros((0, 2)),
+        FIELD,
+        PARAMS,
+    )
+    assert not boxed.back_clear
