@@ -1,7 +1,7 @@
 """The rover's decision network run through generated C (Post et al. 2016 §3: bare C).
 
-:func:`compiled_evaluator` compiles the cycle's question, ``P(Motors | IR_k, ProbabilityMap)``,
-with :mod:`bayesmap.bn.codegen` and returns an
+:func:`compiled_evaluator` compiles the cycle's question,
+``P(Motors | IR_k, ProbabilityMap, Footprint)``, with :mod:`bayesmap.bn.codegen` and returns an
 :data:`~bayesmap.rover.network.Evaluator` for :class:`~bayesmap.rover.explorer.Explorer`:
 the data nodes' tables (sensor models, the map, the navigation goal) are read from the
 explorer's network each cycle and handed to the C function, as the rover's firmware would.
@@ -43,6 +43,5 @@ def compiled_evaluator(
         No C compiler, or the build failed.
     """
     decision = DecisionNetwork(params)
-    evidence = [f"IR_{k}" for k in range(decision.n_sensors)] + ["ProbabilityMap"]
-    code = generate(decision.net, ["Motors"], evidence, arith, name="rover_decision")
+    code = generate(decision.net, ["Motors"], list(decision.observed), arith, name="rover_decision")
     return NativeNetwork(code, directory, flags).ask

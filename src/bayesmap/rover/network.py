@@ -114,6 +114,8 @@ class DecisionNetwork:
         self._theta = np.asarray(params.headings)
         self._view = float(np.max(np.abs(params.sensor_angles))) + params.w_r
         self._evidence: dict[str, str] = {"ProbabilityMap": "clear", "Footprint": "clear"}
+        self.observed = (*(f"IR_{k}" for k in range(self.n_sensors)), *self._evidence)
+        """The nodes :meth:`decide` observes: the rangers, the map and the footprint."""
 
     def _build(self) -> BayesNet:
         p = self.params
