@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from _fuzzing import FUZZ, mutated, read_within_budget
-from bayesmap.errors import BayesmapError, ConfigError
+from bayesmap.errors import BayesmapError, InputError
 from bayesmap.sonar.logs import SonarLog, read_sonar_log
 from bayesmap.sonar.pipeline import grid_for_poses
 
@@ -32,7 +32,7 @@ def test_mutated_sonar_logs(tmp_path_factory, data: st.DataObject, strict: bool)
     assert isinstance(outcome, (SonarLog, BayesmapError))
 
 
-def test_a_pose_far_away_is_a_config_error_not_a_memory_error() -> None:
+def test_a_pose_far_away_is_a_clear_error_not_a_memory_error() -> None:
     poses = np.array([[0.0, 0.0, 0.0], [1.0e6, 5.0, 0.0]])  # one pose 1,000 km away
-    with pytest.raises(ConfigError, match="max_cells"):
+    with pytest.raises(InputError, match="cells .* over the limit .* look like millimetres"):
         grid_for_poses(poses, 5.0, 0.05)
