@@ -91,7 +91,7 @@ def test_hostile_inputs_end_in_one_line_not_a_traceback(tmp_path: Path, monkeypa
     ]
     code, err = _main(monkeypatch, capsys, *sonar)
     errors = [line for line in err.splitlines() if line.startswith("error:")]
-    assert code == 1 and len(errors) == 1 and "max_cells" in errors[0]
+    assert code == 1 and len(errors) == 1 and "over the limit" in errors[0]
     fifo = tmp_path / "pipe.bif"
     os.mkfifo(fifo)
     code, err = _main(monkeypatch, capsys, "bn", "info", str(fifo))

@@ -19,7 +19,7 @@ from bayesmap.bn.codegen import SoftNetwork, generate
 from bayesmap.bn.codegen.native import NativeNetwork
 from bayesmap.bn.fixed_point import QFormat
 from bayesmap.errors import ConfigError, InputError
-from bayesmap.rover.network import DecisionNetwork
+from bayesmap.rover.network import CycleInputs, DecisionNetwork
 from bayesmap.rover.params import RoverParams
 
 TOLERANCE = {"float": 1e-6, "double": 1e-12}
@@ -156,20 +156,26 @@ def test_the_rovers_decision_network_with_its_data_nodes_matches_the_engine(tmp_
     decision = DecisionNetwork(RoverParams())
     net, m = decision.net, decision.params.n_headings
     rangers = [v for v in net.variables if v.startswith("IR_")]
-    code = generate(net, ["Motors", "SensorFusion"], [*rangers, "ProbabilityMap"], arith)
+    code = generate(
+        net, ["Motors", "SensorFusion"], [*rangers, "ProbabilityMap", "Footprint"], arith
+    )
     assert set(code.data) == {v for v in net.variables if net.variable(v).source is not None}
     native = NativeNetwork(code, tmp_path, flags=FAST_BUILD)
     rng = np.random.default_rng(9)
     for _ in range(30):
-        decision.inputs_.ranges = rng.uniform(0.05, decision.params.r_max, decision.n_sensors)
         p_t = rng.random(m)
-        decision.inputs_.p_t = p_t / p_t.sum()
-        decision.inputs_.p_o = np.minimum(rng.random(m), 0.99)
+        decision.inputs_ = CycleInputs(
+            ranges=rng.uniform(0.05, decision.params.r_max, decision.n_sensors),
+            p_t=p_t / p_t.sum(),
+            p_o=np.minimum(rng.random(m), 0.99),
+            safe=rng.random(m) < 0.8,
+        )
         evidence: dict[str, str | int] = {
             v: int(rng.integers(2)) for v in rangers if rng.random() < 0.7
         }
-        if rng.random() < 0.7:
-            evidence["ProbabilityMap"] = "clear"
+        for node in ("ProbabilityMap", "Footprint"):
+            if rng.random() < 0.7:
+                evidence[node] = "clear"
         target = str(rng.choice(code.targets))
         got = native.ask(net, target, evidence)
         if arith == "double":
