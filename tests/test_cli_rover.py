@@ -39,3 +39,10 @@ def test_a_bad_world_is_one_line_without_traceback(tmp_path: Path) -> None:
     assert result.exit_code == 1
     assert "Traceback" not in result.output
     assert "start/2" in result.output and "[red]x" in result.output
+
+
+def test_schema_prints_the_world_json_schema() -> None:
+    result = runner.invoke(app, ["rover", "schema"])
+    assert result.exit_code == 0
+    schema = json.loads(result.output)
+    assert schema["required"] == ["size", "obstacles", "start"]
