@@ -184,3 +184,23 @@ def test_sigma_follows_the_range_unit() -> None:
 
     geometry = _geometry(None, "0,90,180,270", 5000.0, None, 20.0, "mm")
     assert geometry.sigma == pytest.approx(0.02) and geometry.max_range == pytest.approx(5.0)
+
+
+def test_a_map_folder_is_replaced_whole_with_a_manifest(tmp_path: Path) -> None:
+    """The outputs appear together, listed in manifest.json; a second run replaces them whole;
+    a folder of someone else's files is refused rather than overwritten."""
+    out = tmp_path / "map"
+    assert _map(out).exit_code == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    listed = {entry["path"] for entry in manifest["files"]}
+    assert {"map.png", "map.yaml", "map.pgm", "summary.json"} <= listed
+    assert manifest["configuration"]["resolution_m"] == 0.2
+    (out / "stale.txt").write_text("from an earlier run")
+    assert _map(out, "--no-filter").exit_code == 0
+    assert not (out / "stale.txt").exists() and (out / "summary.json").exists()
+    foreign = tmp_path / "mine"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("keep me")
+    result = _map(foreign)
+    assert result.exit_code == 1 and (foreign / "notes.txt").read_text() == "keep me"
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []

@@ -65,14 +65,16 @@ _CHUNK = 1 << 20
 
 
 # ---------------------------------------------------------------------------- reading
-def read_input(path: str | Path, *, max_bytes: int, gunzip: bool = False) -> bytes:
-    """The bytes of the regular file ``path`` (gunzipped if ``gunzip``), at most ``max_bytes``.
+def open_input(path: str | Path) -> tuple[IO[bytes], int]:
+    """Open the regular file ``path`` for reading: ``(binary handle, size in bytes)``.
+
+    The file is opened without blocking, so a FIFO or a device named by mistake is refused
+    at once instead of waiting forever.
 
     Raises
     ------
     FormatError
-        Missing or unreadable file, not a regular file, more than ``max_bytes`` bytes on
-        disk or after gunzipping, or a corrupt gzip stream.
+        Missing or unreadable file, or not a regular file (a folder, FIFO or device).
     """
     name = str(path)
     flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0)
@@ -91,13 +93,32 @@ def read_input(path: str | Path, *, max_bytes: int, gunzip: bool = False) -> byt
                 "not a regular file (a folder, FIFO or device); give the path of a file",
                 path=name,
             )
-        check_size("bytes in the file", info.st_size, max_bytes, "max_bytes", path=name)
-        with open(fd, "rb", closefd=False) as handle:
-            data = _read_at_most(handle, max_bytes + 1, info.st_size + 1)
-    except OSError as error:
-        raise FormatError(f"cannot read the file: {error.strerror or error}", path=name) from None
-    finally:
+        os.set_blocking(fd, True)
+        return open(fd, "rb"), info.st_size
+    except BaseException:
         os.close(fd)
+        raise
+
+
+def read_input(path: str | Path, *, max_bytes: int, gunzip: bool = False) -> bytes:
+    """The bytes of the regular file ``path`` (gunzipped if ``gunzip``), at most ``max_bytes``.
+
+    Raises
+    ------
+    FormatError
+        Missing or unreadable file, not a regular file, more than ``max_bytes`` bytes on
+        disk or after gunzipping, or a corrupt gzip stream.
+    """
+    name = str(path)
+    handle, size = open_input(path)
+    with handle:
+        check_size("bytes in the file", size, max_bytes, "max_bytes", path=name)
+        try:
+            data = _read_at_most(handle, max_bytes + 1, size + 1)
+        except OSError as error:
+            raise FormatError(
+                f"cannot read the file: {error.strerror or error}", path=name
+            ) from None
     check_size("bytes in the file", len(data), max_bytes, "max_bytes", path=name)
     return _gunzip(data, max_bytes, name) if gunzip else data
 
@@ -465,6 +486,7 @@ __all__ = [
     "RunFolder",
     "atomic_open",
     "make_folder",
+    "open_input",
     "read_input",
     "run_folder",
     "sweep_abandoned",

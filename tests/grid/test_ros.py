@@ -153,3 +153,28 @@ def test_modes_negate_and_yaw_follow_map_server(tmp_path: Path) -> None:
         loaded = read_ros_map(tmp_path / "m.yaml")
         assert loaded.occupancy.tolist() == [values], extra
         assert loaded.yaw == 0.5 and loaded.origin == (1.0, 2.0)
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("resolution", "1_0"),
+        ("resolution", "0x1"),
+        ("resolution", ".inf"),
+        ("resolution", "1:30"),
+        ("occupied_thresh", "\u0660.\u0666"),
+        ("origin", "[1_0, 0, 0]"),
+    ],
+)
+def test_yaml_numbers_are_plain_decimals(tmp_path: Path, field: str, value: str) -> None:
+    """YAML 1.1 reads ``1_0`` as 10, ``0x1`` as 1 and ``1:30`` as 90; a map file holds plain
+    decimals, so these are refused by name instead of read as some other number."""
+    (tmp_path / "m.pgm").write_bytes(b"P5\n2 1\n255\n" + bytes([0, 254]))
+    fields = {"image": "m.pgm", "resolution": "0.1", "origin": "[0.0, 0.0, 0.0]"}
+    fields[field] = value
+    (tmp_path / "m.yaml").write_text("".join(f"{k}: {v}\n" for k, v in fields.items()))
+    with pytest.raises(FormatError, match=field):
+        read_ros_map(tmp_path / "m.yaml")
+    fields[field] = {"origin": "[1, 0, 0]", "occupied_thresh": "0.65"}.get(field, "1e-1")
+    (tmp_path / "m.yaml").write_text("".join(f"{k}: {v}\n" for k, v in fields.items()))
+    assert read_ros_map(tmp_path / "m.yaml").occupancy.shape == (1, 2)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -21,8 +22,8 @@ def test_example_log_reports_every_bad_row_with_its_line() -> None:
     log = read_sonar_log(DATA / "example_log.txt", 16, units=MM)
     lines = [row.line for row in log.skipped]
     assert lines == [13, 21, 31, 41]
-    assert "NaN" in log.skipped[0].reason
-    assert "non-numeric" in log.skipped[1].reason
+    assert "'nan' is not a plain decimal" in log.skipped[0].reason
+    assert "not a plain decimal" in log.skipped[1].reason
     assert "columns" in log.skipped[2].reason
     assert "out of order" in log.skipped[3].reason
     assert log.rows == len(log.timestamps) + len(log.skipped)
@@ -82,8 +83,10 @@ def test_units_are_converted_once(
 
 
 def test_bad_arguments_and_hopeless_files(tmp_path: Path) -> None:
-    with pytest.raises(InputError):
+    with pytest.raises(FormatError, match="cannot open"):
         read_sonar_log(tmp_path / "missing.txt", 4)
+    with pytest.raises(FormatError, match="not a regular file"):
+        read_sonar_log(tmp_path, 4)
     with pytest.raises(InputError):
         LogUnits(range_unit="furlong")  # type: ignore[arg-type]
     empty = tmp_path / "empty.txt"
@@ -228,3 +231,23 @@ def test_pose_gaps_beyond_the_limit_cost_their_rows(tmp_path: Path) -> None:
     assert [row.line for row in log.skipped] == [2]
     assert "max pose gap" in log.skipped[0].reason
     assert len(read_sonar_log(ranges, 1, poses_path=poses, max_pose_gap=10.0).timestamps) == 3
+
+
+@pytest.mark.parametrize("field", ["1_0", "Infinity", "nan", "0x10", "\u0663", "1e5e"])
+def test_numbers_are_plain_decimals(tmp_path: Path, field: str) -> None:
+    """Only ASCII decimals are numbers (``inf`` only as a no-echo range): anything Python's
+    ``float`` would also read costs its row, and ``--strict`` names that line."""
+    path = tmp_path / "log.txt"
+    path.write_text(f"1 0 0 0 1.5 inf\n2 0 0 0 {field} 2.0\n3 0 0 0 1.0 1.0\n", encoding="utf-8")
+    log = read_sonar_log(path, 2)
+    assert log.timestamps.tolist() == [1.0, 3.0]
+    assert [(row.line, "plain decimal" in row.reason) for row in log.skipped] == [(2, True)]
+    with pytest.raises(FormatError, match="line 2"):
+        read_sonar_log(path, 2, strict=True)
+
+
+def test_a_fifo_is_refused_without_blocking(tmp_path: Path) -> None:
+    fifo = tmp_path / "log.fifo"
+    os.mkfifo(fifo)
+    with pytest.raises(FormatError, match="not a regular file"):
+        read_sonar_log(fifo, 2)

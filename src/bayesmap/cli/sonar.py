@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import logging
 import math
+import shlex
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import replace
@@ -18,7 +20,7 @@ import numpy as np
 import typer
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn
 
-from bayesmap._io import write_bytes, write_json
+from bayesmap._io import RunFolder, run_folder, write_bytes, write_json
 from bayesmap.cli._console import console, print_note
 from bayesmap.errors import BayesmapError, InputError
 from bayesmap.sonar.filter import Stage
@@ -266,7 +268,18 @@ def map_command(
                 max_cells=max_cells,
                 progress=lambda done, total: bar.update(mapping, completed=done, total=total),
             )
-        _write_outputs(out, log, poses, data, built, pipeline, no_filter)
+        settings = {
+            "log": str(log),
+            "poses": None if poses is None else str(poses),
+            "pipeline": pipeline,
+            "no_filter": no_filter,
+            "resolution_m": resolution,
+            "range_unit": range_unit,
+            "ring": None if ring is None else str(ring),
+        }
+        command = shlex.join(["bayesmap", *sys.argv[1:]])
+        with run_folder(out, command=command, configuration=settings, seed=None) as folder:
+            _write_outputs(folder, log, poses, data, built, pipeline, no_filter)
 
 
 def _read_bag(
@@ -299,7 +312,7 @@ def _read_bag(
 
 
 def _write_outputs(
-    out: Path,
+    folder: RunFolder,
     log: Path,
     poses: Path | None,
     data: SonarLog,
@@ -310,6 +323,7 @@ def _write_outputs(
     from bayesmap.grid.ros import write_ros_map  # the map writers load only when used
     from bayesmap.viz.sonar import map_png
 
+    out = folder.path
     grid = built.mapper.grid
     probability = built.mapper.probability()
     observed = built.mapper.observed()
@@ -363,5 +377,5 @@ def _write_outputs(
         f"{int(built.run.repeat.sum())} repeated rings merged, "
         f"rejected {sum(rejected.values())} "
         f"({', '.join(f'{k} {v}' for k, v in rejected.items())}); "
-        f"wrote {out / 'map.png'}, {yaml_path}, {pgm_path}, {out / 'summary.json'}"
+        f"wrote {folder.target}: map.png, {yaml_path.name}, {pgm_path.name}, summary.json"
     )

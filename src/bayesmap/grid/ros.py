@@ -34,6 +34,7 @@ import yaml
 from PIL import Image, UnidentifiedImageError
 
 from bayesmap._io import read_input, write_bytes, write_text
+from bayesmap._numbers import PlainNumberLoader
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError, InputError
 from bayesmap.limits import DEFAULT_LIMITS, ReadLimits, check_size
@@ -218,7 +219,7 @@ def _yaml_fields(path: Path, limits: ReadLimits) -> dict[str, object]:
     except UnicodeDecodeError as error:
         raise FormatError(f"map YAML is not UTF-8 text ({error})", path=path) from None
     try:
-        fields = yaml.safe_load(text)
+        fields = yaml.load(text, Loader=PlainNumberLoader)
     except yaml.YAMLError as error:
         mark = getattr(error, "problem_mark", None)
         line = None if mark is None else mark.line + 1

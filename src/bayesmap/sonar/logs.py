@@ -11,10 +11,12 @@ memory stays close to the size of the numbers.
 
 Real logs are untidy. Blank lines and comments (``#``, ``%``, ``//`` or ``;`` at the start of
 a line; anything after ``#`` on a line) are ignored; a last line without a newline and
-Windows line endings are fine. Bad rows — a non-numeric or empty field, NaN, a negative
-range, the wrong number of columns, a timestamp out of order, no pose for a timestamp — cost
-that row only. Timestamps are put in order by keeping the longest strictly increasing run of
-rows, so one corrupt timestamp drops its own row, not the rows after it. Every skipped row
+Windows line endings are fine. Numbers are plain ASCII decimals (a range may also be ``inf``,
+no echo). Bad rows — a field that is not such a number (``nan``, ``1_0``, ``Infinity``, digits
+of other scripts), a negative range, the wrong number of columns, a timestamp out of order,
+no pose for a timestamp — cost that row only. Timestamps are put in order by keeping the
+longest strictly increasing run of rows, so one corrupt timestamp drops its own row, not the
+rows after it. Every skipped row
 is reported with its line number and reason (a warning each, and in ``skipped``) and a summary
 warning gives the fraction dropped; with ``strict=True`` the first bad row in the file aborts
 the read with a :class:`~bayesmap.errors.FormatError` naming its file and line.
@@ -34,7 +36,8 @@ from typing import Literal, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._io import write_text
+from bayesmap._io import open_input, write_text
+from bayesmap._numbers import is_decimal
 from bayesmap._typing import FloatArray, Poses, Ranges
 from bayesmap.errors import FormatError, InputError
 
@@ -136,13 +139,13 @@ def _row_values(fields: list[str], columns: int, n_ranges: int) -> list[float] |
     """The row's numbers, or why it is bad."""
     if len(fields) != columns:
         return f"expected {columns} columns, found {len(fields)}"
-    try:
-        numbers = [float(field) for field in fields]
-    except ValueError:
-        culprit = next(f for f in fields if not _is_float(f))
-        return f"non-numeric or empty field {culprit[:40]!r}"
-    if any(math.isnan(v) for v in numbers):
-        return "NaN in row"
+    head_fields, range_fields = fields[: columns - n_ranges], fields[columns - n_ranges :]
+    culprit = next((f for f in head_fields if not is_decimal(f)), None)
+    if culprit is None:  # a range may also be ``inf``: the reading saw no echo
+        culprit = next((f for f in range_fields if f != "inf" and not is_decimal(f)), None)
+    if culprit is not None:
+        return f"{culprit[:40]!r} is not a plain decimal number"
+    numbers = [float(field) for field in fields]
     head, tail = numbers[: columns - n_ranges], numbers[columns - n_ranges :]
     if not all(math.isfinite(v) for v in head):
         return "infinite timestamp or pose"
@@ -159,11 +162,8 @@ def _parse(
     progress: Progress | None = None,
 ) -> _Table:
     """Stream ``path`` line by line into numpy blocks; bad rows go to ``skipped``."""
-    try:
-        handle = path.open("rb")
-        total = max(path.stat().st_size, 1)
-    except OSError as error:
-        raise InputError(f"cannot read sonar log {path}: {error.strerror or error}") from None
+    handle, size = open_input(path)
+    total = max(size, 1)
     blocks: list[FloatArray] = []
     line_blocks: list[npt.NDArray[np.int64]] = []
     pending: list[list[float]] = []
@@ -243,14 +243,6 @@ def _in_order(times: FloatArray) -> npt.NDArray[np.bool_]:
         keep[i] = True
         i = int(parent[i])
     return keep
-
-
-def _is_float(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def read_sonar_log(

@@ -29,6 +29,7 @@ from typing import Any
 
 import yaml
 
+from bayesmap._numbers import PlainNumberLoader
 from bayesmap.errors import ConfigError, FormatError, InputError
 from bayesmap.sensing.sonar_rings import PIONEER_FRONT8, PIONEER_RING16, Layout
 from bayesmap.sonar.geometry import SonarGeometry
@@ -132,7 +133,7 @@ def load_ring(spec: str | Path) -> SonarGeometry:
             f"(or name a preset: {', '.join(PRESETS)})"
         ) from None
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=PlainNumberLoader)
     except yaml.YAMLError as error:
         mark = getattr(error, "problem_mark", None)
         line = f", line {mark.line + 1}" if mark is not None else ""

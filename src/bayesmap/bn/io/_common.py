@@ -13,7 +13,6 @@ from __future__ import annotations
 import gzip
 import heapq
 import math
-import re
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -22,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from bayesmap._io import read_input, write_bytes
+from bayesmap._numbers import NOT_IN_DECIMALS, is_decimal
 from bayesmap._typing import FloatArray
 from bayesmap.bn.model import BayesNet, NodeKind, Variable
 from bayesmap.errors import FormatError, ModelError
@@ -261,8 +261,6 @@ def decode(data: str | bytes) -> str:
 
 
 # ---------------------------------------------------------------------------- strict reading
-_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
-_NOT_IN_NUMBERS = re.compile(r"[^0-9eE+\-.\s]")
 
 
 def probabilities(
@@ -281,7 +279,7 @@ def probabilities(
         locate = lambda _: where  # noqa: E731 - one place for every token
     if not tokens:
         return np.empty(0)
-    if _NOT_IN_NUMBERS.search(" ".join(tokens)) is None:
+    if NOT_IN_DECIMALS.search(" ".join(tokens)) is None:
         try:
             values = np.array(tokens, dtype=np.float64)
         except ValueError:
@@ -292,7 +290,7 @@ def probabilities(
                 return values
             k = int(bad[0])
             raise locate(k).error(f"{tokens[k][:40]!r} is too large for a probability")
-    k = next(k for k, token in enumerate(tokens) if _NUMBER.fullmatch(token) is None)
+    k = next(k for k, token in enumerate(tokens) if not is_decimal(token))
     raise locate(k).error(
         f"{tokens[k][:40]!r} is not a number (write plain decimals such as 0.25 or 1e-3)"
     )
