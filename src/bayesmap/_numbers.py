@@ -45,7 +45,7 @@ class PlainNumberLoader(yaml.SafeLoader):  # type: ignore[misc]  # untyped PyYAM
 
     Examples
     --------
-    >>> yaml.load("a: 1_0\nb: 0.05\nc: [2, -1e-3]", Loader=PlainNumberLoader)
+    >>> yaml.load("{a: 1_0, b: 0.05, c: [2, -1e-3]}", Loader=PlainNumberLoader)
     {'a': '1_0', 'b': 0.05, 'c': [2, -0.001]}
     """
 

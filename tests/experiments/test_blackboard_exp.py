@@ -89,9 +89,9 @@ def test_same_seed_same_result_and_independent_streams(reduced, tmp_path):
 
 
 def test_bad_config():
-    with pytest.raises(pydantic.ValidationError):
+    with pytest.raises(ConfigError, match="conditions"):
         blackboard.Config(conditions=("foggy",))
-    with pytest.raises(pydantic.ValidationError):
+    with pytest.raises(ConfigError, match="poses"):
         blackboard.Config(poses=0)
     with pytest.raises(pydantic.ValidationError):
         blackboard.Config().seed = 3  # frozen

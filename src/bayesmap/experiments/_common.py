@@ -5,10 +5,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
-from pydantic import BaseModel
+from pydantic import BaseModel, ValidationError
 
 from bayesmap._io import RunFolder, run_folder
+from bayesmap.errors import ConfigError
 
 ProgressHook = Callable[[str, int, int], None]
 """``hook(description, completed, total)``: called as an experiment advances.
@@ -17,6 +19,33 @@ ProgressHook = Callable[[str, int, int], None]
 ``total`` count its units of work (poses, steps, runs). Experiments never print; the CLI
 turns these calls into a progress bar.
 """
+
+
+class ExperimentConfig(BaseModel):
+    """Base of every experiment's ``Config``: a bad setting is a :class:`ConfigError`.
+
+    pydantic's own ``ValidationError`` lies outside the project's error hierarchy; here it
+    becomes one line naming each bad field and why.
+
+    Examples
+    --------
+    >>> class Config(ExperimentConfig):
+    ...     poses: int = 400
+    >>> Config(poses="many")
+    Traceback (most recent call last):
+    ...
+    bayesmap.errors.ConfigError: Config: poses: Input should be a valid integer, ...
+    """
+
+    def __init__(self, **data: Any) -> None:
+        try:
+            super().__init__(**data)
+        except ValidationError as error:
+            problems = "; ".join(
+                f"{'.'.join(str(part) for part in e['loc']) or 'config'}: {e['msg']}"
+                for e in error.errors()
+            )
+            raise ConfigError(f"{type(self).__name__}: {problems}") from None
 
 
 def no_progress(description: str, completed: int, total: int) -> None:

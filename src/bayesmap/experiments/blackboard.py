@@ -35,13 +35,14 @@ from typing import Any
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import ConfigDict, Field, field_validator
 
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap.blackboard import BlackboardParams, Snapshot, TableMapper
 from bayesmap.blackboard.sweep_model import ObjectType
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.experiments._common import (
+    ExperimentConfig,
     ExperimentResult,
     ProgressHook,
     no_progress,
@@ -72,7 +73,7 @@ PAPER = {
 }
 
 
-class Config(BaseModel):
+class Config(ExperimentConfig):
     """Settings of the blackboard experiment (paper defaults where the paper gives them).
 
     Attributes

@@ -19,14 +19,19 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import ConfigDict, Field, field_validator
 
 from bayesmap._io import write_bytes, write_json
 from bayesmap.blackboard.fused import FusedMap
 from bayesmap.blackboard.sweep_model import ObjectType
 from bayesmap.errors import ConfigError
 from bayesmap.experiments import blackboard as paper
-from bayesmap.experiments._common import ExperimentResult, ProgressHook, no_progress
+from bayesmap.experiments._common import (
+    ExperimentConfig,
+    ExperimentResult,
+    ProgressHook,
+    no_progress,
+)
 from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused
 from bayesmap.experiments.table_metrics import MatchTolerance
 from bayesmap.sim.tables_world import TablesWorld
@@ -37,7 +42,7 @@ from bayesmap.viz.tables import figure_png, fused_map_figure
 __all__ = ["Config", "catalogue_of", "map_figure", "run"]
 
 
-class Config(BaseModel):
+class Config(ExperimentConfig):
     """One run of the table mapper on a world file.
 
     Attributes

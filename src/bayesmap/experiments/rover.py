@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
 from scipy.stats import rankdata
 
 from bayesmap import bn
@@ -27,6 +27,7 @@ from bayesmap._rng import spawn
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.errors import ConfigError
 from bayesmap.experiments._common import (
+    ExperimentConfig,
     ExperimentResult,
     ProgressHook,
     no_progress,
@@ -55,7 +56,7 @@ RUNS: dict[str, tuple[str, bool]] = {
 EXPLORERS = ("entropy", "frontier")
 
 
-class Config(BaseModel):
+class Config(ExperimentConfig):
     """Settings of ``reproduce rover``: the paper's §5 values, and ours where it gives none."""
 
     model_config = ConfigDict(frozen=True)

@@ -12,10 +12,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
 
 from bayesmap.experiments import rover
-from bayesmap.experiments._common import ExperimentResult, ProgressHook, no_progress
+from bayesmap.experiments._common import (
+    ExperimentConfig,
+    ExperimentResult,
+    ProgressHook,
+    no_progress,
+)
 from bayesmap.sim.worlds import WorldSpec, load_world
 
 __all__ = ["Config", "run", "run_spec"]
@@ -24,7 +29,7 @@ EXPLORER_RULES = {"paper": "entropy", "frontier": "frontier"}
 """CLI explorer name → the rover experiment's target rule."""
 
 
-class Config(BaseModel):
+class Config(ExperimentConfig):
     """Settings of one run on a world file."""
 
     model_config = ConfigDict(frozen=True)

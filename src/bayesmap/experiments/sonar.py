@@ -18,11 +18,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
 
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap._rng import spawn
 from bayesmap.experiments._common import (
+    ExperimentConfig,
     ExperimentResult,
     ProgressHook,
     no_progress,
@@ -63,7 +64,7 @@ _METRICS = (
 )
 
 
-class Config(BaseModel):
+class Config(ExperimentConfig):
     """Settings of ``reproduce sonar``; the fragment gives none, these are ours (docs/sonar.md)."""
 
     model_config = ConfigDict(frozen=True)
