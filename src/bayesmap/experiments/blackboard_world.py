@@ -31,6 +31,7 @@ from bayesmap.experiments._common import (
     ExperimentResult,
     ProgressHook,
     no_progress,
+    run_in_folder,
 )
 from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused
 from bayesmap.experiments.table_metrics import MatchTolerance
@@ -95,11 +96,33 @@ def _tolerance(world: TablesWorld) -> MatchTolerance:
     )
 
 
-def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) -> ExperimentResult:
-    """Map the world of ``config.world`` and write ``metrics.json``, ``map.json``, ``map.png``."""
+def run(
+    config: Config,
+    out_dir: str | Path,
+    *,
+    progress: ProgressHook | None = None,
+    command: str | None = None,
+) -> ExperimentResult:
+    """Map the world of ``config.world`` and write ``metrics.json``, ``map.json``, ``map.png``.
+
+    The folder appears only once complete, with a ``manifest.json``
+    (:func:`~bayesmap.experiments._common.run_in_folder`).
+    """
+    world_file = load_world(config.world)  # a bad world fails before any folder is touched
+    return run_in_folder(
+        "blackboard_world",
+        config,
+        out_dir,
+        lambda folder: _run(config, world_file, folder, progress),
+        command=command,
+    )
+
+
+def _run(
+    config: Config, world_file: WorldFile, out_dir: Path, progress: ProgressHook | None
+) -> ExperimentResult:
     progress = progress or no_progress
     out_dir = Path(out_dir)
-    world_file = load_world(config.world)
     world = world_file.world(name=config.world.name)
     poses = world_file.robot_poses()
     if not len(poses):

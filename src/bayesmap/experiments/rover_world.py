@@ -20,6 +20,7 @@ from bayesmap.experiments._common import (
     ExperimentResult,
     ProgressHook,
     no_progress,
+    run_in_folder,
 )
 from bayesmap.sim.worlds import WorldSpec, load_world
 
@@ -77,9 +78,31 @@ def run_spec(
     return metrics
 
 
-def run(config: Config, out_dir: Path, *, progress: ProgressHook | None = None) -> ExperimentResult:
-    """Load the world, run the rover, write ``out_dir``; see the module docstring."""
-    spec = load_world(config.world)
+def run(
+    config: Config,
+    out_dir: str | Path,
+    *,
+    progress: ProgressHook | None = None,
+    command: str | None = None,
+) -> ExperimentResult:
+    """Load the world, run the rover, write ``out_dir``; see the module docstring.
+
+    The folder appears only once complete, with a ``manifest.json``
+    (:func:`~bayesmap.experiments._common.run_in_folder`).
+    """
+    spec = load_world(config.world)  # a bad world fails before any folder is touched
+    return run_in_folder(
+        "rover_world",
+        config,
+        out_dir,
+        lambda folder: _run(config, spec, folder, progress),
+        command=command,
+    )
+
+
+def _run(
+    config: Config, spec: WorldSpec, out_dir: Path, progress: ProgressHook | None
+) -> ExperimentResult:
     out = Path(out_dir)
     metrics = run_spec(
         spec,
