@@ -19,6 +19,10 @@ from bayesmap.cli.codegen import codegen
 from bayesmap.errors import BayesmapError
 
 if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
+
+    import pandas as pd
+
     from bayesmap import bn
 
 # The engine (numpy, opt_einsum, lxml) is imported inside the commands, so that
@@ -189,10 +193,20 @@ def query(
         int | None,
         typer.Option("--chunk-rows", min=1, help="Cases per chunk of a batch [default: 65536]."),
     ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler",
+            help="With --cases: answer the batch on the Dask scheduler at this address "
+            "(e.g. tcp://10.0.0.5:8786); see docs/cluster.md.",
+        ),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Ask a network: posteriors, MAP, a proposition's probability, or a batch from a file."""
     targets = list(target or [])
+    if scheduler is not None and cases is None:
+        _fail("--scheduler answers a batch: give --cases and --out too", USAGE)
     _check_usage(targets, map_, proposition, given, cases, out, fixed_point, evidence, soft)
     repeated = sorted({t for t in targets if targets.count(t) > 1})
     if repeated:
@@ -204,7 +218,7 @@ def query(
         _fail(f"{both[0]!r} has both --evidence and --soft; give one", USAGE)
     net = _load(file)
     if cases is not None and out is not None:
-        _batch(net, targets, cases, out, chunk_rows)
+        _batch(net, targets, cases, out, chunk_rows, scheduler)
         return
     try:
         result = _answer(net, targets, observed, weights, map_, proposition, given, fixed_point)
@@ -255,9 +269,15 @@ def _check_usage(
 
 
 def _batch(
-    net: bn.BayesNet, targets: list[str], cases: Path, out: Path, chunk_rows: int | None
+    net: bn.BayesNet,
+    targets: list[str],
+    cases: Path,
+    out: Path,
+    chunk_rows: int | None,
+    scheduler: str | None,
 ) -> None:
-    """Stream a cases file through the network into an answers file, with a progress bar."""
+    """Stream a cases file through the network into an answers file, with a progress bar;
+    with ``scheduler``, each chunk is answered across that Dask cluster's workers."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
     from bayesmap.bn import cases as batch
@@ -285,13 +305,31 @@ def _batch(
                 progress.update(task, completed=done)
 
             chunks = batch.read_cases(cases, chunk_rows=chunk_rows)
-            answers = batch.run_batch(
-                net, chunks, targets, chunk_rows=chunk_rows, total=total, progress=hook
-            )
+            if scheduler is None:
+                answers = batch.run_batch(
+                    net, chunks, targets, chunk_rows=chunk_rows, total=total, progress=hook
+                )
+            else:
+                from bayesmap.sweeps.batch import posterior_batches
+
+                answers = _counted(
+                    posterior_batches(net, chunks, targets, scheduler=scheduler), hook
+                )
             rows = batch.write_posteriors(out, answers, columns)
     except BayesmapError as error:
         _fail(error)
     print_note(f"wrote {out} ({rows} cases, {len(columns)} columns)")
+
+
+def _counted(
+    tables: Iterator[pd.DataFrame], hook: Callable[[str, int, int], None]
+) -> Iterator[pd.DataFrame]:
+    """``tables`` passed on, reporting the rows done so far to ``hook``."""
+    done = 0
+    for table in tables:
+        done += len(table)
+        hook("cases", done, done)
+        yield table
 
 
 def _answer(
