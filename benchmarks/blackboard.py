@@ -1,7 +1,7 @@
 """Benchmark: the fused whisker table mapper on generated worlds, beside the paper's mapper.
 
 1. **Fused mapper on generated worlds.** ``--worlds`` worlds from
-   :func:`bayesmap.sim.world_files.generate_world` (world seeds 0, 1, …; the first
+   :func:`bayesmap.sim.whisker_worlds.generate_world` (world seeds 0, 1, …; the first
    ``--plain`` without stress options, the rest stress worlds: tables 0.1–0.2 m from walls,
    pairs 0.15–0.4 m apart, any angle, 4–10 tables of two sizes, arenas 4–10 m), each under
    ``--conditions`` × ``--seeds`` (a seed fixes the sensor noise and the chain). Every run
@@ -43,8 +43,8 @@ from bayesmap.experiments.blackboard_world import catalogue_of  # noqa: E402
 from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused  # noqa: E402
 from bayesmap.experiments.table_metrics import MatchTolerance  # noqa: E402
 from bayesmap.sim.tables_world import rectangle_corners  # noqa: E402
+from bayesmap.sim.whisker_worlds import StressOptions, WorldFile, generate_world  # noqa: E402
 from bayesmap.sim.whiskers import condition  # noqa: E402
-from bayesmap.sim.world_files import StressOptions, WorldFile, generate_world  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 ROWS = ROOT / "results" / "benchmarks" / "blackboard.jsonl"

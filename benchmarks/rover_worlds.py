@@ -1,6 +1,6 @@
 """Rover on generated stress worlds: safety, completeness and distance, both explorers.
 
-Worlds come from :func:`bayesmap.sim.worlds.generate_world` (walls, L-shapes, corridors,
+Worlds come from :func:`bayesmap.sim.rover_worlds.generate_world` (walls, L-shapes, corridors,
 narrow passages of at least 1.2 m, random boxes) with fresh seeds nobody tuned on. Every
 world is run with the paper's explorer and the frontier baseline, with the flat and the
 pseudo-random entropy initialisation, for each seed, through the same code path as
@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks._report import machine, update_section  # noqa: E402
 
 from bayesmap.experiments.rover_world import run_spec  # noqa: E402
-from bayesmap.sim.worlds import generate_world  # noqa: E402
+from bayesmap.sim.rover_worlds import generate_world  # noqa: E402
 
 WORLD_SEED = 2026
 EXPLORERS = ("paper", "frontier")

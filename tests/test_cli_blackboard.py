@@ -70,7 +70,7 @@ def test_a_bad_world_is_one_line_naming_the_element(tmp_path: Path) -> None:
 
 
 def test_world_command_writes_a_loadable_world(tmp_path: Path) -> None:
-    from bayesmap.sim.world_files import load_world
+    from bayesmap.sim.whisker_worlds import load_world
 
     result = runner.invoke(app, ["blackboard", "world", str(tmp_path / "w.json"), "--seed", "3"])
     assert result.exit_code == 0, result.output

@@ -13,7 +13,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
 from bayesmap.errors import BayesmapError
 from bayesmap.experiments import rover_log, rover_world
-from bayesmap.sim.worlds import WORLD_SCHEMA, generate_world, save_world
+from bayesmap.sim.rover_worlds import WORLD_SCHEMA, generate_world, save_world
 
 app = typer.Typer(
     help="The micro-rover (Post et al. 2016): run it on a world file, generate worlds.",

@@ -36,8 +36,8 @@ from bayesmap.experiments._common import (
 from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused
 from bayesmap.experiments.table_metrics import MatchTolerance
 from bayesmap.sim.tables_world import TablesWorld
+from bayesmap.sim.whisker_worlds import WorldFile, load_world
 from bayesmap.sim.whiskers import CONDITIONS, condition
-from bayesmap.sim.world_files import WorldFile, load_world
 from bayesmap.viz.tables import figure_png, fused_map_figure
 
 __all__ = ["Config", "catalogue_of", "map_figure", "run"]

@@ -1,6 +1,6 @@
 """One rover run on a world file: ``bayesmap rover run --world WORLD.json``.
 
-The world (:mod:`bayesmap.sim.worlds`) gives the area, the obstacles, the map resolution
+The world (:mod:`bayesmap.sim.rover_worlds`) gives the area, the obstacles, the map resolution
 and the start; the run uses the paper's §5 parameters (:class:`bayesmap.experiments.rover.Config`)
 with the chosen explorer, entropy initialisation and seed, and writes ``metrics.json``,
 the figures and the ROS map to its folder. The default step budget grows with the area:
@@ -22,7 +22,7 @@ from bayesmap.experiments._common import (
     no_progress,
     run_in_folder,
 )
-from bayesmap.sim.worlds import WorldSpec, load_world
+from bayesmap.sim.rover_worlds import WorldSpec, load_world
 
 __all__ = ["Config", "run", "run_spec"]
 

@@ -350,7 +350,7 @@ def build_mixed(
 
     ``tables`` are ``(k, 3)`` rows ``x, y, theta``, ``sizes`` ``(k, 3)`` rows ``length,
     width, leg_width`` [m] and ``textures`` ``(k,)`` leg textures (no checks of gaps; see
-    :mod:`bayesmap.sim.world_files` for validated worlds).
+    :mod:`bayesmap.sim.whisker_worlds` for validated worlds).
     """
     tables = np.array(tables, dtype=np.float64).reshape(-1, 3)
     tables[:, 2] = np.mod(tables[:, 2], np.pi)

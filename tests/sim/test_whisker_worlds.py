@@ -13,14 +13,14 @@ from hypothesis import strategies as st
 
 from bayesmap.errors import FormatError
 from bayesmap.sim.tables_world import rectangle_corners
-from bayesmap.sim.whiskers import SWEEP_COLUMNS, WhiskerParams, condition, observe
-from bayesmap.sim.world_files import (
+from bayesmap.sim.whisker_worlds import (
     StressOptions,
     generate_world,
     load_world,
     parse_world,
     save_world,
 )
+from bayesmap.sim.whiskers import SWEEP_COLUMNS, WhiskerParams, condition, observe
 
 EXAMPLE = {
     "arena": {"width": 7.0, "height": 7.0},

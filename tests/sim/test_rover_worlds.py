@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from bayesmap.errors import FormatError
+from bayesmap.sim.rover_worlds import generate_world, load_world, save_world
 from bayesmap.sim.world2d import box_distance
-from bayesmap.sim.worlds import generate_world, load_world, save_world
 
 ISSUE_EXAMPLE = {
     "size": [20.0, 20.0],
