@@ -8,7 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayesmap.experiments.sonar import Config, make_ring, map_metrics, path_cells, run, score_world
+from bayesmap.experiments.sonar import (
+    Config,
+    make_ring,
+    map_metrics,
+    metric_rows,
+    path_cells,
+    run,
+    score_world,
+)
 from bayesmap.grid import OccupancyGrid
 from bayesmap.sim.polygons import random_building
 from bayesmap.sim.sonar_log import Realism, simulate_log
@@ -51,6 +59,11 @@ def test_small_run_writes_results_and_is_deterministic(tmp_path: Path) -> None:
     assert all(path.exists() and path.suffix == ".png" for path in result.figures)
     assert result.headline == again.headline
     assert calls and calls[-1][1] == calls[-1][2]
+    rows = metric_rows(result)  # what sweeps and the report read
+    assert [(r["unit"], r["method"]) for r in rows] == [
+        ("sonar-clutter-v2 run 0", name) for name in ("default", "elfes", "ros")
+    ]
+    assert rows[0]["kappa"] == record["pipelines"]["default"]["kappa"]
 
 
 def test_path_cells_are_those_within_the_radius() -> None:

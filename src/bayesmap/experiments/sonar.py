@@ -413,13 +413,13 @@ KEY_METRICS = (
 
 
 def metric_rows(result: ExperimentResult) -> list[dict[str, Any]]:
-    """One tidy row per run (its ``unit``: world, ring, run) and mapping variant (``method``)."""
+    """One tidy row per run (its ``unit``: world and run) and pipeline (its ``method``)."""
     data = json.loads((result.out_dir / "metrics.json").read_text(encoding="utf-8"))
     rows = []
     for record in data["runs"]:
-        unit = f"{record['world']} {record['ring']} run {record['run']}"
-        for variant, scores in record["variants"].items():
-            rows.append({"unit": unit, "method": variant, **scores})
+        unit = f"{record['world']} run {record['run']}"
+        for pipeline, scores in record["pipelines"].items():
+            rows.append({"unit": unit, "method": pipeline, **scores})
     return rows
 
 
