@@ -89,3 +89,26 @@ def test_bad_logs_and_calibrations_are_format_errors(tmp_path: Path) -> None:
     (tmp_path / "c.csv").write_text("raw,distance\n10,1\n20,oops\n")
     with pytest.raises(FormatError, match="line 3|two numbers"):
         read_calibration(tmp_path / "c.csv")
+
+
+@pytest.mark.parametrize("field", ["1_0", "Infinity", "nan", "\u0663"])
+def test_numbers_are_plain_decimals(tmp_path: Path, field: str) -> None:
+    """Only ASCII decimals are numbers: a field Python's ``float`` would also read costs its
+    row (with ``strict``, names its line); a calibration given as such text is refused."""
+    (tmp_path / "a.csv").write_text(f"x,y,heading,ir_0\n1,2,0,40\n1,2,0,{field}\n3,2,0,41\n")
+    log = read_rover_log(tmp_path / "a.csv", 1)
+    assert log.raw.ravel().tolist() == [40.0, 41.0]
+    assert [row.line for row in log.skipped] == [3]
+    with pytest.raises(FormatError, match="line 3"):
+        read_rover_log(tmp_path / "a.csv", 1, strict=True)
+    (tmp_path / "c.csv").write_text(f"raw,distance\n10,1\n{field},2\n")
+    with pytest.raises(FormatError, match="two numbers"):
+        read_calibration(tmp_path / "c.csv")
+    (tmp_path / "c.json").write_text(json.dumps({"a": "1_0", "b": 1.0, "c": 0.0}))
+    with pytest.raises(FormatError, match="numbers"):
+        read_calibration(tmp_path / "c.json")
+
+
+def test_a_folder_is_not_a_log(tmp_path: Path) -> None:
+    with pytest.raises(FormatError, match="not a regular file"):
+        read_rover_log(tmp_path, 1)

@@ -26,8 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
+from bayesmap._io import read_input
+from bayesmap._numbers import is_decimal
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError, InputError
+from bayesmap.limits import DEFAULT_LIMITS
 from bayesmap.sensing.ir import Calibration, fit_calibration
 from bayesmap.sonar.logs import ANGLE_UNITS, LENGTH_UNITS, SkippedRow
 
@@ -48,10 +51,11 @@ class RoverLog:
 
 def _rows(path: Path) -> list[tuple[int, list[str]]]:
     """``(line number, fields)`` of the non-blank, non-comment lines of a CSV file."""
+    data = read_input(path, max_bytes=DEFAULT_LIMITS.max_bytes)  # a regular file, bounded
     try:
-        text = path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as error:
-        raise FormatError(f"cannot read the file ({error})", path=path) from None
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        raise FormatError(f"the file is not UTF-8 text ({error})", path=path) from None
     rows = []
     for number, line in enumerate(text.splitlines(), start=1):
         if line.strip() and not line.lstrip().startswith("#"):
@@ -98,12 +102,10 @@ def read_rover_log(
         if len(fields) != len(header):
             reason = f"{len(fields)} fields, the header has {len(header)}"
         else:
-            try:
-                row = [float(fields[k]) for k in index]
-            except ValueError:
-                row = []
-            if len(row) != len(index) or not all(math.isfinite(v) for v in row):
-                reason = "a field is not a finite number"
+            plain = all(is_decimal(fields[k].strip()) for k in index)
+            row = [float(fields[k]) for k in index] if plain else []
+            if not plain or not all(math.isfinite(v) for v in row):
+                reason = "a field is not a finite plain decimal number"
             elif not all(0.0 <= v <= 255.0 for v in row[3:]):
                 reason = "an IR reading outside 0..255"
         if reason is not None:
@@ -128,7 +130,10 @@ def read_calibration(path: str | Path, *, distance_unit: str = "m") -> Calibrati
     if file.suffix.lower() == ".json":
         try:
             document = json.loads(file.read_text(encoding="utf-8"))
-            fit = tuple(float(document[key]) for key in ("a", "b", "c"))
+            numbers = [document[key] for key in ("a", "b", "c")]
+            if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in numbers):
+                raise TypeError("not JSON numbers")
+            fit = tuple(float(v) for v in numbers)
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
             raise FormatError(f"cannot read the calibration ({error})", path=file) from None
         except (KeyError, TypeError, ValueError):
@@ -146,12 +151,11 @@ def read_calibration(path: str | Path, *, distance_unit: str = "m") -> Calibrati
     raw_col, distance_col = _columns(file, header, header_line, ["raw", "distance"])
     pairs = []
     for number, fields in rows:
-        try:
-            pairs.append((float(fields[raw_col]), float(fields[distance_col])))
-        except (ValueError, IndexError):
-            raise FormatError(
-                "expected two numbers (raw, distance)", path=file, line=number
-            ) from None
+        pair = fields[raw_col : raw_col + 1] + fields[distance_col : distance_col + 1]
+        if len(pair) == 2 and all(is_decimal(field.strip()) for field in pair):
+            pairs.append((float(pair[0]), float(pair[1])))
+        else:
+            raise FormatError("expected two numbers (raw, distance)", path=file, line=number)
     raw, distance = np.asarray(pairs, dtype=np.float64).reshape(-1, 2).T
     try:
         return fit_calibration(raw, distance * LENGTH_UNITS[distance_unit])
