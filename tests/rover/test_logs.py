@@ -112,3 +112,11 @@ def test_numbers_are_plain_decimals(tmp_path: Path, field: str) -> None:
 def test_a_folder_is_not_a_log(tmp_path: Path) -> None:
     with pytest.raises(FormatError, match="not a regular file"):
         read_rover_log(tmp_path, 1)
+
+
+def test_fields_padded_with_control_whitespace_are_read(tmp_path: Path) -> None:
+    """Found by fuzzing: a field such as ``"\\x1f20"`` is 20 once stripped, as the check sees it."""
+    (tmp_path / "c.csv").write_text("raw,distance\n\x1f120,0.1\n80,0.2\n50,0.35\n30,0.6\n")
+    assert len(read_calibration(tmp_path / "c.csv")) == 3
+    (tmp_path / "a.csv").write_text("x,y,heading,ir_0\n1,2,0,\x1f40\n")
+    assert read_rover_log(tmp_path / "a.csv", 1).raw.tolist() == [[40.0]]

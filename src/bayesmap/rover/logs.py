@@ -102,8 +102,9 @@ def read_rover_log(
         if len(fields) != len(header):
             reason = f"{len(fields)} fields, the header has {len(header)}"
         else:
-            plain = all(is_decimal(fields[k].strip()) for k in index)
-            row = [float(fields[k]) for k in index] if plain else []
+            wanted = [fields[k].strip() for k in index]
+            plain = all(is_decimal(field) for field in wanted)
+            row = [float(field) for field in wanted] if plain else []
             if not plain or not all(math.isfinite(v) for v in row):
                 reason = "a field is not a finite plain decimal number"
             elif not all(0.0 <= v <= 255.0 for v in row[3:]):
@@ -151,8 +152,11 @@ def read_calibration(path: str | Path, *, distance_unit: str = "m") -> Calibrati
     raw_col, distance_col = _columns(file, header, header_line, ["raw", "distance"])
     pairs = []
     for number, fields in rows:
-        pair = fields[raw_col : raw_col + 1] + fields[distance_col : distance_col + 1]
-        if len(pair) == 2 and all(is_decimal(field.strip()) for field in pair):
+        pair = [
+            f.strip()
+            for f in fields[raw_col : raw_col + 1] + fields[distance_col : distance_col + 1]
+        ]
+        if len(pair) == 2 and all(is_decimal(field) for field in pair):
             pairs.append((float(pair[0]), float(pair[1])))
         else:
             raise FormatError("expected two numbers (raw, distance)", path=file, line=number)
