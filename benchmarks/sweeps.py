@@ -6,9 +6,9 @@ runs it twice into fresh folders: every task in this process, then on a
 ``distributed.LocalCluster`` of two single-threaded worker processes (cluster start-up
 included in the time). It checks that both give the same metrics (timings aside) and
 reports both wall times and the speed-up; target ≥ 1.7× on a 2-core machine. The load
-average before and after is printed with the numbers: on a machine shared with other work
-the speed-up is what was left over, not what the method can do. Run from the repository
-root as ``python benchmarks/sweeps.py``.
+average before and after is measured and the text says what it means (:func:`load_note`):
+on a machine shared with other work the speed-up is what was left over, not what the
+method can do. Run from the repository root as ``python benchmarks/sweeps.py``.
 """
 
 from __future__ import annotations
@@ -27,8 +27,35 @@ from benchmarks._report import machine, update_section  # noqa: E402
 from bayesmap.experiments import load  # noqa: E402
 from bayesmap.sweeps import aggregate, expand, run_sweep  # noqa: E402
 
-TIMINGS = ["per_pose_ms_median", "per_pose_ms_p95", "wall_s"]
+TIMINGS = ("_ms_median", "_ms_p95", "wall_s")
+"""Suffixes of the wall-clock columns (``per_pose_ms_median``, ``fused_wall_s``, ...)."""
 TARGET = 1.7
+IDLE_LOAD = 0.5
+"""A 1-minute load average below this before the run counts as an otherwise idle machine."""
+
+
+def load_note(before: tuple[float, ...], after: tuple[float, ...], cores: int) -> str:
+    """What the load averages measured around the benchmark say about its timings.
+
+    ``before`` and ``after`` are :func:`os.getloadavg` triples; the load before the run is
+    other work, the load after also counts the benchmark's own processes.
+    """
+    measured = (
+        f"the 1-minute load average was {before[0]:.1f} before the run and {after[0]:.1f} "
+        f"after it (which counts the benchmark's own processes) on {cores} cores"
+    )
+    if before[0] < IDLE_LOAD:
+        return f"The machine was otherwise idle: {measured}."
+    if before[0] < cores:
+        return (
+            f"Other work kept about {before[0]:.1f} of the {cores} cores busy when the run "
+            f"started, so the timings are somewhat slower than on an idle machine: {measured}."
+        )
+    return (
+        "The machine was **shared with other jobs**: the serial run and the workers competed "
+        "with that load for the cores, so these timings say how a sweep fares on a busy "
+        f"machine, not what it gives on an idle one; {measured}."
+    )
 
 
 def main() -> None:
@@ -38,26 +65,25 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=6)
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
-    plan = expand(
-        "blackboard",
-        load("blackboard"),
-        worlds=args.worlds,
-        seeds=args.seeds,
-        root_seed=2011,
-        settings={"poses": args.poses, "conditions": ["normal"]},
-    )
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
+        plan = expand(
+            "blackboard",
+            load("blackboard"),
+            worlds=args.worlds,
+            seeds=args.seeds,
+            root_seed=2011,
+            settings={"poses": args.poses, "conditions": ["normal"]},
+            out_dir=Path(tmp) / "serial",
+        )
         started = time.perf_counter()
         serial = run_sweep(plan, Path(tmp) / "serial", serial=True)
         serial_s = time.perf_counter() - started
         started = time.perf_counter()
         cluster = run_sweep(plan, Path(tmp) / "cluster", workers=args.workers)
         cluster_s = time.perf_counter() - started
-        tables = [
-            aggregate.tidy(plan, Path(tmp) / name).drop(columns=TIMINGS)
-            for name in ("serial", "cluster")
-        ]
+        tables = [aggregate.tidy(plan, Path(tmp) / name) for name in ("serial", "cluster")]
+        tables = [t[[c for c in t.columns if not c.endswith(TIMINGS)]] for t in tables]
     load_after = os.getloadavg()
     if serial.failed or cluster.failed:
         raise SystemExit(f"failed tasks: {serial.failed or cluster.failed}")
@@ -70,16 +96,14 @@ def main() -> None:
         f"--set poses={args.poses} --set 'conditions=[normal]' --workers {args.workers} "
         "--out runs/bench"
     )
+    note = load_note(load_before, load_after, os.cpu_count() or 1)
     markdown = f"""## Sweeps: {len(plan.tasks)} blackboard runs, serial vs LocalCluster
 
-`python benchmarks/sweeps.py` — {machine()}. The machine was **shared with other
-engineers' jobs** during the run (1-minute load average {load_before[0]:.1f} before,
-{load_after[0]:.1f} after, on {os.cpu_count()} cores): the serial run and the workers competed
-with that load for the cores, so these timings say how a sweep fares on a busy machine, not
-what it gives on an idle one.
+`python benchmarks/sweeps.py` — {machine()}. {note}
 
 Each run is a whole `blackboard` experiment ({args.poses} poses, condition `normal`,
-figures included) on one of {args.worlds} generated worlds with one of {args.seeds} seeds.
+figures included) on one of {args.worlds} generated rooms (WORLD.json files of
+`bayesmap blackboard world`) with one of {args.seeds} seeds.
 
 | executor | wall time [s] | per run [s] |
 |---|---|---|

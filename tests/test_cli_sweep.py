@@ -54,7 +54,10 @@ def test_bad_requests_get_one_line_errors_and_write_nothing(tmp_path):
         assert result.exit_code == 1, extra
         assert message in result.output and "Traceback" not in result.output
         assert not (tmp_path / "out").exists()
-    result = runner.invoke(app, ["sweep", "sonar", "--worlds", "3", "--out", str(tmp_path / "out")])
+    no_worlds = "bayesmap.experiments.rover_world"
+    result = runner.invoke(
+        app, ["sweep", no_worlds, "--worlds", "3", "--out", str(tmp_path / "out")]
+    )
     assert result.exit_code == 1 and "cannot take --worlds" in result.output
     result = runner.invoke(app, ["sweep", "nosuch", "--out", str(tmp_path / "out")])
     assert result.exit_code == 1 and "unknown experiment 'nosuch'" in result.output

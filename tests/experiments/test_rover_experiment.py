@@ -95,3 +95,64 @@ def test_roc_auc_matches_pair_counting() -> None:
 def test_unknown_run_is_a_config_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigError):
         rover.run(rover.Config(runs=("nowhere",)), tmp_path)
+
+
+@pytest.mark.slow
+def test_frontier_runs_drive_alike_under_both_entropy_inits_but_end_with_other_entropy() -> None:
+    """Why reproduce drives the frontier explorer's -flat and -random runs both.
+
+    The frontier rule reads the entropy layer only through H >= H_desired, which no initial
+    value (>= 1 - delta_h) fails, so both runs take the same decisions: same path, same
+    probability map, same coverage curve. Their entropy layers differ, though, and the
+    random run's cannot be derived from the flat run's: after a contradicting reading
+    (amended eq. 37) a cell's entropy restarts from the new value and forgets its random
+    initial one, so ``min(flat entropy, initial entropy)`` is wrong for such cells.
+    """
+    from bayesmap.grid import Window
+    from bayesmap.sim.world2d import box_world
+
+    def quiet(*_: object) -> None:
+        return None
+
+    config = rover.Config(max_steps=80, seed=11)
+    assert 1.0 - config.delta_h >= config.h_desired
+    world = box_world("rover-field-obstacles-v1")
+    flat = rover.simulate(world, config, "frontier", False, quiet, "flat")
+    random = rover.simulate(world, config, "frontier", True, quiet, "random")
+    np.testing.assert_array_equal(np.asarray(flat.path), np.asarray(random.path))
+    np.testing.assert_array_equal(flat.explorer.grid.probability, random.explorer.grid.probability)
+    assert (flat.steps, flat.collisions, flat.curve) == (
+        random.steps,
+        random.collisions,
+        random.curve,
+    )
+    assert flat.explorer.grid.entropy.sum() > random.explorer.grid.entropy.sum()
+
+    cell = Window(0, 1, 0, 1)
+    grids = {}
+    for initial in (1.0, 1.0 - config.delta_h / 2):
+        grid = OccupancyGrid(1.0, 1.0, 1.0, prior=config.prior)
+        grid.entropy[...] = initial
+        grid.set_probability(cell, np.array([[0.4]]))  # less certain than the prior: resets H
+        grids[initial] = grid
+    after_flat, after_random = (float(g.entropy[0, 0]) for g in grids.values())
+    assert after_random == after_flat > 1.0 - config.delta_h / 2  # the initial value is forgotten
+    assert min(after_flat, 1.0 - config.delta_h / 2) != after_random  # so it cannot be derived
+
+
+@pytest.mark.slow
+def test_a_world_file_replaces_the_field_and_names_the_runs_by_their_init(tmp_path: Path) -> None:
+    from bayesmap.sim.rover_worlds import generate_world, save_world
+
+    world = save_world(tmp_path / "WORLD.json", generate_world(5, size=20.0))
+    config = rover.Config(max_steps=20, runs=("obstacles-flat", "empty-flat"), world=world)
+    result = rover.run(config, tmp_path / "out")
+    metrics = json.loads((result.out_dir / "metrics.json").read_text())
+    assert list(metrics) == ["flat"]  # both runs are the world's flat-init run: driven once
+    assert {m["world"] for m in metrics["flat"].values()} == {"rover-generated-v1"}
+    assert metrics["flat"]["entropy"]["steps"] <= 20  # 20 cycles per 400 m² of a 20 m world
+    assert "20 m x 20 m world rover-generated-v1" in (result.out_dir / "summary.md").read_text()
+    assert [(r["unit"], r["method"]) for r in rover.metric_rows(result)] == [
+        ("flat", "entropy"),
+        ("flat", "frontier"),
+    ]

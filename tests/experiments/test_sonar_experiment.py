@@ -60,8 +60,8 @@ def test_small_run_writes_results_and_is_deterministic(tmp_path: Path) -> None:
     assert result.headline == again.headline
     assert calls and calls[-1][1] == calls[-1][2]
     rows = metric_rows(result)  # what sweeps and the report read
-    assert [(r["unit"], r["method"]) for r in rows] == [
-        ("sonar-clutter-v2 run 0", name) for name in ("default", "elfes", "ros")
+    assert [(r["world"], r["replicate"], r["method"]) for r in rows] == [
+        ("sonar-clutter-v2", 0, name) for name in ("default", "elfes", "ros")
     ]
     assert rows[0]["kappa"] == record["pipelines"]["default"]["kappa"]
 

@@ -43,6 +43,7 @@ def _table(values_a, values_b):
                     "seed": k,
                     "task": f"t{k}",
                     "unit": "",
+                    "replicate": 0,
                     "method": method,
                     "m": value,
                 }

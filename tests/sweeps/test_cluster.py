@@ -131,7 +131,15 @@ def test_a_sweep_through_a_scheduler_and_two_workers_equals_a_serial_run(
     dask_cluster, tmp_path, experiment, worlds, seeds, settings
 ):
     module = toy if experiment == "sweeps.toy" else load(experiment)
-    plan = expand(experiment, module, worlds=worlds, seeds=seeds, root_seed=3, settings=settings)
+    plan = expand(
+        experiment,
+        module,
+        worlds=worlds,
+        seeds=seeds,
+        root_seed=3,
+        settings=settings,
+        out_dir=tmp_path / "serial",
+    )
     serial = run_sweep(plan, tmp_path / "serial", serial=True)
     calls = []
     remote = run_sweep(
@@ -157,6 +165,7 @@ def test_a_local_cluster_gives_the_serial_numbers(tmp_path):
         seeds=3,
         root_seed=9,
         conditions={"ok": {}, "broken": {"fail": True}},
+        out_dir=tmp_path / "serial",
     )
     serial = run_sweep(plan, tmp_path / "serial", serial=True)
     local = run_sweep(plan, tmp_path / "local", workers=2)
@@ -164,3 +173,35 @@ def test_a_local_cluster_gives_the_serial_numbers(tmp_path):
     pd.testing.assert_frame_equal(
         aggregate.tidy(plan, tmp_path / "local"), aggregate.tidy(plan, tmp_path / "serial")
     )
+
+
+def test_the_sweep_command_runs_on_the_scheduler_of_a_scheduler_file_and_resumes(
+    dask_cluster, tmp_path, monkeypatch
+):
+    """docs/cluster.md's recipe: `dask scheduler --scheduler-file`, workers, then
+    `bayesmap sweep ... --scheduler FILE`; the same numbers as --serial, and a rerun resumes."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from bayesmap.cli import app
+
+    monkeypatch.chdir(tmp_path)
+    scheduler_file = tmp_path / "scheduler.json"
+    scheduler_file.write_text(json.dumps({"address": dask_cluster}))
+    runner = CliRunner()
+    grid = ["sweep", "sweeps.toy", "--worlds", "2", "--seeds", "2", "--root-seed", "4"]
+    remote = runner.invoke(app, [*grid, "--scheduler", str(scheduler_file), "--out", "r"])
+    assert remote.exit_code == 0, remote.output
+    assert "on the scheduler at" in remote.output and "ran 4, skipped 0" in remote.output
+    again = runner.invoke(app, [*grid, "--scheduler", dask_cluster, "--out", "r"])
+    assert again.exit_code == 0 and "ran 0, skipped 4" in again.output
+    serial = runner.invoke(app, [*grid, "--serial", "--out", "s"])
+    assert serial.exit_code == 0, serial.output
+    pd.testing.assert_frame_equal(
+        pd.read_parquet("r/summary.parquet"), pd.read_parquet("s/summary.parquet")
+    )
+    assert sorted(p.name for p in Path("r/worlds").iterdir()) == [
+        "world-000.json",
+        "world-001.json",
+    ]

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import importlib
 import json
+from pathlib import Path
 
-import numpy as np
 import pytest
 
 from bayesmap.errors import ConfigError, FormatError
@@ -21,23 +22,27 @@ def _plan(**kwargs):
     return expand(EXPERIMENT, toy, **args)
 
 
-def test_seeds_are_shared_across_worlds_and_conditions_and_stable_when_extended():
-    plan = _plan(worlds=2, conditions={"x": {}, "y": {"scale": 2.0}})
+def test_seeds_are_shared_across_worlds_and_conditions_and_stable_when_extended(tmp_path):
+    plan = _plan(worlds=2, conditions={"x": {}, "y": {"scale": 2.0}}, out_dir=tmp_path)
     assert len(plan.points) == 2 * 3 * 2
     by_index = {}
     for point in plan.points:
         by_index.setdefault(point.seed_index, set()).add(point.seed)
     assert all(len(seeds) == 1 for seeds in by_index.values())
     assert len({s.pop() for s in by_index.values()}) == 3
-    longer = _plan(worlds=2, seeds=5, conditions={"x": {}, "y": {"scale": 2.0}})
+    longer = _plan(worlds=2, seeds=5, conditions={"x": {}, "y": {"scale": 2.0}}, out_dir=tmp_path)
     assert {p.task for p in plan.points} <= {p.task for p in longer.points}
     assert _plan(root_seed=8).points[0].seed != plan.points[0].seed
 
 
-def test_same_request_same_plan():
-    a, b = _plan(worlds=3), _plan(worlds=3)
+def test_same_request_same_plan_and_task_keys_follow_the_world_not_its_folder(tmp_path):
+    a, b = _plan(worlds=3, out_dir=tmp_path), _plan(worlds=3, out_dir=tmp_path)
     assert a.to_json() == b.to_json()
-    assert [p.world for p in a.points[::3]] == [p.world for p in b.points[::3]]
+    assert [w.text for w in a.worlds] == [w.text for w in b.worlds]
+    moved = _plan(worlds=3, out_dir=tmp_path / "elsewhere")
+    assert list(moved.tasks) == list(a.tasks)
+    assert moved.tasks != a.tasks  # same keys, configs pointing at the moved world files
+    assert len({w.digest for w in a.worlds}) == 3
 
 
 def test_identical_effective_configs_are_one_task():
@@ -89,44 +94,66 @@ def test_unknown_or_invalid_settings_name_the_problem():
         _plan(seeds=0)
 
 
-def test_experiments_without_world_support_refuse_worlds():
+def test_experiments_without_world_support_refuse_worlds(tmp_path):
+    module = "bayesmap.experiments.rover_world"
     with pytest.raises(ConfigError, match="cannot take --worlds.*generate_world"):
-        expand("sonar", load("sonar"), worlds=2, seeds=1, root_seed=0)
+        expand(module, load(module), worlds=2, seeds=1, root_seed=0, out_dir=tmp_path)
+    with pytest.raises(ConfigError, match="needs an output folder"):
+        _plan(worlds=2)
 
 
 def test_worlds_from_a_folder(tmp_path):
+    source = tmp_path / "mine"
+    source.mkdir()
     for name, offset in [("b", 2.0), ("a", 1.0)]:
-        (tmp_path / f"{name}.json").write_text(json.dumps({"offset": offset}))
-    (tmp_path / "notes.txt").write_text("not a world")
-    plan = _plan(worlds=tmp_path, seeds=1)
+        (source / f"{name}.json").write_text(json.dumps({"offset": offset}))
+    (source / "notes.txt").write_text("not a world")
+    plan = _plan(worlds=source, seeds=1, out_dir=tmp_path / "out")
     assert [p.world for p in plan.points] == ["a", "b"]
-    assert [plan.tasks[p.task].config["world"]["offset"] for p in plan.points] == [1.0, 2.0]
-    (tmp_path / "c.json").write_text("{}")
+    paths = [Path(plan.tasks[p.task].config["world"]) for p in plan.points]
+    assert paths == [tmp_path.resolve() / "out" / "worlds" / f"{n}.json" for n in "ab"]
+    assert [w.text for w in plan.worlds] == [(source / f"{n}.json").read_text() for n in "ab"]
+    (source / "c.json").write_text("{}")
     with pytest.raises(FormatError, match="c.json"):
-        _plan(worlds=tmp_path, seeds=1)
+        _plan(worlds=source, seeds=1, out_dir=tmp_path)
     (tmp_path / "empty").mkdir()
     with pytest.raises(ConfigError, match="no world files"):
-        _plan(worlds=tmp_path / "empty", seeds=1)
+        _plan(worlds=tmp_path / "empty", seeds=1, out_dir=tmp_path)
     with pytest.raises(ConfigError, match="not a number and not a folder"):
-        _plan(worlds=tmp_path / "missing", seeds=1)
+        _plan(worlds=tmp_path / "missing", seeds=1, out_dir=tmp_path)
 
 
-def test_blackboard_generates_and_loads_worlds(tmp_path):
-    blackboard = load("blackboard")
-    world = blackboard.generate_world(np.random.default_rng(3))
-    assert len(world["tables"]) == 6 and world["name"].startswith("whisker-tables-v1-")
-    assert blackboard.generate_world(np.random.default_rng(3)) == world
-    path = tmp_path / "w.yaml"
-    path.write_text(json.dumps(world))
-    assert blackboard.load_world(path) == world
-    path.write_text("tables: [[1, 2]]")
-    with pytest.raises(FormatError, match=r"w\.yaml.*x, y, theta"):
-        blackboard.load_world(path)
-    path.write_text("tables: [[1, 2, .nan]]")
-    with pytest.raises(FormatError, match="finite"):
-        blackboard.load_world(path)
-    plan = expand("blackboard", blackboard, worlds=2, seeds=1, root_seed=0)
-    assert len({p.world for p in plan.points}) == 2
+@pytest.mark.parametrize(
+    ("experiment", "reader"),
+    [
+        ("blackboard", "bayesmap.sim.whisker_worlds"),
+        ("rover", "bayesmap.sim.rover_worlds"),
+        ("sonar", "bayesmap.sim.sonar_worlds"),
+    ],
+)
+def test_each_system_sweeps_the_world_files_its_own_reader_reads(tmp_path, experiment, reader):
+    """Generated worlds are the system's WORLD.json files: its own reader takes them back."""
+    module = load(experiment)
+    plan = expand(experiment, module, worlds=2, seeds=1, root_seed=0, out_dir=tmp_path)
+    assert [w.name for w in plan.worlds] == ["world-000", "world-001"]
+    assert plan.worlds[0].text != plan.worlds[1].text
+    again = expand(experiment, module, worlds=2, seeds=1, root_seed=0, out_dir=tmp_path)
+    assert [w.text for w in again.worlds] == [w.text for w in plan.worlds]
+    load_world = importlib.import_module(reader).load_world
+    for world in plan.worlds:
+        world.path.parent.mkdir(parents=True, exist_ok=True)
+        world.path.write_text(world.text)
+        load_world(world.path)  # raises FormatError if the file is not the system's format
+    # a folder of those files is a sweep too, with the same tasks
+    again = expand(
+        experiment,
+        module,
+        worlds=plan.worlds[0].path.parent,
+        seeds=1,
+        root_seed=0,
+        out_dir=tmp_path,
+    )
+    assert list(again.tasks) == list(plan.tasks)
 
 
 def test_rover_runs_without_random_init_ignore_delta_h():

@@ -22,6 +22,7 @@ def sweep(tmp_path_factory):
         seeds=3,
         root_seed=5,
         conditions={"base": {}, "double": {"scale": 2.0}},
+        out_dir=out,
     )
     run_sweep(plan, out, serial=True)
     html = write_report(sections_from_sweep(out), out / "report.html", title="toy sweep")
@@ -40,7 +41,7 @@ def test_the_page_is_self_contained_and_holds_the_summary(sweep):
     assert text.count("data:image/png;base64,") == 2  # key metrics + the run's figure
     for _, row in _summary_cells(plan, out).iterrows():
         assert f"{row['mean']:.4g} ± {row['sd']:.4g}" in text
-    assert "toy-" in text and "Paired comparisons" in text
+    assert "world-001" in text and "Paired comparisons" in text
 
 
 def test_the_report_command_refuses_a_folder_without_a_sweep(tmp_path):
@@ -73,11 +74,12 @@ def test_a_single_run_report_shows_its_values_and_figures(tmp_path, monkeypatch)
     from bayesmap.sweeps.report import section_from_run
 
     monkeypatch.setitem(experiments.EXPERIMENTS, "toy", "sweeps.toy")
-    config = toy.Config(seed=4, world={"name": "w", "offset": 1.0})
+    (tmp_path / "w.json").write_text('{"offset": 1.0}')
+    config = toy.Config(seed=4, world=tmp_path / "w.json")
     result = toy.run(config, tmp_path / "toy")
     section = section_from_run("toy", result, config.model_dump(mode="json"))
     assert list(section.table["method"]) == ["a", "b"]
     text = write_report([section], tmp_path / "report.html", title="reproduce").read_text()
     for value in section.table["value"]:
-        assert f"{value:.4g}<span" in text  # one run: the value alone, no spread
+        assert f"<td>{value:.4g}</td><td>–</td><td>1</td>" in text  # one run: no spread, no CI
     assert text.count("data:image/png;base64,") == 2

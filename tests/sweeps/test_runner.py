@@ -15,18 +15,24 @@ from bayesmap.sweeps.runner import task_folder
 from . import toy
 
 
-def _plan(**kwargs):
-    args = {"worlds": 2, "seeds": 3, "root_seed": 1} | kwargs
+def _plan(out_dir, **kwargs):
+    args = {"worlds": 2, "seeds": 3, "root_seed": 1, "out_dir": out_dir} | kwargs
     return expand("sweeps.toy", toy, **args)
 
 
 def test_runs_every_task_once_and_resumes(tmp_path):
-    plan = _plan(conditions={"base": {}, "same": {"ignored": 1}, "double": {"scale": 2.0}})
+    plan = _plan(
+        tmp_path, conditions={"base": {}, "same": {"ignored": 1}, "double": {"scale": 2.0}}
+    )
     calls = []
     outcome = run_sweep(plan, tmp_path, serial=True, progress=lambda *a: calls.append(a))
     assert len(outcome.ran) == len(plan.tasks) == 2 * 3 * 2 and not outcome.failed
     assert calls[-1] == ("0 failed", len(plan.tasks), len(plan.tasks))
     assert all(task_complete(task_folder(tmp_path, key)) for key in plan.tasks)
+    assert sorted(p.name for p in (tmp_path / "worlds").iterdir()) == [
+        "world-000.json",
+        "world-001.json",
+    ]
     again = run_sweep(plan, tmp_path, serial=True)
     assert again.ran == () and set(again.skipped) == set(plan.tasks)
     victim = next(iter(plan.tasks))
@@ -35,7 +41,7 @@ def test_runs_every_task_once_and_resumes(tmp_path):
 
 
 def test_a_failed_task_is_reported_and_the_others_finish(tmp_path):
-    plan = _plan(conditions={"ok": {}, "broken": {"fail": True}})
+    plan = _plan(tmp_path, conditions={"ok": {}, "broken": {"fail": True}})
     outcome = run_sweep(plan, tmp_path, serial=True)
     broken = {p.task for p in plan.points if p.condition == "broken"}
     assert set(outcome.failed) == broken
@@ -48,12 +54,12 @@ def test_a_failed_task_is_reported_and_the_others_finish(tmp_path):
 
 
 def test_the_tidy_table_holds_every_point_and_the_known_values(tmp_path):
-    plan = _plan(conditions={"base": {}, "same": {"ignored": 1}})
+    plan = _plan(tmp_path, conditions={"base": {}, "same": {"ignored": 1}})
     run_sweep(plan, tmp_path, serial=True)
     table = aggregate.tidy(plan, tmp_path)
     assert len(table) == len(plan.points) * 2
     for _, row in table.iterrows():
-        offset = plan.tasks[row["task"]].config["world"]["offset"]
+        offset = toy.load_world(plan.tasks[row["task"]].config["world"])
         noise = np.random.default_rng(int(row["seed"])).normal()
         assert math.isclose(row["value"], noise + offset + (row["method"] == "b"))
     written = aggregate.write_tables(table, tmp_path)
@@ -62,7 +68,7 @@ def test_the_tidy_table_holds_every_point_and_the_known_values(tmp_path):
 
 
 def test_paired_differences_are_exact_when_the_methods_differ_by_a_constant(tmp_path):
-    plan = _plan()
+    plan = _plan(tmp_path)
     run_sweep(plan, tmp_path, serial=True)
     pairs = aggregate.paired(aggregate.tidy(plan, tmp_path))
     row = pairs.set_index("metric").loc["value"]

@@ -30,19 +30,19 @@ class Config(BaseModel):
     scale: float = 1.0
     ignored: int = 0
     fail: bool = False
-    world: dict[str, Any] | None = None
+    world: Path | None = None
 
 
 def generate_world(rng: np.random.Generator) -> dict[str, Any]:
-    offset = round(float(rng.uniform(0, 10)), 6)
-    return {"name": f"toy-{offset:.3f}", "offset": offset}
+    return {"offset": round(float(rng.uniform(0, 10)), 6)}
 
 
-def load_world(path: Path) -> dict[str, Any]:
+def load_world(path: Path) -> float:
+    """A toy world file: ``{"offset": number}``; the offset every value is shifted by."""
     data = json.loads(Path(path).read_text())
     if not isinstance(data, dict) or not isinstance(data.get("offset"), int | float):
         raise FormatError("a toy world needs a numeric 'offset'", path=path)
-    return {"name": data.get("name", Path(path).stem), "offset": float(data["offset"])}
+    return float(data["offset"])
 
 
 def canonical_config(config: Config) -> Config:
@@ -53,7 +53,7 @@ def run(config: Config, out_dir: Path, *, progress: Any = None) -> ExperimentRes
     if config.fail:
         raise InputError("the toy experiment was told to fail")
     noise = float(np.random.default_rng(config.seed).normal())
-    offset = config.world["offset"] if config.world else 0.0
+    offset = load_world(config.world) if config.world else 0.0
     paths = []
     for shift, method in enumerate(("a", "b")):
         value = config.scale * noise + offset + shift

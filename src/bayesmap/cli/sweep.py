@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Annotated
 
@@ -29,6 +30,16 @@ def _error(message: str) -> typer.Exit:
     return typer.Exit(1)
 
 
+def _quiet_dask() -> None:
+    """Keep Dask's narration of its cluster's start and shutdown (INFO, WARNING) off the
+    terminal, where the progress bar says enough; its errors still show."""
+    import distributed  # noqa: F401  (configures its loggers, whose levels are set below)
+
+    for name in list(logging.root.manager.loggerDict):
+        if name == "distributed" or name.startswith("distributed."):
+            logging.getLogger(name).setLevel(logging.ERROR)
+
+
 def _worlds(text: str | None) -> int | Path | None:
     if text is None:
         return None
@@ -41,7 +52,9 @@ def sweep(
     worlds: Annotated[
         str | None,
         typer.Option(
-            "--worlds", help="N generated worlds, or a folder of world files (default: built-in)."
+            "--worlds",
+            help="N generated worlds, or a folder of WORLD.json files (default: built-in); "
+            "the worlds are written to OUT/worlds/.",
         ),
     ] = None,
     seeds: Annotated[int, typer.Option("--seeds", help="Run seeds per world and condition.")] = 1,
@@ -58,7 +71,11 @@ def sweep(
     ] = None,
     scheduler: Annotated[
         str | None,
-        typer.Option("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786."),
+        typer.Option(
+            "--scheduler",
+            help="Dask scheduler address, e.g. tcp://10.0.0.5:8786, or the file of "
+            "dask scheduler --scheduler-file.",
+        ),
     ] = None,
     workers: Annotated[
         int | None,
@@ -77,6 +94,8 @@ def sweep(
     from bayesmap.sweeps.grid import parse_condition, parse_setting
     from bayesmap.sweeps.report import sections_from_sweep, write_report
 
+    if not serial:
+        _quiet_dask()
     try:
         module = load(experiment)
         settings = dict(parse_setting(item) for item in set_ or [])
@@ -94,14 +113,25 @@ def sweep(
             root_seed=root_seed,
             settings=settings,
             conditions=conditions or None,
+            out_dir=out,
         )
-        where = "in this process" if serial else (scheduler or "a local cluster")
+        where = (
+            "in this process"
+            if serial
+            else f"on the scheduler at {scheduler}"
+            if scheduler
+            else "on a local cluster"
+        )
         console.print(
             Text(
                 f"{experiment}: {len(plan.points)} grid point(s), {len(plan.tasks)} distinct "
-                f"run(s), on {where}"
+                f"run(s), {where}"
             )
         )
+        if plan.worlds:
+            console.print(
+                Text(f"worlds: {len(plan.worlds)} WORLD.json file(s) in {out / 'worlds'}")
+            )
         with Progress(
             TextColumn("[bold]runs[/bold]"),
             BarColumn(),

@@ -21,11 +21,14 @@ Outputs under ``out_dir``: ``ground_truth.png`` (Fig. 4); per condition
 ``<condition>/metrics.json``;
 ``snapshot_high.png`` and ``snapshot_low.png`` (Figs. 1–2) and ``annealing.gif`` for one
 pose of the ``normal`` run; ``summary.md``.
+
+Given a world file (``Config.world``, the ``WORLD.json`` of :mod:`bayesmap.sim.whisker_worlds`
+that ``bayesmap blackboard run --world`` reads), the robot visits that room's poses and the
+fused mapper is told its catalogue; the paper's one-size model gets the largest table.
 """
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
 from collections.abc import Callable
@@ -34,13 +37,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from pydantic import ConfigDict, Field, field_validator
 
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap.blackboard import BlackboardParams, Snapshot, TableMapper
 from bayesmap.blackboard.sweep_model import ObjectType
-from bayesmap.errors import ConfigError, FormatError
+from bayesmap.errors import ConfigError
 from bayesmap.experiments._common import (
     ExperimentConfig,
     ExperimentResult,
@@ -50,7 +52,8 @@ from bayesmap.experiments._common import (
 )
 from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused
 from bayesmap.experiments.table_metrics import MatchTolerance, recall_by_support, score_run
-from bayesmap.sim.tables_world import TablesWorld, build, initial, pose_sequence, scenario
+from bayesmap.sim import whisker_worlds
+from bayesmap.sim.tables_world import TablesWorld, initial, pose_sequence, scenario
 from bayesmap.sim.whiskers import CONDITIONS, WhiskerParams, h, observe
 from bayesmap.viz.tables import (
     TableShape,
@@ -103,9 +106,9 @@ class Config(ExperimentConfig):
         Looser tolerances [m], [rad] for the secondary ``precision_loose`` and
         ``recall_loose`` ("roughly the right place", as the paper judges its Fig. 7).
     world
-        A given layout ``{"name", "scenario", "tables": [[x, y, theta], ...]}`` (from
-        :func:`generate_world` or :func:`load_world`) used instead of drawing the
-        scenario's tables from ``seed``.
+        A world file (``WORLD.json``, :mod:`bayesmap.sim.whisker_worlds`) mapped instead
+        of drawing the scenario's tables from ``seed``: its arena, tables of their own
+        sizes, poses (the first ``poses`` of them) and catalogue.
     fused
         Also run the fused mapper (:class:`~bayesmap.blackboard.fused.FusedMapper`) on each
         condition's readings — the same readings the paper's mapper saw — and add its map
@@ -132,13 +135,7 @@ class Config(ExperimentConfig):
     gospa_c: float = Field(0.5, gt=0)
     loose_position_tol: float = Field(0.5, gt=0)
     loose_angle_tol: float = Field(float(np.pi / 6), gt=0)
-    world: dict[str, Any] | None = None
-
-    @field_validator("world")
-    @classmethod
-    def _valid_world(cls, value: dict[str, Any] | None) -> dict[str, Any] | None:
-        return None if value is None else _checked_world(value, "Config.world")
-
+    world: Path | None = None
     fused: bool = True
     fused_mapper: dict[str, int | float] = Field(default_factory=dict)
 
@@ -405,7 +402,11 @@ def _summary(metrics: dict[str, dict[str, Any]], world: TablesWorld, config: Con
 
 
 def _run(
-    config: Config, out_dir: Path, *, progress: ProgressHook | None = None
+    config: Config,
+    out_dir: Path,
+    *,
+    world_file: whisker_worlds.WorldFile | None = None,
+    progress: ProgressHook | None = None,
 ) -> ExperimentResult:
     """Run the blackboard experiment and write its figures, metrics and summary.
 
@@ -415,23 +416,29 @@ def _run(
         The settings.
     out_dir
         Folder for the outputs (created if missing).
+    world_file
+        The world file of ``config.world``, read, or ``None`` for the scenario's world.
     progress
         Called as ``progress(condition, poses_done, poses_total)`` after every pose.
     """
     progress = progress or no_progress
     out_dir = Path(out_dir)
     seeds = np.random.SeedSequence(config.seed).spawn(1 + 3 * len(CONDITIONS))
-    if config.world is None:
+    if world_file is None:
         world = initial(
             np.random.default_rng(seeds[0]), scenario(config.scenario), name=config.scenario
         )
-    else:
-        world = build(
-            np.asarray(config.world["tables"], dtype=np.float64),
-            scenario(config.world["scenario"]),
-            name=config.world["name"],
+        poses = pose_sequence(world.params)[: config.poses]
+        p = world.params
+        catalogue: tuple[ObjectType, ...] = (
+            ObjectType("table", p.table_length, p.table_width, p.leg_width),
         )
-    poses = pose_sequence(world.params)[: config.poses]
+    else:
+        world = world_file.world(name=Path(str(config.world)).stem)
+        poses = world_file.robot_poses()[: config.poses]
+        catalogue = tuple(ObjectType(*entry) for entry in world_file.catalogue)
+        if not len(poses):
+            raise ConfigError(f"{config.world}: every robot pose is blocked by a table")
     shape = TableShape(world.params.table_length, world.params.table_width, world.params.leg_width)
     snapshot_at = config.snapshot_pose
     if snapshot_at is None:
@@ -465,7 +472,9 @@ def _run(
         )
         if config.fused:
             figures.append(
-                _fused_condition(name, config, world, poses, seeds, metrics, progress, out_dir)
+                _fused_condition(
+                    name, config, world, catalogue, poses, seeds, metrics, progress, out_dir
+                )
             )
             metric_files[-1] = write_json(out_dir / name / "metrics.json", metrics[name])
         if snap_run is None or name == "normal":
@@ -484,6 +493,7 @@ def _fused_condition(
     name: str,
     config: Config,
     world: TablesWorld,
+    catalogue: tuple[ObjectType, ...],
     poses: np.ndarray,
     seeds: list[np.random.SeedSequence],
     metrics: dict[str, dict[str, Any]],
@@ -494,7 +504,6 @@ def _fused_condition(
     k = list(CONDITIONS).index(name)
     sensor = _sensor(config, name)
     p = world.params
-    catalogue = (ObjectType("table", p.table_length, p.table_width, p.leg_width),)
     result = run_fused(
         world,
         poses,
@@ -516,7 +525,8 @@ def _fused_condition(
         }
     )
     fused = result["fused"]
-    sizes = np.tile([p.table_length, p.table_width, p.leg_width], (len(fused.tables), 1))
+    kinds = [catalogue[int(row[3])] for row in fused.tables]
+    sizes = np.array([[k.length, k.width, k.leg] for k in kinds]).reshape(-1, 3)
     m = metrics[name]
     title = (
         f"{name}: fused map of {len(poses)} poses — precision {m['fused_precision']:.2f}, "
@@ -528,7 +538,7 @@ def _fused_condition(
         fused.tables[:, :3],
         sizes,
         fused.existence,
-        ["table"] * len(fused.tables),
+        [k.name for k in kinds],
         world.bounds,
         title,
     )
@@ -569,11 +579,13 @@ def run(
     Everything is written into a fresh folder that replaces ``out_dir`` only once the run
     is complete, with a ``manifest.json`` (:func:`~bayesmap.experiments._common.run_in_folder`).
     """
+    # a bad world file fails before any folder is touched
+    world_file = None if config.world is None else whisker_worlds.load_world(config.world)
     return run_in_folder(
         "blackboard",
         config,
         out_dir,
-        lambda folder: _run(config, folder, progress=progress),
+        lambda folder: _run(config, folder, world_file=world_file, progress=progress),
         command=command,
     )
 
@@ -582,66 +594,33 @@ KEY_METRICS = ("precision", "recall", "gospa_mean", "position_error_mean", "phan
 """The metrics a sweep report draws per world (:mod:`bayesmap.sweeps.protocol`)."""
 
 
-def generate_world(
-    rng: np.random.Generator, scenario_name: str = "whisker-tables-v1"
-) -> dict[str, Any]:
-    """A new table layout of ``scenario_name`` drawn from ``rng``, as ``Config.world`` data."""
-    world = initial(rng, scenario(scenario_name), name=scenario_name)
-    tables = world.tables.round(6)
-    digest = hashlib.sha256(tables.tobytes()).hexdigest()[:8]
-    return {
-        "name": f"{scenario_name}-{digest}",
-        "scenario": scenario_name,
-        "tables": tables.tolist(),
-    }
+def generate_world(rng: np.random.Generator) -> dict[str, Any]:
+    """A stress room from :func:`bayesmap.sim.whisker_worlds.generate_world`, as WORLD.json."""
+    return whisker_worlds.generate_world(rng).to_json()
 
 
-def load_world(path: Path) -> dict[str, Any]:
-    """Read a table layout (JSON or YAML, the shape of :func:`generate_world`'s output).
+load_world = whisker_worlds.load_world
+"""The reader of the world files ``Config.world`` names (:mod:`bayesmap.sweeps.protocol`)."""
 
-    Raises
-    ------
-    FormatError
-        If the file cannot be read or its layout is malformed (naming the file and field).
-    """
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as error:
-        first = str(error).splitlines()[0] if str(error) else type(error).__name__
-        raise FormatError(f"cannot read the world file: {first}", path=path) from None
-    if not isinstance(data, dict):
-        raise FormatError("a world file holds a mapping with 'tables'", path=path)
-    data.setdefault("name", path.stem)
-    try:
-        return _checked_world(data, "world")
-    except ConfigError as error:
-        raise FormatError(str(error), path=path) from None
-
-
-def _checked_world(data: dict[str, Any], where: str) -> dict[str, Any]:
-    """``data`` with its scenario filled in, if its tables are ``[[x, y, theta], ...]``."""
-    out = {"scenario": "whisker-tables-v1", **data}
-    unknown = sorted(set(out) - {"name", "scenario", "tables"})
-    if unknown:
-        raise ConfigError(f"{where}: unknown field(s) {unknown}; expected name, scenario, tables")
-    params = scenario(str(out["scenario"]))
-    try:
-        tables = np.asarray(out.get("tables"), dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ConfigError(f"{where}.tables: expected a list of [x, y, theta] numbers") from None
-    if tables.ndim != 2 or tables.shape[1] != 3 or not np.isfinite(tables).all():
-        raise ConfigError(f"{where}.tables: expected a list of finite [x, y, theta] numbers")
-    inside = (tables[:, :2] >= 0) & (tables[:, :2] <= params.arena_size)
-    if not inside.all():
-        raise ConfigError(
-            f"{where}.tables: table centres must lie in the {params.arena_size} m arena"
-        )
-    return {
-        "name": str(out.get("name", "world")),
-        "scenario": out["scenario"],
-        "tables": tables.tolist(),
-    }
+METRIC_UNITS = {
+    "precision": "fraction",
+    "recall": "fraction",
+    "precision_loose": "fraction",
+    "recall_loose": "fraction",
+    "gospa_mean": "m",
+    "position_error_mean": "m",
+    "angle_error_mean": "rad",
+    "phantoms": "tables",
+    "fused_precision": "fraction",
+    "fused_recall": "fraction",
+    "fused_gospa": "m",
+    "fused_position_error_mean": "m",
+    "fused_angle_error_mean": "rad",
+    "per_pose_ms_median": "ms",
+    "per_pose_ms_p95": "ms",
+    "wall_s": "s",
+}
+"""Units of the metrics, for the sweep report (:mod:`bayesmap.sweeps.protocol`)."""
 
 
 def metric_rows(result: ExperimentResult) -> list[dict[str, Any]]:

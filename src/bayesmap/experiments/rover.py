@@ -6,6 +6,11 @@ the three boxes of §5.3; entropy initialised to 1 or to 1 − δ_h U(0, 1) with
 run drives the simulated rover with the paper's exploration rule and, on the same world and
 seeds, with a frontier explorer (Yamauchi 1997) for comparison. Every run records its world
 name (``rover-field-empty-v1`` / ``rover-field-obstacles-v1``).
+
+Given a world file (``Config.world``, the ``WORLD.json`` of :mod:`bayesmap.sim.rover_worlds`
+that ``bayesmap rover run --world`` reads), every run drives in that world instead, from its
+start, on its resolution, with ``max_steps`` cycles per 400 m² of its area (the paper's field);
+the runs are then named by their entropy initialisation, ``flat`` and ``random``.
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ from bayesmap.rover.network import DecisionNetwork
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.targets import EntropyTarget, FrontierTarget, TargetRule
 from bayesmap.sim import rover as sim_rover
+from bayesmap.sim import rover_worlds
 from bayesmap.sim.world2d import BoxWorld, box_world, occupancy_truth
 from bayesmap.viz.rover import coverage_figure, maps_pair_figure
 
@@ -80,6 +86,8 @@ class Config(ExperimentConfig):
     curve_every: int = Field(20, ge=1)
     title_note: str = ""
     """Appended to every figure title, to say what a variant run shows."""
+    world: Path | None = None
+    """A world file driven in instead of the paper's field (see the module docstring)."""
 
     def rover_params(self) -> RoverParams:
         """The rover brain's parameters."""
@@ -276,11 +284,11 @@ def _fmt(value: Any, digits: int = 3) -> str:
     return str(value)
 
 
-def _summary(config: Config, results: dict[str, dict[str, dict[str, Any]]]) -> str:
+def _summary(config: Config, results: dict[str, dict[str, dict[str, Any]]], field_name: str) -> str:
     lines = [
         "# Micro-rover mapping runs (Post et al. 2016 §5)",
         "",
-        f"20 m x 20 m field, {config.resolution} m grid, β_b = {config.beta_b}, "
+        f"{field_name}, {config.resolution} m grid, β_b = {config.beta_b}, "
         f"d_max = {config.d_max} m, "
         f"P(R) = {config.prior}, δ_h = {config.delta_h}, H_desired = {config.h_desired} bits, "
         f"M = {config.n_headings} headings, seed {config.seed}, at most {config.max_steps} cycles "
@@ -308,8 +316,12 @@ def _summary(config: Config, results: dict[str, dict[str, dict[str, Any]]]) -> s
             "",
             "Only the target rule differs: the frontier explorer drives to the nearest group of "
             "unknown cells next to open ones; sensing, map update, collision avoidance and the "
-            "movement model are shared. The frontier rule ignores the entropy map, so its "
-            "-flat and -random runs coincide. Coverage per metre = final coverage / path length.",
+            "movement model are shared. The frontier rule reads the entropy map only through "
+            "H ≥ H_desired, which no initial value (≥ 1 − δ_h) fails, so its -flat and -random "
+            "runs drive the same path and build the same probability map; their entropy maps "
+            "differ where the random initial values were never overwritten, so both are driven "
+            "and their entropy [bits] differs. "
+            "Coverage per metre = final coverage / path length.",
             "",
             "| run | explorer | path [m] | collisions | coverage at 100 m | coverage at 200 m | "
             "coverage | coverage per metre [1/m] | distance to 90 % [m] | ROC AUC |",
@@ -336,25 +348,45 @@ def _summary(config: Config, results: dict[str, dict[str, dict[str, Any]]]) -> s
 
 
 def _run(
-    config: Config, out_dir: Path, *, progress: ProgressHook | None = None
+    config: Config,
+    out_dir: Path,
+    *,
+    spec: rover_worlds.WorldSpec | None = None,
+    progress: ProgressHook | None = None,
 ) -> ExperimentResult:
     """Run the four mapping runs (and the frontier baseline); write figures, maps and metrics."""
     hook = progress or no_progress
     unknown = [name for name in config.runs if name not in RUNS]
     if unknown:
         raise ConfigError(f"unknown rover run(s) {unknown}; choose from {list(RUNS)}")
+    if spec is None:
+        plan = [(name, box_world(RUNS[name][0]), RUNS[name][1]) for name in config.runs]
+        field_name = "20 m x 20 m field"
+    else:
+        area = spec.world.width * spec.world.height
+        config = config.model_copy(
+            update={
+                "resolution": spec.resolution,
+                "start": spec.start,
+                "max_steps": max(round(config.max_steps * area / 400.0), 1),
+            }
+        )
+        inits = dict.fromkeys(RUNS[name][1] for name in config.runs)
+        plan = [("random" if r else "flat", spec.world, r) for r in inits]
+        field_name = f"{spec.world.width:g} m x {spec.world.height:g} m world {spec.world.name}"
     out = Path(out_dir)
     explorers = EXPLORERS if config.baseline else EXPLORERS[:1]
     results: dict[str, dict[str, dict[str, Any]]] = {}
     figures: list[Path] = []
     metric_files: list[Path] = []
     curves: dict[str, list[tuple[float, float]]] = {}
-    for name in config.runs:
-        world = box_world(RUNS[name][0])
+    for name, world, randomised in plan:
         results[name] = {}
         for explorer_name in explorers:
             stage = name if explorer_name == "entropy" else f"{name} (frontier)"
-            trace = simulate(world, config, explorer_name, RUNS[name][1], hook, stage)
+            # the frontier explorer's -flat and -random runs drive alike but end with
+            # different entropy maps (see _summary), so both are driven
+            trace = simulate(world, config, explorer_name, randomised, hook, stage)
             metrics = run_metrics(trace, world, config, explorer_name)
             folder = out / name if explorer_name == "entropy" else out / "frontier" / name
             title = name if explorer_name == "entropy" else f"{name}, frontier explorer"
@@ -369,7 +401,7 @@ def _run(
         )
     )
     bn.write(DecisionNetwork(config.rover_params()).net, out / "decision_network.xmlbif")
-    summary = write_text(out / "summary.md", _summary(config, results))
+    summary = write_text(out / "summary.md", _summary(config, results, field_name))
     metric_files.append(write_json(out / "metrics.json", results))
     paper = [by["entropy"] for by in results.values()]
     headline: dict[str, float | int | str] = {
@@ -391,11 +423,13 @@ def run(
     Everything is written into a fresh folder that replaces ``out_dir`` only once the run
     is complete, with a ``manifest.json`` (:func:`~bayesmap.experiments._common.run_in_folder`).
     """
+    # a bad world file fails before any folder is touched
+    spec = None if config.world is None else rover_worlds.load_world(config.world)
     return run_in_folder(
         "rover",
         config,
         out_dir,
-        lambda folder: _run(config, folder, progress=progress),
+        lambda folder: _run(config, folder, spec=spec, progress=progress),
         command=command,
     )
 
@@ -410,6 +444,30 @@ def canonical_config(config: Config) -> Config:
     if any(RUNS[name][1] for name in config.runs if name in RUNS):
         return config
     return config.model_copy(update={"delta_h": Config.model_fields["delta_h"].default})
+
+
+def generate_world(rng: np.random.Generator) -> dict[str, Any]:
+    """A stress world from :func:`bayesmap.sim.rover_worlds.generate_world`, as WORLD.json."""
+    return rover_worlds.generate_world(rng).to_json()
+
+
+load_world = rover_worlds.load_world
+"""The reader of the world files ``Config.world`` names (:mod:`bayesmap.sweeps.protocol`)."""
+
+
+METRIC_UNITS = {
+    "path_length_m": "m",
+    "min_clearance_m": "m",
+    "distance_to_90": "m",
+    "entropy_bits": "bits",
+    "h_desired_bits": "bits",
+    "coverage_per_metre": "1/m",
+    "cycle_ms": "ms",
+    "coverage": "fraction",
+    "coverage_at_100m": "fraction",
+    "coverage_at_200m": "fraction",
+}
+"""Units of the metrics, for the sweep report (:mod:`bayesmap.sweeps.protocol`)."""
 
 
 def metric_rows(result: ExperimentResult) -> list[dict[str, Any]]:

@@ -8,6 +8,9 @@ multipath. The *same* logged readings and odometry go through every pipeline of
 stage alone, and the unfiltered baselines: eq. 1 cone, eq. 1 ignoring no-echo readings,
 Thrun's ±0.4 and the ROS range layer). Maps are scored against the world's truth; rejections
 against the simulator's knowledge of which readings were specular.
+
+Given a world file (``Config.world``, the ``WORLD.json`` of :mod:`bayesmap.sim.sonar_worlds`),
+the runs are driven in that world instead of the registered ones.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from bayesmap.experiments._common import (
     run_in_folder,
 )
 from bayesmap.grid import OccupancyGrid
+from bayesmap.sim import sonar_worlds
 from bayesmap.sim.polygons import REALISTIC_WORLDS, PolygonWorld, world
 from bayesmap.sim.sonar import SonarRing
 from bayesmap.sim.sonar_log import Realism, SimulatedLog, simulate_log
@@ -81,6 +85,9 @@ class Config(ExperimentConfig):
     critical_angle_deg: float = Field(15.0, gt=0, lt=90)
     footprint: float = Field(0.2, gt=0, description="Robot radius for path cells [m].")
     realism: Realism = Field(default_factory=Realism)
+    world: Path | None = Field(
+        None, description="A world file driven in instead of the registered worlds."
+    )
 
 
 def ring_geometry(ring: SonarRing) -> SonarGeometry:
@@ -277,21 +284,25 @@ def _targets(by_world: dict[str, dict[str, dict[str, list[float]]]]) -> dict[str
 
 
 def _run(
-    config: Config, out_dir: Path, *, progress: ProgressHook | None = None
+    config: Config,
+    out_dir: Path,
+    *,
+    worlds: list[PolygonWorld],
+    progress: ProgressHook | None = None,
 ) -> ExperimentResult:
     """Run the sonar experiment; write metrics.json, summary.md and figures under ``out_dir``."""
     hook = progress or no_progress
     out = Path(out_dir)
     names = tuple(n for n in PIPELINES if n in config.pipelines)
-    jobs = [(name, k) for name in config.worlds for k in range(config.runs)]
+    jobs = [(w, k) for w in worlds for k in range(config.runs)]
     streams = spawn(config.seed, len(jobs))
     ring = make_ring(config)
     records: list[dict[str, Any]] = []
     by_world: dict[str, dict[str, dict[str, list[float]]]] = {}
     figures: list[Path] = []
-    for index, ((world_name, k), rng) in enumerate(zip(jobs, streams, strict=True)):
+    for index, ((w, k), rng) in enumerate(zip(jobs, streams, strict=True)):
+        world_name = w.name
         hook(f"{world_name} run {k}", index, len(jobs))
-        w = world(world_name)
         log = simulate_log(w, ring, config.realism, rng=rng)
         metrics, maps, grid, truth = score_world(config, w, log, names)
         records.append(
@@ -343,7 +354,7 @@ def _run(
     )
     parts = [
         "# Sonar mapping with specular-reading rejection\n",
-        f"Worlds: {', '.join(config.worlds)}; {config.runs} seeded runs each, Pioneer "
+        f"Worlds: {', '.join(w.name for w in worlds)}; {config.runs} seeded runs each, Pioneer "
         f"{config.ring}-sonar ring, seed {config.seed}. Mean ± standard deviation over runs. "
         "κ and accuracy over observed cells; false obstacle: observed free cells mapped "
         "occupied; missed wall: wall cells within sensor reach not mapped occupied; path "
@@ -393,11 +404,16 @@ def run(
     Everything is written into a fresh folder that replaces ``out_dir`` only once the run
     is complete, with a ``manifest.json`` (:func:`~bayesmap.experiments._common.run_in_folder`).
     """
+    # a bad world file fails before any folder is touched
+    if config.world is None:
+        worlds = [world(name) for name in config.worlds]
+    else:
+        worlds = [sonar_worlds.load_world(config.world)]
     return run_in_folder(
         "sonar",
         config,
         out_dir,
-        lambda folder: _run(config, folder, progress=progress),
+        lambda folder: _run(config, folder, worlds=worlds, progress=progress),
         command=command,
     )
 
@@ -412,15 +428,39 @@ KEY_METRICS = (
 """The metrics a sweep report draws per world (:mod:`bayesmap.sweeps.protocol`)."""
 
 
+def generate_world(rng: np.random.Generator) -> dict[str, Any]:
+    """A random building from :func:`bayesmap.sim.sonar_worlds.generate_world`, as WORLD.json."""
+    return sonar_worlds.to_json(sonar_worlds.generate_world(rng))
+
+
+load_world = sonar_worlds.load_world
+"""The reader of the world files ``Config.world`` names (:mod:`bayesmap.sweeps.protocol`)."""
+
+
 def metric_rows(result: ExperimentResult) -> list[dict[str, Any]]:
-    """One tidy row per run (its ``unit``: world and run) and pipeline (its ``method``)."""
+    """One tidy row per world, seeded run (its ``replicate``) and pipeline (its ``method``)."""
     data = json.loads((result.out_dir / "metrics.json").read_text(encoding="utf-8"))
-    rows = []
-    for record in data["runs"]:
-        unit = f"{record['world']} run {record['run']}"
-        for pipeline, scores in record["pipelines"].items():
-            rows.append({"unit": unit, "method": pipeline, **scores})
-    return rows
+    return [
+        {"world": record["world"], "replicate": record["run"], "method": pipeline, **scores}
+        for record in data["runs"]
+        for pipeline, scores in record["pipelines"].items()
+    ]
+
+
+PAIRED_AGAINST = DEFAULT_PIPELINE
+"""The pipeline the report compares every other one with (:mod:`bayesmap.sweeps.protocol`)."""
+
+METRIC_UNITS = {
+    "accuracy": "fraction",
+    "false_obstacle_rate": "fraction",
+    "missed_wall_rate": "fraction",
+    "observed_fraction": "fraction",
+    "path_occupied": "cells",
+    "rejected_fraction": "fraction",
+    "rejection_precision": "fraction",
+    "rejection_recall": "fraction",
+}
+"""Units of the metrics, for the sweep report (:mod:`bayesmap.sweeps.protocol`)."""
 
 
 KEY_FIGURES = ("maps_*.png",)

@@ -1,15 +1,16 @@
 """A sweep's results as tables: every task's metrics (tidy), per-arm summaries, paired tests.
 
 The tidy table has one row per grid point and metric row of its task, with the columns
-``experiment, condition, world, world_index, seed_index, seed, task, unit, method`` and one
-column per metric. An *arm* is what a sweep compares: a condition, or a condition and a
-method of the experiment (e.g. ``default / frontier``).
+``experiment, condition, world, world_index, seed_index, seed, task, unit, replicate,
+method`` and one column per metric. An *arm* is what a sweep compares: a condition, or a
+condition and a method of the experiment (e.g. ``default / frontier``). A *replicate* is one
+of several repeats a run makes itself (the sonar experiment's seeded runs of a world).
 
 The summary gives, per experiment, arm and unit, every numeric metric's mean, standard
 deviation and a 95 % percentile-bootstrap interval of the mean (Efron & Tibshirani 1993,
-ch. 13) from a seeded generator. Paired comparisons take two arms measured on the same
-world, seed and unit, and summarise the differences the same way, with the Wilcoxon
-signed-rank test's p-value.
+ch. 13) from a seeded generator, pooling seeds, worlds and replicates. Paired comparisons
+take two arms measured on the same world, seed, unit and replicate, and summarise the
+differences the same way, with the Wilcoxon signed-rank test's p-value.
 """
 
 from __future__ import annotations
@@ -50,6 +51,7 @@ ID_COLUMNS = (
     "seed",
     "task",
     "unit",
+    "replicate",
     "method",
 )
 """Columns that identify a row of the tidy table; every other numeric column is a metric."""
@@ -79,6 +81,7 @@ def tidy(plan: SweepPlan, out_dir: Path) -> pd.DataFrame:
                 "seed": point.seed,
                 "task": point.task,
                 "unit": str(row.get("unit", "")),
+                "replicate": int(row.get("replicate", 0)),
                 "method": str(row.get("method", "")),
             }
             records.append({**ids, **{k: v for k, v in row.items() if k not in ids}})
@@ -198,7 +201,7 @@ def paired(table: pd.DataFrame, *, rng: RNGLike = 0) -> pd.DataFrame:
     if table.empty:
         return pd.DataFrame(columns=columns)
     data = table.assign(arm=arm(table))
-    keys = ["world_index", "seed_index", "unit"]
+    keys = ["world_index", "world", "seed_index", "unit", "replicate"]
     out = []
     for experiment, rows in data.groupby("experiment", sort=False):
         arms = rows.drop_duplicates("arm")[["arm", "condition", "method"]].to_numpy()

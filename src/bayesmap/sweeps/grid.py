@@ -9,7 +9,9 @@ a sweep is resumed.
 Seeds come from ``numpy.random.SeedSequence(root_seed).spawn``: child 0 draws the generated
 worlds, child 1 the run seeds. Seed index ``k`` gets the same run seed on every world and
 under every condition (common random numbers, so conditions can be compared pairwise), and
-nothing depends on how many workers run the tasks or in which order.
+nothing depends on how many workers run the tasks or in which order. A task's config points
+at a world file by path; its key holds the file's SHA-256 instead, so moving the sweep's
+folder keeps every task's key.
 """
 
 from __future__ import annotations
@@ -84,12 +86,18 @@ class GridPoint:
 
 @dataclass(frozen=True)
 class SweepPlan:
-    """A sweep, expanded: its grid points, the distinct tasks, and how it was asked for."""
+    """A sweep, expanded: its grid points, the distinct tasks, and how it was asked for.
+
+    ``worlds`` are the world files the tasks read (written by
+    :func:`~bayesmap.sweeps.runner.run_sweep` before any task runs); empty for a sweep on
+    the experiment's built-in world, and for a plan read back from ``sweep.json``.
+    """
 
     experiment: str
     points: tuple[GridPoint, ...]
     tasks: dict[str, Task]
     spec: dict[str, Any]
+    worlds: tuple[protocol.SweepWorld, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """The plan as JSON-compatible data (written to ``sweep.json``)."""
@@ -98,6 +106,9 @@ class SweepPlan:
             "spec": self.spec,
             "points": [point.__dict__ for point in self.points],
             "tasks": {key: task.config for key, task in self.tasks.items()},
+            "world_files": {
+                world.name: f"{protocol.WORLD_FOLDER}/{world.path.name}" for world in self.worlds
+            },
         }
 
     @classmethod
@@ -176,8 +187,14 @@ def build_config(module: ModuleType, data: dict[str, Any], *, where: str) -> pyd
         raise ConfigError(f"{where}: {problems}") from None
 
 
-def task_key(experiment: str, config: dict[str, Any]) -> str:
-    """16 hex digits of SHA-256 over the experiment name and its config (canonical JSON)."""
+def task_key(experiment: str, config: dict[str, Any], world: str | None = None) -> str:
+    """16 hex digits of SHA-256 over the experiment name and its config (canonical JSON).
+
+    ``world``, the SHA-256 of the task's world file, replaces the file's path in the
+    config, so the key names the world's content rather than where it lies.
+    """
+    if world is not None:
+        config = {**config, protocol.WORLD_FIELD: f"sha256:{world}"}
     text = json.dumps(
         {"experiment": experiment, "config": config}, sort_keys=True, separators=(",", ":")
     )
@@ -198,6 +215,7 @@ def expand(
     root_seed: int,
     settings: dict[str, Any] | None = None,
     conditions: dict[str, dict[str, Any]] | None = None,
+    out_dir: Path | None = None,
 ) -> SweepPlan:
     """Expand worlds × seeds × conditions into grid points and distinct tasks.
 
@@ -207,8 +225,8 @@ def expand(
         The experiment's name and module (:func:`bayesmap.experiments.load`).
     worlds
         ``None``: the experiment's own world; an int ``N``: ``N`` worlds from the
-        experiment's ``generate_world``; a folder: every world file in it, read by the
-        experiment's ``load_world`` (see :mod:`bayesmap.sweeps.protocol`).
+        experiment's ``generate_world``; a folder: every ``*.json`` world file in it,
+        checked by the experiment's ``load_world`` (see :mod:`bayesmap.sweeps.protocol`).
     seeds
         Run seeds per world and condition (``K``); each from ``SeedSequence.spawn``.
     root_seed
@@ -217,6 +235,9 @@ def expand(
         Overrides applied to every task (``--set``).
     conditions
         Condition name → overrides applied on top of ``settings`` (``--condition``).
+    out_dir
+        The sweep's folder; needed with ``worlds``, whose files the tasks will read from
+        ``<out_dir>/worlds/``.
     """
     if seeds < 1:
         raise ConfigError(f"--seeds must be at least 1, got {seeds}")
@@ -225,7 +246,7 @@ def expand(
     if "seed" in settings or any("seed" in c for c in conditions.values()):
         raise ConfigError("the sweep sets each task's 'seed'; use --seeds and --root-seed")
     world_seeds, run_seeds = np.random.SeedSequence(root_seed).spawn(2)
-    named_worlds = protocol.sweep_worlds(module, experiment, worlds, world_seeds)
+    named_worlds = protocol.sweep_worlds(module, experiment, worlds, world_seeds, out_dir)
     run_seed_values = [_seed_int(child) for child in run_seeds.spawn(seeds)]
     base = module.Config().model_dump(mode="json")
     points: list[GridPoint] = []
@@ -233,14 +254,15 @@ def expand(
     for condition, overrides in conditions.items():
         where = f"{experiment}, condition {condition!r}"
         merged = merge_settings(base, {**settings, **overrides})
-        for world_index, (world_name, world) in enumerate(named_worlds):
+        for world_index, world in enumerate(named_worlds):
+            world_name = protocol.BUILT_IN if world is None else world.name
             for seed_index, seed in enumerate(run_seed_values):
                 data = dict(merged, seed=seed)
                 if world is not None:
-                    data[protocol.WORLD_FIELD] = world
+                    data[protocol.WORLD_FIELD] = str(world.path)
                 config = protocol.canonical(module, build_config(module, data, where=where))
                 normalised = config.model_dump(mode="json")
-                key = task_key(experiment, normalised)
+                key = task_key(experiment, normalised, None if world is None else world.digest)
                 tasks.setdefault(key, Task(key, experiment, normalised))
                 points.append(GridPoint(condition, world_name, world_index, seed_index, seed, key))
     spec = {
@@ -250,4 +272,5 @@ def expand(
         "settings": settings,
         "conditions": conditions,
     }
-    return SweepPlan(experiment, tuple(points), tasks, json.loads(json.dumps(spec)))
+    files = tuple(world for world in named_worlds if world is not None)
+    return SweepPlan(experiment, tuple(points), tasks, json.loads(json.dumps(spec)), files)

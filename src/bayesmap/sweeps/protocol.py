@@ -4,24 +4,35 @@ Every experiment can be swept over seeds and settings. The rest is optional; an
 experiment module may expose:
 
 ``generate_world(rng: numpy.random.Generator) -> dict``
-    A new world as JSON-compatible data, drawn from ``rng`` (``--worlds N``).
-``load_world(path: pathlib.Path) -> dict``
-    The same data read from a world file; raises :class:`~bayesmap.errors.FormatError`
-    naming the file and what is wrong (``--worlds DIR``).
-``Config.world: dict | None``
-    The field (:data:`WORLD_FIELD`) the sweep puts that data in; ``run`` builds its world
-    from it instead of its registered scenario. An experiment needs all three for
-    ``--worlds``. The data should carry a ``"name"`` the results record.
+    A new world drawn from ``rng`` by the system's own generator, as the JSON object of
+    its world file (``WORLD.json``; ``--worlds N``).
+``load_world(path: pathlib.Path)``
+    The system's own reader of world files; it raises
+    :class:`~bayesmap.errors.FormatError` naming the file and what is wrong
+    (``--worlds DIR``). The sweep only uses it to check a file before any task runs.
+``Config.world: pathlib.Path | None``
+    The field (:data:`WORLD_FIELD`) the sweep sets to a world file; ``run`` maps that
+    world instead of its built-in scenario. An experiment needs all three for
+    ``--worlds``. The sweep writes every world it uses, generated or read, to
+    ``<out>/worlds/<name>.json`` — the same files ``bayesmap blackboard run --world`` and
+    ``bayesmap rover run --world`` read — and points ``Config.world`` there.
 ``canonical_config(config) -> Config``
     The config with settings that cannot change the result reset to their defaults, so
     runs that would be identical hash alike and are computed once.
 ``metric_rows(result: ExperimentResult) -> list[dict]``
     The run's metrics as tidy rows of scalars. A row may name a ``method`` (what the run
-    compares, e.g. the explorer) and a ``unit`` (a part of the run measured on its own,
-    e.g. one of the rover's runs); rows of different methods with the same unit, world
-    and seed are paired. Without it, every flat metrics JSON the run lists becomes a row.
+    compares, e.g. the explorer), a ``unit`` (a part of the run measured on its own and
+    summarised apart, e.g. one of the rover's runs), a ``replicate`` (an integer: one of
+    several repeats the run makes itself, pooled in the summary, e.g. the sonar
+    experiment's seeded runs) and, for a run over several built-in worlds, the ``world``
+    it measured; rows of different methods with the same world, seed, unit and replicate
+    are paired. Without it, every flat metrics JSON the run lists becomes a row.
 ``KEY_METRICS: tuple[str, ...]``
     The metrics the report draws and tabulates per world (default: every metric).
+``METRIC_UNITS: dict[str, str]``
+    The unit of each metric the report writes beside its name (``"m"``, ``"bits"``).
+``PAIRED_AGAINST: str``
+    The method the report compares every other method with (default: every pair).
 ``KEY_FIGURES: tuple[str, ...]``
     Glob patterns, relative to the run's folder, of the figures the report shows
     (default: the first PNGs found).
@@ -29,8 +40,10 @@ experiment module may expose:
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -44,17 +57,20 @@ from bayesmap.experiments import ExperimentResult
 __all__ = [
     "TASK_RECORD",
     "WORLD_FIELD",
+    "SweepWorld",
     "canonical",
     "key_figures",
     "key_metrics",
     "metric_rows",
+    "metric_units",
+    "paired_against",
     "read_task_record",
     "sweep_worlds",
     "task_complete",
 ]
 
 WORLD_FIELD = "world"
-"""The ``Config`` field that carries a generated or loaded world."""
+"""The ``Config`` field that carries the path of a world file."""
 
 TASK_RECORD = "task.json"
 """The file the sweep writes, last, into a finished task's folder."""
@@ -62,8 +78,29 @@ TASK_RECORD = "task.json"
 BUILT_IN = "built-in"
 """The world name of grid points that use the experiment's own world."""
 
-WORLD_SUFFIXES = (".json", ".yaml", ".yml")
-"""Files of a ``--worlds DIR`` folder that are read as worlds."""
+WORLD_FOLDER = "worlds"
+"""The folder of a sweep's output where it writes the world files its tasks read."""
+
+WORLD_SUFFIX = ".json"
+"""World files of a ``--worlds DIR`` folder (``WORLD.json`` files)."""
+
+
+@dataclass(frozen=True)
+class SweepWorld:
+    """One world of a sweep: its name, its world file's text and where the tasks read it.
+
+    ``digest`` (SHA-256 of the text) stands for the world in task keys, so a task is the
+    same task wherever the sweep's folder lies.
+    """
+
+    name: str
+    text: str
+    path: Path
+
+    @property
+    def digest(self) -> str:
+        """SHA-256 of the world file's text."""
+        return hashlib.sha256(self.text.encode()).hexdigest()
 
 
 def supports_worlds(module: ModuleType) -> bool:
@@ -80,33 +117,45 @@ def sweep_worlds(
     experiment: str,
     worlds: int | Path | None,
     seed: np.random.SeedSequence,
-) -> list[tuple[str, dict[str, Any] | None]]:
-    """The sweep's worlds as ``(name, data)``; ``data`` is ``None`` for the built-in world."""
+    out_dir: Path | None,
+) -> list[SweepWorld | None]:
+    """The sweep's worlds; ``[None]`` (the built-in world) when ``worlds`` is ``None``.
+
+    Generated worlds are named ``world-000``, ``world-001``, …; files of a folder keep
+    their names. Every world will be written to ``<out_dir>/worlds/<name>.json``.
+    """
     if worlds is None:
-        return [(BUILT_IN, None)]
+        return [None]
     if not supports_worlds(module):
         raise ConfigError(
             f"experiment {experiment!r} cannot take --worlds: its module needs "
             f"generate_world(rng), load_world(path) and a Config field {WORLD_FIELD!r} "
             "(see bayesmap.sweeps.protocol); sweep it over --seeds and --set instead"
         )
+    if out_dir is None:
+        raise ConfigError("a sweep over --worlds needs an output folder (--out) for its worlds")
+    folder = Path(out_dir).resolve() / WORLD_FOLDER
     if isinstance(worlds, int):
         if worlds < 1:
             raise ConfigError(f"--worlds must be at least 1 or a folder, got {worlds}")
-        out = []
+        out: list[SweepWorld | None] = []
         for index, child in enumerate(seed.spawn(worlds)):
             data = module.generate_world(np.random.default_rng(child))
-            out.append((str(data.get("name", f"generated-{index}")), data))
+            name = f"world-{index:03d}"
+            text = json.dumps(data, indent=2) + "\n"  # as the systems' save_world writes
+            out.append(SweepWorld(name, text, folder / f"{name}{WORLD_SUFFIX}"))
         return out
-    folder = Path(worlds)
-    if not folder.is_dir():
-        raise ConfigError(f"--worlds {folder}: not a number and not a folder")
-    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in WORLD_SUFFIXES)
+    source = Path(worlds)
+    if not source.is_dir():
+        raise ConfigError(f"--worlds {source}: not a number and not a folder")
+    files = sorted(p for p in source.iterdir() if p.suffix.lower() == WORLD_SUFFIX)
     if not files:
-        raise ConfigError(
-            f"--worlds {folder}: no world files ({', '.join(WORLD_SUFFIXES)}) in the folder"
-        )
-    return [(path.stem, module.load_world(path)) for path in files]
+        raise ConfigError(f"--worlds {source}: no world files (*{WORLD_SUFFIX}) in the folder")
+    found: list[SweepWorld | None] = []
+    for path in files:
+        module.load_world(path)  # a bad file fails here, naming itself, before any task runs
+        found.append(SweepWorld(path.stem, path.read_text(encoding="utf-8"), folder / path.name))
+    return found
 
 
 def canonical(module: ModuleType, config: pydantic.BaseModel) -> pydantic.BaseModel:
@@ -119,6 +168,17 @@ def key_metrics(module: ModuleType) -> tuple[str, ...] | None:
     """The experiment's ``KEY_METRICS``, or ``None`` for all."""
     keys = getattr(module, "KEY_METRICS", None)
     return tuple(keys) if keys else None
+
+
+def metric_units(module: ModuleType) -> dict[str, str]:
+    """The experiment's ``METRIC_UNITS`` (metric → unit), or none."""
+    return dict(getattr(module, "METRIC_UNITS", {}))
+
+
+def paired_against(module: ModuleType) -> str | None:
+    """The experiment's ``PAIRED_AGAINST`` method, or ``None`` to show every pair."""
+    method = getattr(module, "PAIRED_AGAINST", None)
+    return str(method) if method else None
 
 
 def key_figures(module: ModuleType, folder: Path, limit: int) -> list[Path]:

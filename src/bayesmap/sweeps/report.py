@@ -13,6 +13,7 @@ import base64
 import json
 import math
 import platform
+import struct
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -53,6 +54,8 @@ class Section:
     figures: list[tuple[str, Path]] = field(default_factory=list)
     failures: dict[str, str] = field(default_factory=dict)
     key_metrics: tuple[str, ...] | None = None
+    metric_units: dict[str, str] = field(default_factory=dict)
+    paired_against: str | None = None
 
 
 def sections_from_sweep(sweep_dir: Path) -> list[Section]:
@@ -82,6 +85,8 @@ def sections_from_sweep(sweep_dir: Path) -> list[Section]:
             figures,
             failures,
             protocol.key_metrics(module),
+            protocol.metric_units(module),
+            protocol.paired_against(module),
         )
     ]
 
@@ -100,7 +105,13 @@ def section_from_run(name: str, result: ExperimentResult, config: dict[str, Any]
         "task": name,
     }
     records = [
-        {**ids, "unit": str(r.get("unit", "")), "method": str(r.get("method", "")), **r}
+        {
+            **ids,
+            "unit": str(r.get("unit", "")),
+            "replicate": int(r.get("replicate", 0)),
+            "method": str(r.get("method", "")),
+            **r,
+        }
         for r in rows
     ]
     table = pd.DataFrame.from_records(records)
@@ -113,6 +124,8 @@ def section_from_run(name: str, result: ExperimentResult, config: dict[str, Any]
         _run_figures(module, result.out_dir),
         {},
         protocol.key_metrics(module),
+        protocol.metric_units(module),
+        protocol.paired_against(module),
     )
 
 
@@ -140,6 +153,12 @@ def _fmt(value: Any) -> str:
     return str(value)
 
 
+def _is_wide(png: bytes) -> bool:
+    """Whether a PNG is more than twice as wide as high (shown across the page)."""
+    width, height = struct.unpack(">II", png[16:24])  # the IHDR chunk's first fields
+    return bool(width > 2 * height)
+
+
 def _varying_metrics(section: Section) -> tuple[list[str], dict[str, Any]]:
     """Metrics that vary somewhere, and the constants (settings echoed into the metrics)."""
     varying, constants = [], {}
@@ -156,6 +175,83 @@ def _varying_metrics(section: Section) -> tuple[list[str], dict[str, Any]]:
     return keys + [m for m in varying if m not in keys], constants
 
 
+def _summary_rows(
+    section: Section, summary: pd.DataFrame, metrics: list[str], arms: list[str]
+) -> list[dict[str, Any]]:
+    """One row per metric, unit and arm: mean ± sd, the CI, n (the metric named once)."""
+    rows = []
+    units = list(dict.fromkeys(summary["unit"]))
+    indexed = summary.set_index(["metric", "unit", "arm"])
+    for metric in metrics:
+        first = True
+        for unit in units:
+            for arm_name in arms:
+                if (metric, unit, arm_name) not in indexed.index:
+                    continue
+                row = indexed.loc[(metric, unit, arm_name)]
+                n = int(row["n"])
+                if n == 0:
+                    continue
+                rows.append(
+                    {
+                        "metric": metric if first else "",
+                        "unit": section.metric_units.get(metric, "") if first else "",
+                        "part": unit,
+                        "arm": arm_name,
+                        "mean": _fmt(row["mean"]) + (f" ± {_fmt(row['sd'])}" if n > 1 else ""),
+                        "ci": f"{_fmt(row['ci_low'])} to {_fmt(row['ci_high'])}" if n > 1 else "–",
+                        "n": n,
+                        "starts_group": first,
+                    }
+                )
+                first = False
+    return rows
+
+
+def _paired_rows(
+    section: Section, paired: pd.DataFrame, metrics: list[str]
+) -> list[dict[str, Any]]:
+    """Paired differences of ``metrics``, each read as ``reference − other`` where the
+    experiment names a reference method (``PAIRED_AGAINST``), else as ``a − b``."""
+    reference = section.paired_against
+    rows = []
+    for metric in metrics:
+        for _, row in paired[paired["metric"] == metric].iterrows():
+            if row["n"] == 0:
+                continue
+            a, b = str(row["arm_a"]), str(row["arm_b"])
+            mean, low, high = float(row["mean"]), float(row["ci_low"]), float(row["ci_high"])
+            if reference is not None:
+                if b.endswith(f"/ {reference}") and not a.endswith(f"/ {reference}"):
+                    a, b, mean, low, high = b, a, -mean, -high, -low
+                elif not a.endswith(f"/ {reference}"):
+                    continue
+            rows.append(
+                {
+                    "a": a,
+                    "b": b,
+                    "part": row["unit"],
+                    "metric": metric,
+                    "unit": section.metric_units.get(metric, ""),
+                    "n": int(row["n"]),
+                    "mean": _fmt(mean),
+                    "ci": f"{_fmt(low)} to {_fmt(high)}",
+                    "p": _fmt(row["p_wilcoxon"]),
+                    "excludes_zero": bool(np.isfinite(low) and (low > 0 or high < 0)),
+                }
+            )
+    return rows
+
+
+def _arm_labels(table: pd.DataFrame) -> dict[str, str]:
+    """How the page names each arm: without the condition when the sweep has only one."""
+    arms = aggregate.arm(table)
+    if table["condition"].nunique() > 1:
+        return {name: name for name in arms}
+    methods = table["method"].astype(str)
+    return dict(zip(arms, methods.where(methods != "", table["condition"]), strict=True))
+
+
 def _context(section: Section) -> dict[str, Any]:
     table = section.table
     metrics, constants = _varying_metrics(section)
@@ -163,52 +259,25 @@ def _context(section: Section) -> dict[str, Any]:
     summary = aggregate.summarise(table)
     paired = aggregate.paired(table)
     arms = list(dict.fromkeys(aggregate.arm(table))) if len(table) else []
-    units = list(dict.fromkeys(table["unit"])) if len(table) else []
-    summary_rows = []
-    for metric in metrics:
-        for unit in units:
-            cells: list[dict[str, Any] | None] = []
-            for arm_name in arms:
-                hit = summary[
-                    (summary["metric"] == metric)
-                    & (summary["arm"] == arm_name)
-                    & (summary["unit"] == unit)
-                ]
-                if hit.empty:
-                    cells.append(None)
-                    continue
-                row = hit.iloc[0]
-                cells.append(
-                    {
-                        "mean": _fmt(row["mean"]),
-                        "sd": _fmt(row["sd"]),
-                        "ci": f"[{_fmt(row['ci_low'])}, {_fmt(row['ci_high'])}]",
-                        "n": int(row["n"]),
-                    }
-                )
-            if any(cells):
-                summary_rows.append({"metric": metric, "unit": unit, "cells": cells})
-    paired_metrics = key or metrics[:MAX_PAIRED_METRICS]
-    paired_rows = [
-        {
-            "a": row["arm_a"],
-            "b": row["arm_b"],
-            "unit": row["unit"],
-            "metric": row["metric"],
-            "n": int(row["n"]),
-            "mean": _fmt(row["mean"]),
-            "ci": f"[{_fmt(row['ci_low'])}, {_fmt(row['ci_high'])}]",
-            "p": _fmt(row["p_wilcoxon"]),
-        }
-        for _, row in paired[paired["metric"].isin(paired_metrics)].iterrows()
-        if row["n"] > 0
-    ]
+    others = [m for m in metrics if m not in key]
+    summary_rows = _summary_rows(section, summary, key, arms) if len(table) else []
+    other_rows = _summary_rows(section, summary, others, arms) if len(table) else []
+    paired_rows = _paired_rows(section, paired, key or metrics[:MAX_PAIRED_METRICS])
+    label = _arm_labels(table) if len(table) else {}
+    for row in summary_rows + other_rows:
+        row["arm"] = label[row["arm"]]
+    for row in paired_rows:
+        row["a"], row["b"] = label[row["a"]], label[row["b"]]
     per_world = []
     if len(table):
         grouped = table.assign(arm=aggregate.arm(table)).groupby(["world", "arm"], sort=False)[key]
         for (world, arm_name), means in grouped.mean().iterrows():
             per_world.append(
-                {"world": world, "arm": arm_name, "values": [_fmt(v) for v in means.to_numpy()]}
+                {
+                    "world": world,
+                    "arm": label[arm_name],
+                    "values": [_fmt(v) for v in means.to_numpy()],
+                }
             )
     figures = []
     if len(table) and key:
@@ -221,11 +290,14 @@ def _context(section: Section) -> dict[str, Any]:
                 series = series[np.isfinite(series)]
                 values.append(series)
                 cis.append(aggregate.bootstrap_ci(series, np.random.default_rng(0)))
-            panels.append(MetricPanel(metric, arms, values, cis))
+            unit = section.metric_units.get(metric)
+            title = f"{metric} [{unit}]" if unit else metric
+            panels.append(MetricPanel(title, [label[a] for a in arms], values, cis))
         png = metrics_figure(panels, title=f"{section.experiment}: key metrics, every run")
         figures.append({"label": "key metrics across arms", "src": _data_uri(png), "wide": True})
-    for label, path in section.figures:
-        figures.append({"label": label, "src": _data_uri(Path(path).read_bytes()), "wide": False})
+    for name, path in section.figures:
+        png = Path(path).read_bytes()
+        figures.append({"label": name, "src": _data_uri(png), "wide": _is_wide(png)})
     return {
         "experiment": section.experiment,
         "description": section.description,
@@ -233,10 +305,15 @@ def _context(section: Section) -> dict[str, Any]:
         "n_worlds": table["world"].nunique() if len(table) else 0,
         "n_seeds": table["seed_index"].nunique() if len(table) else 0,
         "n_tasks": table["task"].nunique() if len(table) else 0,
-        "arms": arms,
+        "arms": [label[a] for a in arms],
+        "world_files": section.spec.get("worlds") is not None,
         "summary_rows": summary_rows,
+        "other_rows": other_rows,
+        "has_parts": bool(len(table)) and bool((table["unit"] != "").any()),
         "paired_rows": paired_rows,
+        "paired_against": section.paired_against,
         "key": key,
+        "key_units": [section.metric_units.get(m, "") for m in key],
         "per_world": per_world,
         "figures": figures,
         "constants": constants,

@@ -7,8 +7,10 @@ The client writes ``task.json`` with those rows, last, so a task counts as compl
 when it finished (:func:`~bayesmap.sweeps.protocol.task_complete`); a resumed sweep skips
 complete tasks. A task that raises is reported with its error; the others go on.
 
-Figures and maps are written by the worker to the output folder, so on a cluster of several
-machines that folder must be on a filesystem they share; metrics come back through Dask.
+Before any task runs, the client writes the sweep's world files to ``<out>/worlds/``, where
+the tasks' configs point. Worlds are read and figures and maps written by the worker in
+the output folder, so on a cluster of several machines that folder must be on a
+filesystem they share; metrics come back through Dask.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from bayesmap import __version__
-from bayesmap._io import write_json
+from bayesmap._io import write_json, write_text
 from bayesmap.errors import ConfigError
 from bayesmap.experiments import ProgressHook, load
 from bayesmap.experiments._common import no_progress
@@ -104,13 +106,22 @@ def _record(out_dir: Path, task: Task, outcome: TaskOutcome) -> None:
 
 @contextlib.contextmanager
 def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
-    """A Dask client on the scheduler at ``scheduler`` or on a new local cluster."""
+    """A Dask client on the scheduler at ``scheduler`` or on a new local cluster.
+
+    ``scheduler`` is an address (``tcp://host:8786``) or the path of the JSON file a
+    ``dask scheduler --scheduler-file FILE`` wrote.
+    """
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
+        by_file = Path(scheduler).is_file()
         try:
-            client = Client(scheduler, timeout="20s")  # type: ignore[no-untyped-call]
-        except (OSError, TimeoutError) as error:
+            client = (
+                Client(scheduler_file=scheduler, timeout="20s")  # type: ignore[no-untyped-call]
+                if by_file
+                else Client(scheduler, timeout="20s")  # type: ignore[no-untyped-call]
+            )
+        except (OSError, TimeoutError, ValueError) as error:
             raise ConfigError(f"--scheduler {scheduler}: cannot connect ({error})") from None
         with client:
             yield client
@@ -146,11 +157,13 @@ def run_sweep(
     plan
         The expanded sweep (:func:`~bayesmap.sweeps.grid.expand`).
     out_dir
-        The sweep's folder: ``sweep.json``, ``tasks/<key>/`` and, after the run,
-        ``failures.json`` if any task failed.
+        The sweep's folder: ``sweep.json``, ``worlds/<name>.json`` (when the plan has
+        world files), ``tasks/<key>/`` and, after the run, ``failures.json`` if any task
+        failed.
     scheduler
-        Address of a running Dask scheduler (``tcp://host:8786``); ``None`` starts a
-        ``LocalCluster`` of ``workers`` single-threaded processes (default: one per core).
+        Address of a running Dask scheduler (``tcp://host:8786``) or the scheduler file it
+        wrote (``--scheduler-file``); ``None`` starts a ``LocalCluster`` of ``workers``
+        single-threaded processes (default: one per core).
     serial
         Run the tasks one after another in this process, without Dask.
     progress
@@ -161,6 +174,9 @@ def run_sweep(
     hook = progress or no_progress
     out_dir = Path(out_dir)
     write_json(out_dir / SWEEP_RECORD, {"bayesmap": __version__, **plan.to_json()})
+    for world in plan.worlds:
+        if not world.path.is_file() or world.path.read_text(encoding="utf-8") != world.text:
+            write_text(world.path, world.text)
     started = time.perf_counter()
     skipped = tuple(k for k in plan.tasks if protocol.task_complete(task_folder(out_dir, k)))
     pending = [task for key, task in plan.tasks.items() if key not in skipped]
