@@ -38,6 +38,9 @@ __all__ = ["Section", "render", "section_from_run", "sections_from_sweep", "writ
 MAX_RUN_FIGURES = 8
 """Figures of one run shown per experiment (the first task's, or the run's)."""
 
+MIN_PAIRS_FOR_EMPHASIS = 5
+"""Pairs a difference needs before the report bolds an interval that excludes 0."""
+
 MAX_PAIRED_METRICS = 8
 """Metrics shown in the paired-comparison table when the experiment names no key metrics."""
 
@@ -237,7 +240,9 @@ def _paired_rows(
                     "mean": _fmt(mean),
                     "ci": f"{_fmt(low)} to {_fmt(high)}",
                     "p": _fmt(row["p_wilcoxon"]),
-                    "excludes_zero": bool(np.isfinite(low) and (low > 0 or high < 0)),
+                    "excludes_zero": bool(
+                        row["n"] >= MIN_PAIRS_FOR_EMPHASIS and (low > 0 or high < 0)
+                    ),
                 }
             )
     return rows
@@ -312,6 +317,7 @@ def _context(section: Section) -> dict[str, Any]:
         "has_parts": bool(len(table)) and bool((table["unit"] != "").any()),
         "paired_rows": paired_rows,
         "paired_against": section.paired_against,
+        "min_pairs": MIN_PAIRS_FOR_EMPHASIS,
         "key": key,
         "key_units": [section.metric_units.get(m, "") for m in key],
         "per_world": per_world,
