@@ -75,3 +75,39 @@ def test_paired_differences_are_exact_when_the_methods_differ_by_a_constant(tmp_
     assert (row["arm_a"], row["arm_b"], row["n"]) == ("default / a", "default / b", 6)
     assert row["mean"] == pytest.approx(-1.0)
     assert row["ci_low"] == pytest.approx(-1.0) and row["ci_high"] == pytest.approx(-1.0)
+
+
+@pytest.mark.slow
+def test_a_rover_sweep_over_generated_worlds_pairs_the_two_explorers(tmp_path):
+    """`bayesmap sweep rover --worlds N`: the worlds are rover WORLD.json files, and the
+    paper's explorer and the frontier explorer are paired on the same worlds and seeds."""
+    from bayesmap.experiments import load
+    from bayesmap.sim.rover_worlds import load_world
+    from bayesmap.sweeps.report import sections_from_sweep, write_report
+
+    rover = load("rover")
+    settings = {"max_steps": 4, "runs": ["obstacles-flat"], "curve_every": 2}
+    plan = expand(
+        "rover", rover, worlds=1, seeds=2, root_seed=0, settings=settings, out_dir=tmp_path
+    )
+    outcome = run_sweep(plan, tmp_path, serial=True)
+    assert not outcome.failed and len(outcome.ran) == 2
+    spec = load_world(tmp_path / "worlds" / "world-000.json")
+    table = aggregate.tidy(plan, tmp_path)
+    assert set(table["world"]) == {"world-000"} and set(table["unit"]) == {"flat"}
+    assert set(table["method"]) == {"entropy", "frontier"}
+    assert (table["world_index"] == 0).all() and spec.world.width >= 20.0
+    pairs = aggregate.paired(table)
+    coverage = pairs[pairs["metric"] == "coverage"].iloc[0]
+    assert (coverage["arm_a"], coverage["arm_b"], coverage["n"]) == (
+        "default / entropy",
+        "default / frontier",
+        2,
+    )
+    by = table.set_index(["seed_index", "method"])["coverage"]
+    expected = np.mean([by[(k, "entropy")] - by[(k, "frontier")] for k in (0, 1)])
+    assert coverage["mean"] == pytest.approx(expected)
+    html = write_report(sections_from_sweep(tmp_path), tmp_path / "report.html", title="r")
+    text = html.read_text()
+    assert "Paired comparisons with entropy" in text
+    assert '<td class="name">entropy</td><td class="name">frontier</td>' in text

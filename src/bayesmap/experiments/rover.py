@@ -455,6 +455,9 @@ load_world = rover_worlds.load_world
 """The reader of the world files ``Config.world`` names (:mod:`bayesmap.sweeps.protocol`)."""
 
 
+PAIRED_AGAINST = "entropy"
+"""The report compares the frontier explorer with the paper's (:mod:`bayesmap.sweeps.protocol`)."""
+
 METRIC_UNITS = {
     "path_length_m": "m",
     "min_clearance_m": "m",
