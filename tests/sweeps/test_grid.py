@@ -43,6 +43,9 @@ def test_same_request_same_plan_and_task_keys_follow_the_world_not_its_folder(tm
     assert list(moved.tasks) == list(a.tasks)
     assert moved.tasks != a.tasks  # same keys, configs pointing at the moved world files
     assert len({w.digest for w in a.worlds}) == 3
+    more = _plan(worlds=4, out_dir=tmp_path)  # more worlds keep the earlier ones, and their tasks
+    assert [w.text for w in more.worlds[:3]] == [w.text for w in a.worlds]
+    assert set(a.tasks) < set(more.tasks)
 
 
 def test_identical_effective_configs_are_one_task():

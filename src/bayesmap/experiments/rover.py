@@ -493,5 +493,6 @@ KEY_FIGURES = (
     "obstacles-*/path.png",
     "frontier/obstacles-*/path.png",
     "*/path.png",
+    "frontier/*/path.png",
 )
 """The figures a sweep report shows of one run (:mod:`bayesmap.sweeps.protocol`)."""

@@ -238,7 +238,7 @@ def _paired_rows(
                     "unit": section.metric_units.get(metric, ""),
                     "n": int(row["n"]),
                     "mean": _fmt(mean),
-                    "ci": f"{_fmt(low)} to {_fmt(high)}",
+                    "ci": f"{_fmt(low)} to {_fmt(high)}" if np.isfinite(low) else "–",
                     "p": _fmt(row["p_wilcoxon"]),
                     "excludes_zero": bool(
                         row["n"] >= MIN_PAIRS_FOR_EMPHASIS and (low > 0 or high < 0)

@@ -121,7 +121,7 @@ def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
                 if by_file
                 else Client(scheduler, timeout="20s")  # type: ignore[no-untyped-call]
             )
-        except (OSError, TimeoutError, ValueError) as error:
+        except (OSError, TimeoutError, ValueError, KeyError) as error:
             raise ConfigError(f"--scheduler {scheduler}: cannot connect ({error})") from None
         with client:
             yield client
