@@ -22,6 +22,8 @@ def test_a_sweep_writes_tables_and_a_report_and_resumes(tmp_path):
     assert result.exit_code == 0, result.output
     assert "8 grid point(s), 8 distinct run(s)" in result.output
     assert "ran 8, skipped 0" in result.output
+    # toy method b is a plus one on the same noise: every pair differs by exactly -1
+    assert "value: base / a − base / b = -1 (95 % CI -1 to -1, 4 pairs)" in result.output
     tidy = pd.read_parquet(tmp_path / "tidy.parquet")
     assert len(tidy) == 16 and set(tidy["condition"]) == {"base", "twice"}
     assert pd.read_csv(tmp_path / "tidy.csv").shape == tidy.shape

@@ -92,7 +92,7 @@ def sweep(
     # Dask, pandas and the report load only when a sweep runs, so `bayesmap --help` is quick.
     from bayesmap.sweeps import aggregate, expand, run_sweep
     from bayesmap.sweeps.grid import parse_condition, parse_setting
-    from bayesmap.sweeps.report import sections_from_sweep, write_report
+    from bayesmap.sweeps.report import paired_lines, sections_from_sweep, write_report
 
     if not serial:
         _quiet_dask()
@@ -152,9 +152,8 @@ def sweep(
             )
         table = aggregate.tidy(plan, out)
         aggregate.write_tables(table, out)
-        report = write_report(
-            sections_from_sweep(out), out / "report.html", title=f"{experiment} sweep"
-        )
+        sections = sections_from_sweep(out)
+        report = write_report(sections, out / "report.html", title=f"{experiment} sweep")
     except BayesmapError as error:
         raise _error(str(error)) from error
     console.print(
@@ -165,6 +164,11 @@ def sweep(
     )
     for key, message in outcome.failed.items():
         console.print(Text.assemble(("failed ", "red"), f"{key}: {message}"))
+    lines = paired_lines(sections[0])
+    if lines:
+        console.print(Text("paired comparisons (same worlds and seeds), mean difference:"))
+        for line in lines:
+            console.print(Text(f"  {line}"))
     console.print(Text(f"tables: {out / 'tidy.parquet'}, summary.parquet, paired.parquet (+ CSV)"))
     console.print(Text(f"report: {report}"))
     if outcome.failed:

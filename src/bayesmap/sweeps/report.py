@@ -33,7 +33,14 @@ from bayesmap.sweeps.grid import SweepPlan
 from bayesmap.sweeps.runner import FAILURES, SWEEP_RECORD, task_folder
 from bayesmap.viz.sweeps import MetricPanel, metrics_figure
 
-__all__ = ["Section", "render", "section_from_run", "sections_from_sweep", "write_report"]
+__all__ = [
+    "Section",
+    "paired_lines",
+    "render",
+    "section_from_run",
+    "sections_from_sweep",
+    "write_report",
+]
 
 MAX_RUN_FIGURES = 8
 """Figures of one run shown per experiment (the first task's, or the run's)."""
@@ -257,10 +264,34 @@ def _arm_labels(table: pd.DataFrame) -> dict[str, str]:
     return dict(zip(arms, methods.where(methods != "", table["condition"]), strict=True))
 
 
-def _context(section: Section) -> dict[str, Any]:
-    table = section.table
+def _key_metrics(section: Section) -> tuple[list[str], list[str], dict[str, Any]]:
+    """The key metrics shown first, every metric that varies, and the constant ones."""
     metrics, constants = _varying_metrics(section)
     key = [m for m in (section.key_metrics or metrics[:5]) if m in metrics] or metrics[:5]
+    return key, metrics, constants
+
+
+def paired_lines(section: Section, limit: int = 12) -> list[str]:
+    """The report's paired comparisons of the key metrics as lines of text (for a terminal)."""
+    if section.table.empty:
+        return []
+    key, metrics, _ = _key_metrics(section)
+    rows = _paired_rows(section, aggregate.paired(section.table), key or metrics[:limit])
+    label = _arm_labels(section.table)
+    lines = []
+    for row in rows[:limit]:
+        unit = f" [{row['unit']}]" if row["unit"] else ""
+        part = f", {row['part']}" if row["part"] else ""
+        lines.append(
+            f"{row['metric']}{unit}{part}: {label[row['a']]} − {label[row['b']]} = {row['mean']} "
+            f"(95 % CI {row['ci']}, {row['n']} pairs)"
+        )
+    return lines
+
+
+def _context(section: Section) -> dict[str, Any]:
+    table = section.table
+    key, metrics, constants = _key_metrics(section)
     summary = aggregate.summarise(table)
     paired = aggregate.paired(table)
     arms = list(dict.fromkeys(aggregate.arm(table))) if len(table) else []
