@@ -10,10 +10,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bayesmap.errors import ConfigError
+from bayesmap.geometry import cast_on_boxes
 from bayesmap.sensing.ir import range_from_raw
 from bayesmap.sim import ir
 from bayesmap.sim import rover as sim_rover
-from bayesmap.sim.world2d import box_world, circle_hits, occupancy_truth, ray_cast
+from bayesmap.sim.world2d import box_world, circle_hits, occupancy_truth
 
 BOXES = box_world("rover-field-obstacles-v1").boxes
 
@@ -41,7 +42,7 @@ def _march(x: float, y: float, angle: float, grow: float) -> float:
 @settings(max_examples=60, deadline=None)
 @given(st.floats(0, 20), st.floats(0, 20), st.floats(-math.pi, math.pi))
 def test_ray_cast_matches_marching(x: float, y: float, angle: float) -> None:
-    d = float(ray_cast(BOXES, [[x, y]], [angle])[0])
+    d = float(cast_on_boxes(BOXES, [[x, y]], [angle])[0])
     # grazing rays are ambiguous: the answer must lie between shrunk and grown boxes
     near, far = _march(x, y, angle, 1e-6), _march(x, y, angle, -1e-6)
     assert near - 2e-3 <= d <= far + 2e-3

@@ -28,7 +28,6 @@ __all__ = [
     "box_world",
     "circle_hits",
     "occupancy_truth",
-    "ray_cast",
 ]
 
 
@@ -79,37 +78,6 @@ def box_world(name: str) -> BoxWorld:
         return WORLDS[name]
     except KeyError:
         raise ConfigError(f"unknown box world {name!r}; choose from {sorted(WORLDS)}") from None
-
-
-def ray_cast(boxes: npt.ArrayLike, origins: npt.ArrayLike, angles: npt.ArrayLike) -> FloatArray:
-    """Distance [m] from each origin along each angle to the first box (``inf`` if none).
-
-    Slab test, vectorised over rays ``(n,)`` and boxes ``(k,)``. A ray starting inside a box
-    reports 0.
-    """
-    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-    o = np.asarray(origins, dtype=np.float64).reshape(-1, 2)
-    a = np.asarray(angles, dtype=np.float64).reshape(-1)
-    if b.shape[0] == 0:
-        return np.full(a.shape, np.inf)
-    dx, dy = np.cos(a)[:, None], np.sin(a)[:, None]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        tx1 = (b[None, :, 0] - o[:, 0:1]) / dx
-        tx2 = (b[None, :, 2] - o[:, 0:1]) / dx
-        ty1 = (b[None, :, 1] - o[:, 1:2]) / dy
-        ty2 = (b[None, :, 3] - o[:, 1:2]) / dy
-    inside_x = (o[:, 0:1] >= b[None, :, 0]) & (o[:, 0:1] <= b[None, :, 2])
-    inside_y = (o[:, 1:2] >= b[None, :, 1]) & (o[:, 1:2] <= b[None, :, 3])
-    # a ray parallel to a slab never enters it unless it starts inside
-    t_near_x = np.where(dx == 0, np.where(inside_x, -np.inf, np.inf), np.minimum(tx1, tx2))
-    t_far_x = np.where(dx == 0, np.where(inside_x, np.inf, -np.inf), np.maximum(tx1, tx2))
-    t_near_y = np.where(dy == 0, np.where(inside_y, -np.inf, np.inf), np.minimum(ty1, ty2))
-    t_far_y = np.where(dy == 0, np.where(inside_y, np.inf, -np.inf), np.maximum(ty1, ty2))
-    t_near = np.maximum(t_near_x, t_near_y)
-    t_far = np.minimum(t_far_x, t_far_y)
-    entry = np.maximum(t_near, 0.0)
-    t = np.where(t_far >= entry, entry, np.inf)
-    return np.asarray(t.min(axis=1))
 
 
 def box_distance(boxes: npt.ArrayLike, x: float, y: float) -> float:
