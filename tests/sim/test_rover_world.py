@@ -56,7 +56,7 @@ def test_occupancy_truth_and_contact() -> None:
 
 
 def test_transition_respects_turning_radius_and_pivots() -> None:
-    params = sim_rover.RoverParams(gps_sigma=0.0)
+    params = sim_rover.SimulatedRoverParams(gps_sigma=0.0)
     rng = np.random.default_rng(0)
     state = sim_rover.initial([0.0, 0.0, 0.0], params, rng=rng)
     for _ in range(200):
@@ -85,15 +85,15 @@ def test_ir_reads_the_box_ahead() -> None:
 
 
 def test_same_seed_same_readings() -> None:
-    params = sim_rover.RoverParams()
+    params = sim_rover.SimulatedRoverParams()
     world = box_world("rover-field-obstacles-v1")
     runs = []
     for _ in range(2):
         rng = np.random.default_rng(7)
         state = sim_rover.initial([5.3, 10.0, 0.0], params, rng=rng)
-        runs.append([sim_rover.observe(state, world, params, rng=rng).raw for _ in range(5)])
+        runs.append([sim_rover.observe(world, state, params, rng=rng).raw for _ in range(5)])
     np.testing.assert_array_equal(runs[0], runs[1])
-    clean = sim_rover.h(state, world, params)
+    clean = sim_rover.h(world, state, params)
     assert clean.pose.tolist() == state.pose.tolist()
 
 
@@ -107,4 +107,4 @@ def test_same_seed_same_readings() -> None:
 )
 def test_bad_rover_params_name_the_field(kwargs: dict[str, float], field: str) -> None:
     with pytest.raises(ConfigError, match=field):
-        sim_rover.RoverParams(**kwargs)
+        sim_rover.SimulatedRoverParams(**kwargs)

@@ -245,7 +245,7 @@ def run_paper(
     whisker_points = np.zeros((0, 2))
     start = time.perf_counter()
     for index, pose in enumerate(poses):
-        reading = observe(world, pose, sensor_rng, sensor)
+        reading = observe(world, pose, sensor, rng=sensor_rng)
         callback = snapshots.append if index == snapshot_at else None
         tic = time.perf_counter()
         result = mapper.step(reading.shapelets, rng=chain_rng, callback=callback)
@@ -423,7 +423,7 @@ def _run(
     seeds = np.random.SeedSequence(config.seed).spawn(1 + 3 * len(CONDITIONS))
     if config.world is None:
         world = initial(
-            np.random.default_rng(seeds[0]), scenario(config.scenario), name=config.scenario
+            scenario(config.scenario), rng=np.random.default_rng(seeds[0]), name=config.scenario
         )
     else:
         world = build(
@@ -586,7 +586,7 @@ def generate_world(
     rng: np.random.Generator, scenario_name: str = "whisker-tables-v1"
 ) -> dict[str, Any]:
     """A new table layout of ``scenario_name`` drawn from ``rng``, as ``Config.world`` data."""
-    world = initial(rng, scenario(scenario_name), name=scenario_name)
+    world = initial(scenario(scenario_name), rng=rng, name=scenario_name)
     tables = world.tables.round(6)
     digest = hashlib.sha256(tables.tobytes()).hexdigest()[:8]
     return {

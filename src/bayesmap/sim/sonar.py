@@ -285,8 +285,8 @@ def _trace(
 
 
 def trace(
-    poses: Poses,
     world: PolygonWorld,
+    poses: Poses,
     ring: SonarRing,
     *,
     people: FloatArray | None = None,
@@ -296,10 +296,12 @@ def trace(
 
     Parameters
     ----------
+    world
+        The world.
     poses
         ``(n, 3)`` true robot poses.
-    world, ring
-        The world and the ring.
+    ring
+        The ring.
     people
         ``(n, k, 2)`` where each of ``k`` people stands at each pose [m] (``nan``: absent),
         or ``None``. A person is a cylinder of ``person_radius`` [m]: clothing and a round
@@ -313,12 +315,12 @@ def trace(
     return _trace(poses, world, ring, people, person_radius)
 
 
-def h(poses: Poses, world: PolygonWorld, ring: SonarRing) -> SonarScan:
+def h(world: PolygonWorld, poses: Poses, ring: SonarRing) -> SonarScan:
     """Noiseless readings of ``ring`` at each of ``poses`` ``(n, 3)`` in ``world``."""
     return _trace(poses, world, ring)
 
 
-def observe(poses: Poses, world: PolygonWorld, ring: SonarRing, *, rng: RNGLike) -> SonarScan:
+def observe(world: PolygonWorld, poses: Poses, ring: SonarRing, *, rng: RNGLike) -> SonarScan:
     """Noisy readings: :func:`h` plus Gaussian range noise ``N(0, sigma²)`` on every echo.
 
     A noisy echo is clipped up to ``min_range``; one pushed to or past ``max_range`` becomes

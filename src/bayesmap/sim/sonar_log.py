@@ -220,7 +220,7 @@ def simulate_log(
         realism.person_radius + 0.35
     )
     people[near] = np.nan
-    clean = trace(poses, world, ring, people=people, person_radius=realism.person_radius)
+    clean = trace(world, poses, ring, people=people, person_radius=realism.person_radius)
     # The noise of a standing transducer repeats: one draw per place.
     place = np.cumsum(moved) - 1
     noise = generator.normal(0.0, ring.sigma, size=(int(place[-1]) + 1, ring.n))[place]

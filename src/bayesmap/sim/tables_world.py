@@ -278,7 +278,7 @@ _MAX_DRAWS = 100_000
 
 
 def initial(
-    rng: np.random.Generator, params: WorldParams, *, name: str = "whisker-tables-v1"
+    params: WorldParams, *, rng: np.random.Generator, name: str = "whisker-tables-v1"
 ) -> TablesWorld:
     """Build a tables world from a seeded generator (the simulator's ``initial``).
 

@@ -294,7 +294,7 @@ def h(world: TablesWorld, pose: FloatArray, params: WhiskerParams) -> Contacts:
 
 
 def observe(
-    world: TablesWorld, pose: FloatArray, rng: np.random.Generator, params: WhiskerParams
+    world: TablesWorld, pose: FloatArray, params: WhiskerParams, *, rng: np.random.Generator
 ) -> WhiskerReading:
     """Noisy whisker readings at ``pose`` as shapelets (eqs. 1–3, perfect localisation).
 
