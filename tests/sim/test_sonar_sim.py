@@ -9,7 +9,8 @@ import pytest
 from shapely.geometry import box
 
 from bayesmap.errors import ConfigError, InputError
-from bayesmap.sim.polygons import WORLDS, PolygonWorld, _make, path_poses, world
+from bayesmap.sim.polygons import PolygonWorld, _make, path_poses, world
+from bayesmap.sim.scenarios import names
 from bayesmap.sim.sonar import EchoKind, SonarRing, cast_rays, h, observe
 
 
@@ -82,7 +83,7 @@ def test_same_seed_same_readings_and_noise_statistics() -> None:
 
 
 def test_every_registered_world_has_specular_readings_and_valid_paths() -> None:
-    for name in WORLDS:
+    for name in names(PolygonWorld):
         w = world(name)
         poses = path_poses(w.waypoints, 0.5)
         scan = h(w, poses, SonarRing())

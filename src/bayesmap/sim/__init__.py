@@ -1,7 +1,9 @@
 """The world's truth and simulated robots and sensors.
 
-Every simulator has the functional shape ``h(world, pose, params)`` (noiseless) beside
-``observe(world, pose, params, *, rng)`` (noisy); reach those through their modules:
+Every world is registered under a versioned name in :mod:`~bayesmap.sim.scenarios`
+(:func:`scenario` looks one up). Every simulator has the functional shape
+``h(world, pose, params)`` (noiseless) beside ``observe(world, pose, params, *, rng)``
+(noisy); reach those through their modules:
 
 - :mod:`~bayesmap.sim.world2d`, :mod:`~bayesmap.sim.rover`, :mod:`~bayesmap.sim.ir`: the
   micro-rover with IR rangers among boxes (Post et al. 2016); :mod:`~bayesmap.sim.rover_worlds`:
@@ -26,6 +28,7 @@ if TYPE_CHECKING:
         polygons,
         rover,
         rover_worlds,
+        scenarios,
         sonar,
         sonar_log,
         tables_world,
@@ -36,6 +39,7 @@ if TYPE_CHECKING:
     from bayesmap.sim.ir import IRRangers
     from bayesmap.sim.polygons import PolygonWorld
     from bayesmap.sim.rover import RoverState, SimulatedRoverParams
+    from bayesmap.sim.scenarios import scenario
     from bayesmap.sim.sonar import EchoKind, SonarRing, SonarScan
     from bayesmap.sim.sonar_log import Realism, SimulatedLog, simulate_log
     from bayesmap.sim.tables_world import TablesWorld, WorldParams
@@ -62,6 +66,8 @@ _EXPORTS = {
     "polygons": "polygons",
     "rover": "rover",
     "rover_worlds": "rover_worlds",
+    "scenario": "scenarios",
+    "scenarios": "scenarios",
     "simulate_log": "sonar_log",
     "sonar": "sonar",
     "sonar_log": "sonar_log",
@@ -92,6 +98,8 @@ __all__ = [
     "polygons",
     "rover",
     "rover_worlds",
+    "scenario",
+    "scenarios",
     "simulate_log",
     "sonar",
     "sonar_log",

@@ -13,16 +13,16 @@ Registered worlds (Post et al. 2016 §5):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from bayesmap._typing import BoolArray, FloatArray
-from bayesmap.errors import ConfigError
+from bayesmap.sim.scenarios import register, scenario
 
 __all__ = [
-    "WORLDS",
     "BoxWorld",
     "box_distance",
     "box_world",
@@ -55,9 +55,9 @@ def _centred(cx: float, cy: float, sx: float, sy: float) -> tuple[float, float, 
     return (cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)
 
 
-WORLDS: dict[str, BoxWorld] = {
-    "rover-field-empty-v1": BoxWorld("rover-field-empty-v1", 20.0, 20.0, np.zeros((0, 4))),
-    "rover-field-obstacles-v1": BoxWorld(
+_FIELDS = (
+    BoxWorld("rover-field-empty-v1", 20.0, 20.0, np.zeros((0, 4))),
+    BoxWorld(
         "rover-field-obstacles-v1",
         20.0,
         20.0,
@@ -69,15 +69,26 @@ WORLDS: dict[str, BoxWorld] = {
             ]
         ),
     ),
-}
+)
+
+
+def _constant(world: BoxWorld) -> Callable[[], BoxWorld]:
+    def factory() -> BoxWorld:
+        return world
+
+    return factory
+
+
+for _field in _FIELDS:
+    register(_field.name, BoxWorld, _constant(_field))
 
 
 def box_world(name: str) -> BoxWorld:
-    """The registered world ``name``; :class:`ConfigError` if there is none."""
-    try:
-        return WORLDS[name]
-    except KeyError:
-        raise ConfigError(f"unknown box world {name!r}; choose from {sorted(WORLDS)}") from None
+    """The registered world ``name``; :class:`ConfigError` if there is none.
+
+    The registry is :mod:`bayesmap.sim.scenarios`.
+    """
+    return scenario(name, BoxWorld)
 
 
 def box_distance(boxes: npt.ArrayLike, x: float, y: float) -> float:
