@@ -42,7 +42,7 @@ REPEATS = 1
 def record(cycles: int, seed: int = 1) -> list[tuple[np.ndarray, np.ndarray]]:
     """Readings and estimated poses of a complete closed-loop run on the obstacle field."""
     world = box_world("rover-field-obstacles-v1")
-    params, sim = RoverParams(), sim_rover.RoverParams()
+    params, sim = RoverParams(), sim_rover.SimulatedRoverParams()
     rng = np.random.default_rng(seed)
     explorer = Explorer(
         OccupancyGrid(20.0, 20.0, 0.5, prior=params.prior), params, EntropyTarget(params)
@@ -50,7 +50,7 @@ def record(cycles: int, seed: int = 1) -> list[tuple[np.ndarray, np.ndarray]]:
     state = sim_rover.initial([1.0, 1.0, 0.8], sim, rng=rng)
     log = []
     for _ in range(cycles):
-        obs = sim_rover.observe(state, world, sim, rng=rng)
+        obs = sim_rover.observe(world, state, sim, rng=rng)
         log.append((obs.raw, obs.pose))
         decision = explorer.step(obs.raw, obs.pose)
         if explorer.done or decision.target is None:

@@ -10,6 +10,7 @@ from shapely.geometry import Polygon
 
 from bayesmap.blackboard import BlackboardParams, make_leg, make_table
 from bayesmap.blackboard import densities as d
+from bayesmap.geometry import wrap_angle
 
 P = BlackboardParams()
 A, B = P.corner_offset
@@ -95,7 +96,7 @@ def _brute_force_delta_ls(leg: np.ndarray, s: np.ndarray) -> float:
         px = x + math.cos(theta) * u - math.sin(theta) * v
         py = y + math.sin(theta) * u + math.cos(theta) * v
         r2 = (px - s[0]) ** 2 + (py - s[1]) ** 2
-        ang = float(d.wrap_angle(s[2] - theta - k * math.pi / 2))
+        ang = float(wrap_angle(s[2] - theta - k * math.pi / 2))
         best = min(best, float(np.min(r2)) / SIG_S[0] ** 2 + (ang / SIG_S[1]) ** 2)
     return best + ((tau - s[3]) / SIG_S[2]) ** 2
 

@@ -59,7 +59,7 @@ def _store(seed: int = 0) -> tuple[EvidenceStore, np.ndarray]:
         for y in np.linspace(0.4, 3.6, 4):
             for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
                 pose = np.array([x, y, heading])
-                store.add(pose, observe(world, pose, rng, sensor).sweeps)
+                store.add(pose, observe(world, pose, sensor, rng=rng).sweeps)
     return store, truth
 
 
@@ -343,7 +343,7 @@ def test_fused_mapper_finds_both_types_and_says_which() -> None:
         for y in np.linspace(0.4, 3.6, 5):
             for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
                 pose = np.array([x, y, heading])
-                mapper.step(pose, observe(world, pose, rng, WhiskerParams()).sweeps, rng=rng)
+                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
     fused = mapper.finish(rng=rng)
     assert len(fused.tables) == 2
     order = np.argsort(fused.tables[:, 0])
@@ -369,7 +369,7 @@ def test_step_is_deterministic_for_a_seed() -> None:
             for heading in (0.0, 0.5 * math.pi):
                 pose = np.array([x, 0.5, heading])
                 tables = mapper.step(
-                    pose, observe(world, pose, sensor_rng, WhiskerParams()).sweeps, rng=chain
+                    pose, observe(world, pose, WhiskerParams(), rng=sensor_rng).sweeps, rng=chain
                 ).tables
         return tables
 

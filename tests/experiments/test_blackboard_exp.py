@@ -80,6 +80,7 @@ def test_metrics_are_sane(reduced):
     assert noisy["sigma_r"] == 0.5 and noisy["sigma_theta"] == pytest.approx(np.pi / 8)
 
 
+@pytest.mark.slow  # a second run of the experiment: 13 s of CPU
 def test_same_seed_same_result_and_independent_streams(reduced, tmp_path):
     out, _, _ = reduced
     config = blackboard.Config(poses=POSES, conditions=("noisy",), fused_mapper=QUICK)

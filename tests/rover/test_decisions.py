@@ -15,7 +15,6 @@ from bayesmap.rover.decisions import (
     heading_decision,
     movement_distribution,
     navigation_goal,
-    wrap,
 )
 
 
@@ -96,9 +95,3 @@ def test_movement_distribution_is_eq_43() -> None:
     m = movement_distribution(p_t, p_o)
     np.testing.assert_allclose(m, (p_t + 1 - p_o) / (p_t + 1 - p_o).sum())
     assert heading_decision(p_t, p_o) == 1  # the target heading is blocked by an obstacle
-
-
-def test_wrap() -> None:
-    np.testing.assert_allclose(
-        wrap([0.0, np.pi, -np.pi, 3 * np.pi / 2]), [0.0, -np.pi, -np.pi, -np.pi / 2]
-    )

@@ -24,11 +24,11 @@ runner = CliRunner()
 def _drive_log(path: Path, rng: np.random.Generator) -> None:
     """A simulated drive past the paper's box at (7, 10), written in cm and degrees."""
     world = box_world("rover-field-obstacles-v1")
-    params = sim_rover.RoverParams()
+    params = sim_rover.SimulatedRoverParams()
     state = sim_rover.initial([4.0, 10.0, 0.0], params, rng=rng)
     lines = ["t,x,y,heading,ir_0,ir_1,ir_2"]
     for k in range(60):
-        obs = sim_rover.observe(state, world, params, rng=rng)
+        obs = sim_rover.observe(world, state, params, rng=rng)
         x, y, heading = obs.pose
         lines.append(
             f"{0.4 * k:.1f},{100 * x:.2f},{100 * y:.2f},{math.degrees(heading):.3f},"

@@ -48,7 +48,7 @@ def lockstep(world: BoxWorld, max_steps: int, seed: int, tmp_path) -> int:
     ]
     state = sim_rover.initial(config.start, sim_params, rng=drive_rng)
     for step in range(max_steps):
-        observation = sim_rover.observe(state, world, sim_params, rng=sensor_rng)
+        observation = sim_rover.observe(world, state, sim_params, rng=sensor_rng)
         engine, native = (e.step(observation.raw, observation.pose) for e in explorers)
         assert native.heading == engine.heading, f"cycle {step}"
         assert native.command == engine.command, f"cycle {step}"

@@ -10,10 +10,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bayesmap.errors import ConfigError
+from bayesmap.geometry import cast_on_boxes
 from bayesmap.sensing.ir import range_from_raw
 from bayesmap.sim import ir
 from bayesmap.sim import rover as sim_rover
-from bayesmap.sim.world2d import box_world, circle_hits, occupancy_truth, ray_cast
+from bayesmap.sim.world2d import box_world, circle_hits, occupancy_truth
 
 BOXES = box_world("rover-field-obstacles-v1").boxes
 
@@ -41,7 +42,7 @@ def _march(x: float, y: float, angle: float, grow: float) -> float:
 @settings(max_examples=60, deadline=None)
 @given(st.floats(0, 20), st.floats(0, 20), st.floats(-math.pi, math.pi))
 def test_ray_cast_matches_marching(x: float, y: float, angle: float) -> None:
-    d = float(ray_cast(BOXES, [[x, y]], [angle])[0])
+    d = float(cast_on_boxes(BOXES, [[x, y]], [angle])[0])
     # grazing rays are ambiguous: the answer must lie between shrunk and grown boxes
     near, far = _march(x, y, angle, 1e-6), _march(x, y, angle, -1e-6)
     assert near - 2e-3 <= d <= far + 2e-3
@@ -55,7 +56,7 @@ def test_occupancy_truth_and_contact() -> None:
 
 
 def test_transition_respects_turning_radius_and_pivots() -> None:
-    params = sim_rover.RoverParams(gps_sigma=0.0)
+    params = sim_rover.SimulatedRoverParams(gps_sigma=0.0)
     rng = np.random.default_rng(0)
     state = sim_rover.initial([0.0, 0.0, 0.0], params, rng=rng)
     for _ in range(200):
@@ -84,15 +85,15 @@ def test_ir_reads_the_box_ahead() -> None:
 
 
 def test_same_seed_same_readings() -> None:
-    params = sim_rover.RoverParams()
+    params = sim_rover.SimulatedRoverParams()
     world = box_world("rover-field-obstacles-v1")
     runs = []
     for _ in range(2):
         rng = np.random.default_rng(7)
         state = sim_rover.initial([5.3, 10.0, 0.0], params, rng=rng)
-        runs.append([sim_rover.observe(state, world, params, rng=rng).raw for _ in range(5)])
+        runs.append([sim_rover.observe(world, state, params, rng=rng).raw for _ in range(5)])
     np.testing.assert_array_equal(runs[0], runs[1])
-    clean = sim_rover.h(state, world, params)
+    clean = sim_rover.h(world, state, params)
     assert clean.pose.tolist() == state.pose.tolist()
 
 
@@ -106,4 +107,4 @@ def test_same_seed_same_readings() -> None:
 )
 def test_bad_rover_params_name_the_field(kwargs: dict[str, float], field: str) -> None:
     with pytest.raises(ConfigError, match=field):
-        sim_rover.RoverParams(**kwargs)
+        sim_rover.SimulatedRoverParams(**kwargs)

@@ -9,7 +9,8 @@ import pytest
 from shapely.geometry import box
 
 from bayesmap.errors import ConfigError, InputError
-from bayesmap.sim.polygons import WORLDS, PolygonWorld, _make, path_poses, world
+from bayesmap.sim.polygons import PolygonWorld, _make, path_poses, world
+from bayesmap.sim.scenarios import names
 from bayesmap.sim.sonar import EchoKind, SonarRing, cast_rays, h, observe
 
 
@@ -30,7 +31,7 @@ def test_cast_rays_against_brute_force() -> None:
 
 def test_facing_a_wall_gives_its_perpendicular_distance() -> None:
     ring = SonarRing(angles=(0.0, math.pi / 2), radius=0.0, fan=33)
-    scan = h(np.array([[1.0, 1.0, 0.0]]), _box_world(), ring)
+    scan = h(_box_world(), np.array([[1.0, 1.0, 0.0]]), ring)
     assert scan.kind.tolist() == [[EchoKind.DIRECT, EchoKind.DIRECT]]
     assert scan.ranges[0, 0] == pytest.approx(3.0, rel=1e-3)
     assert scan.ranges[0, 1] == pytest.approx(3.0, rel=1e-3)
@@ -40,7 +41,7 @@ def test_facing_a_wall_gives_its_perpendicular_distance() -> None:
 def test_glancing_wall_is_lost_or_bounces_and_is_marked_specular() -> None:
     ring = SonarRing(angles=(math.radians(45.0), math.radians(60.0)), radius=0.0)
     w = _make("test-corridor", box(0.0, 0.0, 40.0, 1.0), [], [(1.0, 0.5), (2.0, 0.5)])
-    scan = h(np.array([[1.0, 0.5, 0.0]]), w, ring)
+    scan = h(w, np.array([[1.0, 0.5, 0.0]]), ring)
     assert np.all(scan.specular)
     assert set(scan.kind.ravel().tolist()) <= {EchoKind.LOST, EchoKind.BOUNCE}
     assert np.all(scan.ranges[scan.kind == EchoKind.LOST] == ring.max_range)
@@ -54,7 +55,7 @@ def test_bounce_reports_the_whole_path_length() -> None:
         "test-mirror", w.free, np.vstack([mirror, [[0.0, 2.5, 10.0, 2.5]]]), w.waypoints
     )
     ring = SonarRing(angles=(0.0, math.pi), radius=0.0, fan=1, beam_width=math.radians(10))
-    scan = h(np.array([[1.0, 0.5, 0.0]]), w2, ring)
+    scan = h(w2, np.array([[1.0, 0.5, 0.0]]), ring)
     assert scan.kind[0, 0] == EchoKind.BOUNCE
     # To the mirror at x = 3.5 (2.5 m), then up from y = 0.5 to y = 2.5 (2 m).
     assert scan.ranges[0, 0] == pytest.approx(4.5)
@@ -65,12 +66,12 @@ def test_same_seed_same_readings_and_noise_statistics() -> None:
     w = world("sonar-room-v1")
     poses = path_poses(w.waypoints, 0.2)
     ring = SonarRing()
-    a = observe(poses, w, ring, rng=3)
-    b = observe(poses, w, ring, rng=3)
-    c = observe(poses, w, ring, rng=4)
+    a = observe(w, poses, ring, rng=3)
+    b = observe(w, poses, ring, rng=3)
+    c = observe(w, poses, ring, rng=4)
     assert np.array_equal(a.ranges, b.ranges)
     assert not np.array_equal(a.ranges, c.ranges)
-    clean = h(poses, w, ring)
+    clean = h(w, poses, ring)
     echo = (
         (clean.ranges < ring.max_range)
         & (clean.ranges > 0.5)
@@ -82,10 +83,10 @@ def test_same_seed_same_readings_and_noise_statistics() -> None:
 
 
 def test_every_registered_world_has_specular_readings_and_valid_paths() -> None:
-    for name in WORLDS:
+    for name in names(PolygonWorld):
         w = world(name)
         poses = path_poses(w.waypoints, 0.5)
-        scan = h(poses, w, SonarRing())
+        scan = h(w, poses, SonarRing())
         assert 0.1 < scan.specular.mean() < 0.9
         assert np.all(scan.ranges <= SonarRing().max_range)
 
@@ -98,4 +99,4 @@ def test_front_arc_and_ring_sizes_and_bad_parameters() -> None:
     with pytest.raises(ConfigError):
         world("no-such-world")
     with pytest.raises(InputError):
-        h(np.zeros((2, 2)), world("sonar-room-v1"), SonarRing())
+        h(world("sonar-room-v1"), np.zeros((2, 2)), SonarRing())

@@ -160,7 +160,7 @@ def test_every_sweep_is_reported_and_no_contact_lies_behind_the_root(name: str) 
     rng = np.random.default_rng(0)
     poses = world_file.robot_poses()
     for pose in poses[:: max(1, len(poses) // 60)]:
-        reading = observe(world, pose, rng, sensor)
+        reading = observe(world, pose, sensor, rng=rng)
         sweeps = reading.sweeps
         assert sweeps.shape == (len(sensor.rest_angles), len(SWEEP_COLUMNS))
         hit = reading.contacts.hit

@@ -25,7 +25,7 @@ def test_bounds_contain_the_neighbours_true_reading_of_a_flat_wall() -> None:
     checked = 0
     for _ in range(60):
         pose = np.array([0.0, rng.uniform(0.5, 3.0), rng.uniform(-math.pi, math.pi)])
-        scan = h(pose[None], w, ring)
+        scan = h(w, pose[None], ring)
         centres, axis = geometry.sensors(pose)
         direct = scan.kind[0] == EchoKind.DIRECT
         for k in np.flatnonzero(direct):

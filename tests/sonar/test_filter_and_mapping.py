@@ -25,7 +25,7 @@ def corridor() -> Corridor:
     w = world("sonar-corridor-v1")
     ring = SonarRing()
     poses = path_poses(w.waypoints, 0.15)
-    scan = observe(poses, w, ring, rng=11)
+    scan = observe(w, poses, ring, rng=11)
     return poses, scan, ring_geometry(ring)
 
 

@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from bayesmap._typing import BoolArray, FloatArray, IntArray
+from bayesmap.geometry import wrap_angle
 
 #: Corner signs ``(s_x, s_y)`` of the four legs in the table frame, in corner-index order.
 CORNER_SIGNS: tuple[tuple[float, float], ...] = ((1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0))
@@ -25,15 +26,6 @@ _SIGNS = np.array(CORNER_SIGNS)
 _HALF_PI = 0.5 * math.pi
 _QUARTER_PI = 0.25 * math.pi
 _TWO_PI = 2.0 * math.pi
-
-
-def wrap_angle(angle: FloatArray, period: float = _TWO_PI) -> FloatArray:
-    """Wrap angles [rad] into ``[-period/2, period/2)``.
-
-    A square leg is unchanged by a quarter turn, so leg angles are compared with
-    ``period = π/2``; surface normals with ``2π``.
-    """
-    return np.asarray((np.asarray(angle) + 0.5 * period) % period - 0.5 * period, dtype=np.float64)
 
 
 def table_corners(tables: FloatArray, a: float, b: float) -> FloatArray:
@@ -229,11 +221,6 @@ def acceptance_probability(log_ratio: FloatArray, beta: float) -> FloatArray:
 
 
 # --- scalar versions for the sampler's hot path ---------------------------------------
-
-
-def wrap_angle_scalar(angle: float, period: float = _TWO_PI) -> float:
-    """Scalar :func:`wrap_angle`."""
-    return (angle + 0.5 * period) % period - 0.5 * period
 
 
 def delta_table_leg_scalar(

@@ -8,7 +8,7 @@ variable), rebuilt only when the network's version counter changes.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, Protocol
 
 import numpy as np
@@ -176,17 +176,6 @@ class Compiled:
             f"variable {self.names[var]!r} has no state {value!r}; "
             + unknown("state", value, self.states[var])
         )
-
-    def ancestors(self, ids: Iterable[int]) -> set[int]:
-        """Ids of all ancestors of ``ids`` (not including them)."""
-        seen: set[int] = set()
-        stack = [p for i in ids for p in self.parents[i]]
-        while stack:
-            node = stack.pop()
-            if node not in seen:
-                seen.add(node)
-                stack.extend(self.parents[node])
-        return seen
 
     def table(self, var: int, evidence: Mapping[str, str]) -> FloatArray:
         """CPT of ``var``: stored, or asked of its data source with the query's evidence."""

@@ -370,14 +370,6 @@ class BayesNet:
         variable.cpt = table
         self._version += 1
 
-    def remove_variable(self, name: str) -> None:
-        """Remove a variable that has no children."""
-        children = self.children(name)
-        if children:
-            raise ModelError(f"cannot remove {name!r}: it is a parent of {list(children)}")
-        del self._variables[name]
-        self._version += 1
-
     def _ancestors(self, name: str) -> set[str]:
         seen: set[str] = set()
         stack = list(self.parents(name))

@@ -242,7 +242,7 @@ def run_paper(
     whisker_points = np.zeros((0, 2))
     start = time.perf_counter()
     for index, pose in enumerate(poses):
-        reading = observe(world, pose, sensor_rng, sensor)
+        reading = observe(world, pose, sensor, rng=sensor_rng)
         callback = snapshots.append if index == snapshot_at else None
         tic = time.perf_counter()
         result = mapper.step(reading.shapelets, rng=chain_rng, callback=callback)
@@ -426,7 +426,7 @@ def _run(
     seeds = np.random.SeedSequence(config.seed).spawn(1 + 3 * len(CONDITIONS))
     if world_file is None:
         world = initial(
-            np.random.default_rng(seeds[0]), scenario(config.scenario), name=config.scenario
+            scenario(config.scenario), rng=np.random.default_rng(seeds[0]), name=config.scenario
         )
         poses = pose_sequence(world.params)[: config.poses]
         p = world.params

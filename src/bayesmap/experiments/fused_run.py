@@ -71,7 +71,7 @@ def run_fused(
     seen: dict[int, set[int]] = {}
     start = time.perf_counter()
     for index, pose in enumerate(poses):
-        reading = observe(world, pose, sensor_rng, sensor)
+        reading = observe(world, pose, sensor, rng=sensor_rng)
         tic = time.perf_counter()
         result = mapper.step(pose, reading.sweeps, rng=chain_rng)
         step_s.append(time.perf_counter() - tic)

@@ -101,9 +101,9 @@ class Config(ExperimentConfig):
             n_headings=self.n_headings,
         )
 
-    def sim_params(self) -> sim_rover.RoverParams:
+    def sim_params(self) -> sim_rover.SimulatedRoverParams:
         """The simulated rover's parameters."""
-        return sim_rover.RoverParams(
+        return sim_rover.SimulatedRoverParams(
             gps_sigma=self.gps_sigma, compass_sigma=math.radians(self.compass_sigma_deg)
         )
 
@@ -182,7 +182,7 @@ def simulate(
     trace = Trace(Explorer(grid, params, rule))
     state = sim_rover.initial(config.start, sim_params, rng=drive_rng)
     trace.path.append(state.pose.copy())
-    trace.min_clearance = sim_rover.clearance(state, world, sim_params)
+    trace.min_clearance = sim_rover.clearance(world, state, sim_params)
     touching = False
     previous: tuple[tuple[float, float] | None, float, int] = (None, math.inf, -1)
     started = time.perf_counter()
@@ -190,7 +190,7 @@ def simulate(
         if step % config.curve_every == 0:
             trace.curve.append((trace.distance, float(np.mean(grid.entropy < config.h_desired))))
             progress(stage, step, config.max_steps)
-        observation = sim_rover.observe(state, world, sim_params, rng=sensor_rng)
+        observation = sim_rover.observe(world, state, sim_params, rng=sensor_rng)
         decision = trace.explorer.step(observation.raw, observation.pose)
         trace.steps = step + 1
         n_uncertain = trace.explorer.mapper_.n_uncertain_
@@ -204,10 +204,10 @@ def simulate(
         state = moved
         trace.path.append(state.pose.copy())
         trace.min_clearance = min(
-            trace.min_clearance, sim_rover.clearance(state, world, sim_params)
+            trace.min_clearance, sim_rover.clearance(world, state, sim_params)
         )
-        trace.off_map_cycles += int(sim_rover.off_map(state, world))
-        now_touching = sim_rover.collides(state, world, sim_params)
+        trace.off_map_cycles += int(sim_rover.off_map(world, state))
+        now_touching = sim_rover.collides(world, state, sim_params)
         trace.collisions += int(now_touching and not touching)
         touching = now_touching
     trace.seconds = time.perf_counter() - started

@@ -12,12 +12,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bayesmap._typing import BoolArray, FloatArray
-
-
-def wrap(angle: npt.ArrayLike) -> FloatArray:
-    """Angles wrapped to ``[-pi, pi)`` [rad]."""
-    a = np.asarray(angle, dtype=np.float64)
-    return np.asarray((a + np.pi) % (2.0 * np.pi) - np.pi)
+from bayesmap.geometry import wrap_angle
 
 
 def exploration_target(
@@ -61,7 +56,7 @@ def navigation_goal(theta: npt.ArrayLike, theta_t: float) -> FloatArray:
     ``exp(-(theta - theta_t)^2 / (pi^2 / 4)) / ((pi / 2) sqrt(2 pi))``, with the angle
     difference wrapped to ``[-pi, pi)``.
     """
-    diff = wrap(np.asarray(theta, dtype=np.float64) - theta_t)
+    diff = wrap_angle(np.asarray(theta, dtype=np.float64) - theta_t)
     return np.asarray(
         np.exp(-(diff**2) / (np.pi**2 / 4.0)) / ((np.pi / 2.0) * math.sqrt(2.0 * np.pi))
     )

@@ -45,7 +45,7 @@ import numpy.typing as npt
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.bn.model import BayesNet, DataSource, NodeKind
 from bayesmap.errors import InputError
-from bayesmap.rover.decisions import wrap
+from bayesmap.geometry import wrap_angle
 from bayesmap.rover.params import RoverParams
 from bayesmap.sensing.fusion import opinion_pool
 from bayesmap.sensing.ir import angular_weight, beta_r, sensor_posterior
@@ -220,7 +220,7 @@ class DecisionNetwork:
         inputs = self.inputs_
         nearest = float(np.min(inputs.ranges, initial=np.inf))
         closeness = float(np.clip(1.0 - nearest / self.params.r_max, 0.0, 1.0))
-        offset = wrap(self._theta - inputs.heading)
+        offset = wrap_angle(self._theta - inputs.heading)
         return np.asarray(closeness * np.exp(-((offset / self._view) ** 2)))
 
     def _map_source(self, evidence: Mapping[str, str]) -> FloatArray:

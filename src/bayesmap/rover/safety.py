@@ -33,8 +33,8 @@ import numpy.typing as npt
 from scipy import ndimage
 
 from bayesmap._typing import BoolArray, FloatArray
+from bayesmap.geometry import to_world, wrap_angle
 from bayesmap.grid.entropy import probability_at_entropy
-from bayesmap.rover.decisions import wrap
 from bayesmap.rover.params import RoverParams
 
 _SUBSTEP = 0.2
@@ -47,7 +47,7 @@ def drive_command(heading: float, psi: float, params: RoverParams) -> tuple[floa
     Forward at ``speed`` with a proportional yaw rate capped by the turning radius; a pivot
     in place (skid steer) when the heading is more than 90° away.
     """
-    error = float(wrap(heading - psi))
+    error = float(wrap_angle(heading - psi))
     if abs(error) > math.pi / 2:
         return (0.0, math.copysign(params.pivot_rate, error))
     limit = params.speed / params.min_turn_radius
@@ -75,7 +75,7 @@ def _path_templates(params: RoverParams) -> FloatArray:
     )
     paths = np.zeros((error0.size, n_steps + 1, 2))
     for k in range(1, n_steps + 1):
-        error = wrap(error0 - psi)
+        error = wrap_angle(error0 - psi)
         pivot = np.abs(error) > math.pi / 2
         moving = ~pivot & (travelled < params.lookahead)
         v = np.where(moving, params.speed, 0.0)
@@ -102,13 +102,10 @@ def predicted_centres(
     rounded to 0.5°.
     """
     theta = np.asarray(headings, dtype=np.float64).ravel()
-    error = wrap(theta - pose[2])
+    error = wrap_angle(theta - pose[2])
     index = np.rint((error + math.pi) / _TEMPLATE_STEP).astype(np.int64)
     local = _path_templates(params)[index]
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    x = pose[0] + c * local[..., 0] - s * local[..., 1]
-    y = pose[1] + s * local[..., 0] + c * local[..., 1]
-    return np.stack([x, y], axis=-1)
+    return to_world(pose, local)
 
 
 def square_distance(
@@ -238,7 +235,7 @@ def footprint_safety(
     if points.size:
         dx, dy = points[:, 0] - pose[0], points[:, 1] - pose[1]
         k = int(np.argmin(np.hypot(dx, dy)))
-        ahead = bool(abs(float(wrap(math.atan2(dy[k], dx[k]) - pose[2]))) < math.pi / 2)
+        ahead = bool(abs(float(wrap_angle(math.atan2(dy[k], dx[k]) - pose[2]))) < math.pi / 2)
         step = params.speed * params.dt
         bx, by = pose[0] - step * math.cos(pose[2]), pose[1] - step * math.sin(pose[2])
         back = np.minimum(

@@ -15,6 +15,7 @@ import numpy.typing as npt
 
 from bayesmap._typing import FloatArray
 from bayesmap.errors import ConfigError
+from bayesmap.geometry import cast_on_boxes
 from bayesmap.sensing.ir import (
     RANGER_ANGLES,
     RANGER_OFFSET,
@@ -23,7 +24,6 @@ from bayesmap.sensing.ir import (
     ranger_poses,
     raw_from_range,
 )
-from bayesmap.sim.world2d import ray_cast
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,7 @@ def true_ranges(boxes: npt.ArrayLike, pose: npt.ArrayLike, rangers: IRRangers) -
     offsets = np.linspace(-rangers.w_r, rangers.w_r, rangers.n_rays)
     angles = sensors[:, 2:3] + offsets[None, :]
     origins = np.repeat(sensors[:, :2], rangers.n_rays, axis=0)
-    d = ray_cast(boxes, origins, angles.ravel()).reshape(angles.shape)
+    d = cast_on_boxes(boxes, origins, angles.ravel()).reshape(angles.shape)
     # the ranger reports the hit it is most sensitive to: the hit ray nearest its axis
     order = np.argsort(np.abs(offsets), kind="stable")
     ordered: FloatArray = d[:, order]

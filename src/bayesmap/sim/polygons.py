@@ -31,7 +31,6 @@ logs driven through them):
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,8 +41,9 @@ from shapely.geometry import Polygon, box
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray, Poses
 from bayesmap.errors import ConfigError
+from bayesmap.sim.scenarios import register, scenario
 
-__all__ = ["REALISTIC_WORLDS", "WORLDS", "PolygonWorld", "path_poses", "random_building", "world"]
+__all__ = ["REALISTIC_WORLDS", "PolygonWorld", "path_poses", "random_building", "world"]
 
 
 @dataclass(frozen=True)
@@ -240,17 +240,17 @@ def _openhall() -> PolygonWorld:
     return _make("sonar-openhall-v2", outer, pillars, waypoints)
 
 
-WORLDS: dict[str, Callable[[], PolygonWorld]] = {
-    "sonar-corridor-v1": _corridor,
-    "sonar-room-v1": _room,
-    "sonar-hall-v1": _hall,
-    "sonar-doors-v2": _doors,
-    "sonar-office-v2": _office,
-    "sonar-clutter-v2": _clutter,
-    "sonar-lcorridor-v2": _lcorridor,
-    "sonar-openhall-v2": _openhall,
-}
-"""Factories of the registered worlds, by versioned name."""
+for _name, _factory in (
+    ("sonar-corridor-v1", _corridor),
+    ("sonar-room-v1", _room),
+    ("sonar-hall-v1", _hall),
+    ("sonar-doors-v2", _doors),
+    ("sonar-office-v2", _office),
+    ("sonar-clutter-v2", _clutter),
+    ("sonar-lcorridor-v2", _lcorridor),
+    ("sonar-openhall-v2", _openhall),
+):
+    register(_name, PolygonWorld, _factory)
 
 REALISTIC_WORLDS: tuple[str, ...] = (
     "sonar-doors-v2",
@@ -310,10 +310,11 @@ def random_building(rng: RNGLike = None) -> PolygonWorld:
 
 
 def world(name: str) -> PolygonWorld:
-    """Build the registered world ``name``; :class:`ConfigError` if unknown."""
-    if name not in WORLDS:
-        raise ConfigError(f"unknown sonar world {name!r}; choose from: {', '.join(WORLDS)}")
-    return WORLDS[name]()
+    """Build the registered world ``name``; :class:`ConfigError` if unknown.
+
+    The registry is :mod:`bayesmap.sim.scenarios`.
+    """
+    return scenario(name, PolygonWorld)
 
 
 def path_poses(waypoints: FloatArray, step: float, *, laps: int = 1, closed: bool = True) -> Poses:

@@ -26,7 +26,7 @@ from bayesmap.sim.world2d import BoxWorld, box_distance, circle_hits
 
 
 @dataclass(frozen=True)
-class RoverParams:
+class SimulatedRoverParams:
     """Physical and sensor parameters of the simulated rover.
 
     Attributes
@@ -74,7 +74,7 @@ class RoverParams:
         noise = {"gps_sigma": self.gps_sigma, "compass_sigma": self.compass_sigma}
         bad += [f"{k}={v!r} (need >= 0)" for k, v in noise.items() if not v >= 0]
         if bad:
-            raise ConfigError(f"simulated RoverParams: fix {', '.join(bad)}")
+            raise ConfigError(f"SimulatedRoverParams: fix {', '.join(bad)}")
 
 
 class RoverState(NamedTuple):
@@ -95,7 +95,9 @@ class Observation(NamedTuple):
     """``(x, y, heading)`` estimated from GPS and compass."""
 
 
-def initial(pose: npt.ArrayLike, params: RoverParams, *, rng: np.random.Generator) -> RoverState:
+def initial(
+    pose: npt.ArrayLike, params: SimulatedRoverParams, *, rng: np.random.Generator
+) -> RoverState:
     """Start at ``pose`` with a GPS error drawn from its stationary distribution."""
     start = np.asarray(pose, dtype=np.float64).reshape(3)
     return RoverState(start, rng.normal(0.0, params.gps_sigma, size=2))
@@ -104,7 +106,7 @@ def initial(pose: npt.ArrayLike, params: RoverParams, *, rng: np.random.Generato
 def transition(
     state: RoverState,
     command: tuple[float, float],
-    params: RoverParams,
+    params: SimulatedRoverParams,
     *,
     rng: np.random.Generator,
 ) -> RoverState:
@@ -131,13 +133,13 @@ def transition(
     return RoverState(np.array([x, y, psi]), error)
 
 
-def h(state: RoverState, world: BoxWorld, params: RoverParams) -> Observation:
+def h(world: BoxWorld, state: RoverState, params: SimulatedRoverParams) -> Observation:
     """Noise-free observation: exact pose and unquantised IR readings."""
     return Observation(ir.h(world.boxes, state.pose, params.rangers), state.pose.copy())
 
 
 def observe(
-    state: RoverState, world: BoxWorld, params: RoverParams, *, rng: np.random.Generator
+    world: BoxWorld, state: RoverState, params: SimulatedRoverParams, *, rng: np.random.Generator
 ) -> Observation:
     """Noisy observation: quantised IR readings, GPS position and compass heading."""
     raw = ir.observe(world.boxes, state.pose, params.rangers, rng=rng)
@@ -146,17 +148,17 @@ def observe(
     return Observation(raw, np.array([x + state.gps_error[0], y + state.gps_error[1], heading]))
 
 
-def collides(state: RoverState, world: BoxWorld, params: RoverParams) -> bool:
+def collides(world: BoxWorld, state: RoverState, params: SimulatedRoverParams) -> bool:
     """Whether the rover's footprint touches an obstacle."""
     return circle_hits(world.boxes, float(state.pose[0]), float(state.pose[1]), params.radius)
 
 
-def clearance(state: RoverState, world: BoxWorld, params: RoverParams) -> float:
+def clearance(world: BoxWorld, state: RoverState, params: SimulatedRoverParams) -> float:
     """Distance [m] from the rover's footprint to the nearest obstacle (negative: overlap)."""
     return box_distance(world.boxes, float(state.pose[0]), float(state.pose[1])) - params.radius
 
 
-def off_map(state: RoverState, world: BoxWorld) -> bool:
+def off_map(world: BoxWorld, state: RoverState) -> bool:
     """Whether the rover's centre is outside the mapped area ``[0, width] x [0, height]``."""
     x, y = float(state.pose[0]), float(state.pose[1])
     return not (0.0 <= x <= world.width and 0.0 <= y <= world.height)

@@ -27,13 +27,13 @@ import numpy as np
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import BoolArray, FloatArray, IntArray, Poses, Ranges
 from bayesmap.errors import ConfigError, InputError
+from bayesmap.geometry import cast_on_segments, to_world
 from bayesmap.sensing.sonar_rings import PIONEER_FRONT8, PIONEER_RING16
 from bayesmap.sim.polygons import PolygonWorld
 
 __all__ = ["EchoKind", "SonarRing", "SonarScan", "cast_rays", "h", "observe", "trace"]
 
 _EPS = 1e-9
-_CHUNK = 2_000_000
 
 
 class EchoKind(IntEnum):
@@ -144,11 +144,7 @@ class SonarRing:
         if self.offsets is None:
             unit = np.stack([np.cos(axis), np.sin(axis)], axis=-1)
             return poses[:, None, :2] + self.radius * unit, axis
-        off = np.asarray(self.offsets)
-        c, s = np.cos(poses[:, 2:3]), np.sin(poses[:, 2:3])
-        x = poses[:, 0:1] + c * off[None, :, 0] - s * off[None, :, 1]
-        y = poses[:, 1:2] + s * off[None, :, 0] + c * off[None, :, 1]
-        return np.stack([x, y], axis=-1), axis
+        return to_world(poses[:, None, :], self.offsets), axis
 
 
 class SonarScan(NamedTuple):
@@ -190,27 +186,7 @@ def cast_rays(
     (distance, index)
         ``(m,)`` distance to the first hit [m] (``inf`` if none) and the wall's index (−1).
     """
-    m = len(origins)
-    distance = np.full(m, np.inf)
-    index = np.full(m, -1, dtype=np.int64)
-    p = segments[:, :2]
-    e = segments[:, 2:] - p
-    step = max(_CHUNK // max(len(segments), 1), 1)
-    for start in range(0, m, step):
-        o = origins[start : start + step, None, :]
-        d = directions[start : start + step, None, :]
-        denom = d[..., 0] * e[None, :, 1] - d[..., 1] * e[None, :, 0]
-        w = p[None] - o
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (w[..., 0] * e[None, :, 1] - w[..., 1] * e[None, :, 0]) / denom
-            u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / denom
-        ok = (np.abs(denom) > _EPS) & (t > 1e-7) & (u >= 0.0) & (u <= 1.0)
-        t = np.where(ok, t, np.inf)
-        best = np.argmin(t, axis=1)
-        chunk_t = t[np.arange(len(t)), best]
-        distance[start : start + step] = chunk_t
-        index[start : start + step] = np.where(np.isfinite(chunk_t), best, -1)
-    return distance, index
+    return cast_on_segments(origins, directions, segments, near=1e-7, parallel=_EPS)
 
 
 def _normals(segments: FloatArray) -> FloatArray:
@@ -309,8 +285,8 @@ def _trace(
 
 
 def trace(
-    poses: Poses,
     world: PolygonWorld,
+    poses: Poses,
     ring: SonarRing,
     *,
     people: FloatArray | None = None,
@@ -320,10 +296,12 @@ def trace(
 
     Parameters
     ----------
+    world
+        The world.
     poses
         ``(n, 3)`` true robot poses.
-    world, ring
-        The world and the ring.
+    ring
+        The ring.
     people
         ``(n, k, 2)`` where each of ``k`` people stands at each pose [m] (``nan``: absent),
         or ``None``. A person is a cylinder of ``person_radius`` [m]: clothing and a round
@@ -337,12 +315,12 @@ def trace(
     return _trace(poses, world, ring, people, person_radius)
 
 
-def h(poses: Poses, world: PolygonWorld, ring: SonarRing) -> SonarScan:
+def h(world: PolygonWorld, poses: Poses, ring: SonarRing) -> SonarScan:
     """Noiseless readings of ``ring`` at each of ``poses`` ``(n, 3)`` in ``world``."""
     return _trace(poses, world, ring)
 
 
-def observe(poses: Poses, world: PolygonWorld, ring: SonarRing, *, rng: RNGLike) -> SonarScan:
+def observe(world: PolygonWorld, poses: Poses, ring: SonarRing, *, rng: RNGLike) -> SonarScan:
     """Noisy readings: :func:`h` plus Gaussian range noise ``N(0, sigma²)`` on every echo.
 
     A noisy echo is clipped up to ``min_range``; one pushed to or past ``max_range`` becomes

@@ -33,6 +33,7 @@ from shapely.geometry import LineString
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import BoolArray, FloatArray, IntArray, Poses, Ranges
 from bayesmap.errors import ConfigError
+from bayesmap.geometry import wrap_angle
 from bayesmap.sim.polygons import PolygonWorld
 from bayesmap.sim.sonar import SonarRing, trace
 
@@ -96,10 +97,6 @@ class SimulatedLog(NamedTuple):
     people: FloatArray
 
 
-def _wrap(angle: FloatArray | float) -> FloatArray:
-    return np.asarray((np.asarray(angle) + math.pi) % (2 * math.pi) - math.pi)
-
-
 def drive(
     waypoints: FloatArray, realism: Realism, *, rng: np.random.Generator
 ) -> tuple[Poses, BoolArray]:
@@ -120,7 +117,7 @@ def drive(
             delta = end - start
             length = float(np.hypot(*delta))
             target = math.atan2(delta[1], delta[0])
-            turn = float(_wrap(target - heading))
+            turn = float(wrap_angle(target - heading))
             n_turn = int(abs(turn) // turn_step)
             for k in range(1, n_turn + 1):
                 rows.append(np.array([start[0], start[1], heading + turn * k / (n_turn + 1)]))
@@ -129,7 +126,7 @@ def drive(
             xy = start + s[:, None] * (delta / length)
             rows.extend(np.column_stack([xy, np.full(len(s), heading)]))
     poses = np.vstack(rows)
-    poses[:, 2] = _wrap(poses[:, 2])
+    poses[:, 2] = wrap_angle(poses[:, 2])
     n_stops = realism.stops * realism.laps
     if n_stops:
         where = np.sort(rng.choice(len(poses), size=min(n_stops, len(poses)), replace=False))
@@ -152,7 +149,7 @@ def odometry(poses: Poses, realism: Realism, *, rng: np.random.Generator) -> Pos
     """
     dxy = np.diff(poses[:, :2], axis=0)
     dist = np.hypot(dxy[:, 0], dxy[:, 1])
-    turn = _wrap(np.diff(poses[:, 2]))
+    turn = wrap_angle(np.diff(poses[:, 2]))
     scale = 1.0 + rng.normal(0.0, realism.odometry_scale_sd)
     turn_scale = 1.0 + rng.normal(0.0, realism.turn_scale_sd)
     # Direction of travel relative to the heading (the robot drives forwards).
@@ -165,7 +162,7 @@ def odometry(poses: Poses, realism: Realism, *, rng: np.random.Generator) -> Pos
     step_angle = heading[:-1] + travel
     steps = (dist * scale)[:, None] * np.column_stack([np.cos(step_angle), np.sin(step_angle)])
     xy = poses[0, :2] + np.vstack([[0.0, 0.0], np.cumsum(steps, axis=0)])
-    return np.column_stack([xy, _wrap(heading)])
+    return np.column_stack([xy, wrap_angle(heading)])
 
 
 def walkers(
@@ -223,7 +220,7 @@ def simulate_log(
         realism.person_radius + 0.35
     )
     people[near] = np.nan
-    clean = trace(poses, world, ring, people=people, person_radius=realism.person_radius)
+    clean = trace(world, poses, ring, people=people, person_radius=realism.person_radius)
     # The noise of a standing transducer repeats: one draw per place.
     place = np.cumsum(moved) - 1
     noise = generator.normal(0.0, ring.sigma, size=(int(place[-1]) + 1, ring.n))[place]

@@ -25,9 +25,9 @@ import numpy as np
 
 from bayesmap._typing import FloatArray, IntArray, Poses
 from bayesmap.errors import ConfigError, ModelError
+from bayesmap.sim import scenarios
 
 __all__ = [
-    "SCENARIOS",
     "WALL",
     "TablesWorld",
     "WorldParams",
@@ -278,7 +278,7 @@ _MAX_DRAWS = 100_000
 
 
 def initial(
-    rng: np.random.Generator, params: WorldParams, *, name: str = "whisker-tables-v1"
+    params: WorldParams, *, rng: np.random.Generator, name: str = "whisker-tables-v1"
 ) -> TablesWorld:
     """Build a tables world from a seeded generator (the simulator's ``initial``).
 
@@ -371,12 +371,12 @@ def build_mixed(
     )
 
 
-SCENARIOS: dict[str, WorldParams] = {"whisker-tables-v1": WorldParams()}
-"""World geometry of each registered scenario, by versioned name."""
+scenarios.register("whisker-tables-v1", WorldParams, WorldParams)
 
 
 def scenario(name: str) -> WorldParams:
-    """The :class:`WorldParams` of scenario ``name``; :class:`ConfigError` if unknown."""
-    if name not in SCENARIOS:
-        raise ConfigError(f"unknown whisker scenario {name!r}; choose from: {', '.join(SCENARIOS)}")
-    return SCENARIOS[name]
+    """The :class:`WorldParams` of scenario ``name`` (:mod:`bayesmap.sim.scenarios`).
+
+    :class:`ConfigError` if unknown.
+    """
+    return scenarios.scenario(name, WorldParams)

@@ -48,6 +48,7 @@ import numpy as np
 
 from bayesmap._typing import BoolArray, FloatArray, IntArray
 from bayesmap.errors import ConfigError, InputError
+from bayesmap.geometry import cast_on_segments
 from bayesmap.sim.tables_world import TablesWorld
 
 __all__ = [
@@ -205,26 +206,6 @@ def _wrap(angle: FloatArray) -> FloatArray:
     return np.asarray(np.pi - np.mod(np.pi - angle, 2.0 * np.pi))
 
 
-def _ray_cast(
-    origin: FloatArray, direction: FloatArray, segments: FloatArray, length: float
-) -> tuple[FloatArray, IntArray]:
-    """Nearest hit of rays (one per ``direction`` [rad]) on segments within ``length`` [m].
-
-    Returns the distance (``inf`` for no hit) and the index of the hit segment per ray.
-    """
-    d = np.column_stack([np.cos(direction), np.sin(direction)])
-    start, edge = segments[:, :2], segments[:, 2:] - segments[:, :2]
-    denom = d[:, None, 0] * edge[None, :, 1] - d[:, None, 1] * edge[None, :, 0]
-    q = start[None] - origin
-    safe = np.where(denom == 0.0, np.nan, denom)
-    t = (q[..., 0] * edge[None, :, 1] - q[..., 1] * edge[None, :, 0]) / safe
-    u = (q[..., 0] * d[:, None, 1] - q[..., 1] * d[:, None, 0]) / safe
-    valid = (t >= 0.0) & (t <= length) & (u >= 0.0) & (u <= 1.0)
-    t = np.where(valid, t, np.inf)
-    index = np.argmin(t, axis=1)
-    return t[np.arange(len(index)), index], index
-
-
 def _contact_candidates(
     origin: FloatArray, segments: FloatArray, normal: FloatArray, length: float
 ) -> tuple[FloatArray, IntArray]:
@@ -276,10 +257,10 @@ def h(world: TablesWorld, pose: FloatArray, params: WhiskerParams) -> Contacts:
     side = np.sign(np.asarray(params.rest_angles))
     start = rest + side * params.sweep
     length = params.whisker_length
-    t0, seg0 = _ray_cast(origin, start, world.segments, length)
+    unit = np.column_stack([np.cos(start), np.sin(start)])
+    t0, seg0 = cast_on_segments(origin, unit, world.segments, far=length)
     progress = np.where(np.isfinite(t0), 0.0, np.inf)
     owner = np.where(np.isfinite(t0), seg0, -1)
-    unit = np.column_stack([np.cos(start), np.sin(start)])
     point = origin + unit * np.where(np.isfinite(t0), t0, 0.0)[:, None]
     candidates, cand_owner = _contact_candidates(origin, world.segments, world.normal, length)
     if len(candidates):
@@ -313,7 +294,7 @@ def h(world: TablesWorld, pose: FloatArray, params: WhiskerParams) -> Contacts:
 
 
 def observe(
-    world: TablesWorld, pose: FloatArray, rng: np.random.Generator, params: WhiskerParams
+    world: TablesWorld, pose: FloatArray, params: WhiskerParams, *, rng: np.random.Generator
 ) -> WhiskerReading:
     """Noisy whisker readings at ``pose`` as shapelets (eqs. 1–3, perfect localisation).
 

@@ -13,22 +13,21 @@ Registered worlds (Post et al. 2016 §5):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from bayesmap._typing import BoolArray, FloatArray
-from bayesmap.errors import ConfigError
+from bayesmap.sim.scenarios import register, scenario
 
 __all__ = [
-    "WORLDS",
     "BoxWorld",
     "box_distance",
     "box_world",
     "circle_hits",
     "occupancy_truth",
-    "ray_cast",
 ]
 
 
@@ -56,9 +55,9 @@ def _centred(cx: float, cy: float, sx: float, sy: float) -> tuple[float, float, 
     return (cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)
 
 
-WORLDS: dict[str, BoxWorld] = {
-    "rover-field-empty-v1": BoxWorld("rover-field-empty-v1", 20.0, 20.0, np.zeros((0, 4))),
-    "rover-field-obstacles-v1": BoxWorld(
+_FIELDS = (
+    BoxWorld("rover-field-empty-v1", 20.0, 20.0, np.zeros((0, 4))),
+    BoxWorld(
         "rover-field-obstacles-v1",
         20.0,
         20.0,
@@ -70,46 +69,26 @@ WORLDS: dict[str, BoxWorld] = {
             ]
         ),
     ),
-}
+)
+
+
+def _constant(world: BoxWorld) -> Callable[[], BoxWorld]:
+    def factory() -> BoxWorld:
+        return world
+
+    return factory
+
+
+for _field in _FIELDS:
+    register(_field.name, BoxWorld, _constant(_field))
 
 
 def box_world(name: str) -> BoxWorld:
-    """The registered world ``name``; :class:`ConfigError` if there is none."""
-    try:
-        return WORLDS[name]
-    except KeyError:
-        raise ConfigError(f"unknown box world {name!r}; choose from {sorted(WORLDS)}") from None
+    """The registered world ``name``; :class:`ConfigError` if there is none.
 
-
-def ray_cast(boxes: npt.ArrayLike, origins: npt.ArrayLike, angles: npt.ArrayLike) -> FloatArray:
-    """Distance [m] from each origin along each angle to the first box (``inf`` if none).
-
-    Slab test, vectorised over rays ``(n,)`` and boxes ``(k,)``. A ray starting inside a box
-    reports 0.
+    The registry is :mod:`bayesmap.sim.scenarios`.
     """
-    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-    o = np.asarray(origins, dtype=np.float64).reshape(-1, 2)
-    a = np.asarray(angles, dtype=np.float64).reshape(-1)
-    if b.shape[0] == 0:
-        return np.full(a.shape, np.inf)
-    dx, dy = np.cos(a)[:, None], np.sin(a)[:, None]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        tx1 = (b[None, :, 0] - o[:, 0:1]) / dx
-        tx2 = (b[None, :, 2] - o[:, 0:1]) / dx
-        ty1 = (b[None, :, 1] - o[:, 1:2]) / dy
-        ty2 = (b[None, :, 3] - o[:, 1:2]) / dy
-    inside_x = (o[:, 0:1] >= b[None, :, 0]) & (o[:, 0:1] <= b[None, :, 2])
-    inside_y = (o[:, 1:2] >= b[None, :, 1]) & (o[:, 1:2] <= b[None, :, 3])
-    # a ray parallel to a slab never enters it unless it starts inside
-    t_near_x = np.where(dx == 0, np.where(inside_x, -np.inf, np.inf), np.minimum(tx1, tx2))
-    t_far_x = np.where(dx == 0, np.where(inside_x, np.inf, -np.inf), np.maximum(tx1, tx2))
-    t_near_y = np.where(dy == 0, np.where(inside_y, -np.inf, np.inf), np.minimum(ty1, ty2))
-    t_far_y = np.where(dy == 0, np.where(inside_y, np.inf, -np.inf), np.maximum(ty1, ty2))
-    t_near = np.maximum(t_near_x, t_near_y)
-    t_far = np.minimum(t_far_x, t_far_y)
-    entry = np.maximum(t_near, 0.0)
-    t = np.where(t_far >= entry, entry, np.inf)
-    return np.asarray(t.min(axis=1))
+    return scenario(name, BoxWorld)
 
 
 def box_distance(boxes: npt.ArrayLike, x: float, y: float) -> float:

@@ -7,4 +7,106 @@
 - :mod:`~bayesmap.sonar.logs`: real plain-text logs; :mod:`~bayesmap.sonar.pipeline`: log → map.
 
 See docs/sonar.md for every choice that fills the fragment's gaps.
+
+Names load on first use (:mod:`bayesmap._lazy`).
 """
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from bayesmap._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from bayesmap.sonar import (
+        bags,
+        bottom_up,
+        filter,
+        geometry,
+        logs,
+        mapping,
+        pipeline,
+        ring,
+        traits,
+        verification,
+    )
+    from bayesmap.sonar.bags import read_sonar_bag
+    from bayesmap.sonar.bottom_up import acceptability, agreeability
+    from bayesmap.sonar.filter import Rejection, RingVerdict, SpecularFilter
+    from bayesmap.sonar.geometry import SonarGeometry
+    from bayesmap.sonar.logs import SonarLog, read_sonar_log, write_sonar_log
+    from bayesmap.sonar.mapping import ElfesMapper, NoEcho, RosRangeLayerMapper, ThrunMapper
+    from bayesmap.sonar.pipeline import DEFAULT_PIPELINE, PIPELINES, Pipeline, build_map, map_log
+    from bayesmap.sonar.ring import load_ring, preset
+    from bayesmap.sonar.traits import fit_traits
+
+_EXPORTS = {
+    "DEFAULT_PIPELINE": "pipeline",
+    "ElfesMapper": "mapping",
+    "NoEcho": "mapping",
+    "PIPELINES": "pipeline",
+    "Pipeline": "pipeline",
+    "Rejection": "filter",
+    "RingVerdict": "filter",
+    "RosRangeLayerMapper": "mapping",
+    "SonarGeometry": "geometry",
+    "SonarLog": "logs",
+    "SpecularFilter": "filter",
+    "ThrunMapper": "mapping",
+    "acceptability": "bottom_up",
+    "agreeability": "bottom_up",
+    "bags": "bags",
+    "bottom_up": "bottom_up",
+    "build_map": "pipeline",
+    "filter": "filter",
+    "fit_traits": "traits",
+    "geometry": "geometry",
+    "load_ring": "ring",
+    "logs": "logs",
+    "map_log": "pipeline",
+    "mapping": "mapping",
+    "pipeline": "pipeline",
+    "preset": "ring",
+    "read_sonar_bag": "bags",
+    "read_sonar_log": "logs",
+    "ring": "ring",
+    "traits": "traits",
+    "verification": "verification",
+    "write_sonar_log": "logs",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__all__ = [
+    "DEFAULT_PIPELINE",
+    "ElfesMapper",
+    "NoEcho",
+    "PIPELINES",
+    "Pipeline",
+    "Rejection",
+    "RingVerdict",
+    "RosRangeLayerMapper",
+    "SonarGeometry",
+    "SonarLog",
+    "SpecularFilter",
+    "ThrunMapper",
+    "acceptability",
+    "agreeability",
+    "bags",
+    "bottom_up",
+    "build_map",
+    "filter",
+    "fit_traits",
+    "geometry",
+    "load_ring",
+    "logs",
+    "map_log",
+    "mapping",
+    "pipeline",
+    "preset",
+    "read_sonar_bag",
+    "read_sonar_log",
+    "ring",
+    "traits",
+    "verification",
+    "write_sonar_log",
+]

@@ -32,6 +32,7 @@ from typing import NamedTuple
 import numpy as np
 
 from bayesmap._typing import BoolArray, FloatArray, IntArray
+from bayesmap.geometry import wrap_angle
 from bayesmap.sensing.sonar import reading_likelihood
 
 __all__ = ["Verdict", "acceptability", "agreeability", "neighbour_bounds"]
@@ -87,7 +88,7 @@ def neighbour_bounds(
     normal = np.stack([np.cos(normal_angle), np.sin(normal_angle)], axis=-1)
     shift = neighbour_centre - centre
     neighbour_distance = wall_distance - (normal * shift[:, None, :]).sum(axis=-1)
-    incidence = np.abs((normal_angle - neighbour_axis[:, None] + math.pi) % (2 * math.pi) - math.pi)
+    incidence = np.abs(wrap_angle(normal_angle - neighbour_axis[:, None]))
     beyond = np.maximum(incidence - half_width, 0.0)
     direct = (incidence <= limit) & (neighbour_distance > 0)
     with np.errstate(divide="ignore"):

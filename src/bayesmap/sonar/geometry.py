@@ -10,6 +10,7 @@ import numpy as np
 
 from bayesmap._typing import FloatArray, IntArray
 from bayesmap.errors import ConfigError, InputError
+from bayesmap.geometry import wrap_angle
 from bayesmap.grid import OccupancyGrid
 
 __all__ = ["ConeCells", "SonarGeometry", "cone_cells"]
@@ -180,7 +181,7 @@ def cone_cells(
     # The bounding box of each sector: its apex, the two edge ends and the arc's extreme
     # points, i.e. the compass directions (clipped into the cone when they fall outside).
     offsets = (np.arange(4) * (math.pi / 2))[None, :] - ax[:, None]
-    offsets = np.clip((offsets + math.pi) % (2 * math.pi) - math.pi, -half_width, half_width)
+    offsets = np.clip(wrap_angle(offsets), -half_width, half_width)
     offsets = np.column_stack([offsets, np.full((len(ks), 2), [-half_width, half_width])])
     ang = ax[:, None] + offsets
     xs = np.column_stack([cx, cx[:, None] + rk[:, None] * np.cos(ang)])

@@ -40,6 +40,7 @@ from bayesmap._io import open_input, write_text
 from bayesmap._numbers import is_decimal
 from bayesmap._typing import FloatArray, Poses, Ranges
 from bayesmap.errors import FormatError, InputError
+from bayesmap.geometry import wrap_angle
 
 __all__ = [
     "ANGLE_UNITS",
@@ -378,9 +379,9 @@ def join_poses(
     with np.errstate(invalid="ignore", divide="ignore"):
         w = np.where(gap > 0, (times - t0) / gap, 0.0)
     p0, p1 = poses[left], poses[right]
-    turn = np.remainder(p1[:, 2] - p0[:, 2] + math.pi, 2 * math.pi) - math.pi
+    turn = wrap_angle(p1[:, 2] - p0[:, 2])
     blend = np.column_stack([p0[:, :2] + w[:, None] * (p1[:, :2] - p0[:, :2]), p0[:, 2] + w * turn])
-    blend[:, 2] = np.remainder(blend[:, 2] + math.pi, 2 * math.pi) - math.pi
+    blend[:, 2] = wrap_angle(blend[:, 2])
     out[interpolate] = blend[interpolate]
     nearest = np.where(np.abs(t0 - times) <= np.abs(t1 - times), left, right)
     distance = np.abs(pose_times[nearest] - times)

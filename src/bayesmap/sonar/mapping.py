@@ -37,7 +37,6 @@ class _ConeMapper:
         self.grid = grid
         self.geometry = geometry
         self.rings_ = 0
-        self.readings_ = 0
 
     def _prepare(
         self,
@@ -61,7 +60,6 @@ class _ConeMapper:
         if clip:
             r = np.minimum(r, self.geometry.max_range)
         self.rings_ += 1
-        self.readings_ += int(mask.sum())
         return centres, axis, r, mask
 
     def _cells(self, centres: FloatArray, axis: FloatArray, reach: FloatArray) -> ConeCells:
@@ -170,8 +168,8 @@ class ElfesMapper(_LogOddsMapper):
     ----------
     log_odds_
         ``(ny, nx)`` accumulated log-odds.
-    rings_, readings_
-        Rings and readings integrated so far.
+    rings_
+        Rings integrated so far.
     """
 
     def __init__(

@@ -22,7 +22,7 @@ def main() -> None:
     w = world("sonar-room-v1")
     ring = SonarRing.ring(16)
     poses = path_poses(w.waypoints, 0.15)
-    scan = observe(poses, w, ring, rng=4)
+    scan = observe(w, poses, ring, rng=4)
     ranges = np.round(scan.ranges, 3)  # whole millimetres, as a real ring reports
     t = 100.0 + 0.25 * np.arange(len(poses))
     units = LogUnits(range_unit="mm", position_unit="mm", heading_unit="deg")

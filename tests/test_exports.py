@@ -1,0 +1,36 @@
+"""Every subpackage names its public API in ``__all__``, and each name resolves."""
+
+from __future__ import annotations
+
+import importlib
+import subprocess
+import sys
+
+import pytest
+
+PACKAGES = ("sonar", "sensing", "sim", "viz", "bn", "grid", "rover", "blackboard", "sweeps")
+
+
+@pytest.mark.parametrize("name", PACKAGES)
+def test_every_exported_name_resolves(name: str) -> None:
+    package = importlib.import_module(f"bayesmap.{name}")
+    assert package.__all__, f"bayesmap.{name} exports nothing"
+    for export in package.__all__:
+        assert getattr(package, export) is not None
+
+
+def test_unknown_names_are_attribute_errors() -> None:
+    sim = importlib.import_module("bayesmap.sim")
+    with pytest.raises(AttributeError, match="no attribute 'nowhere'"):
+        _ = sim.nowhere
+
+
+def test_importing_the_packages_loads_neither_matplotlib_nor_the_simulators() -> None:
+    code = (
+        "import sys, bayesmap, bayesmap.viz, bayesmap.sim, bayesmap.sonar, bayesmap.sensing\n"
+        "loaded = [m for m in ('matplotlib', 'bayesmap.sim.whiskers', 'bayesmap.sonar.bags')"
+        " if m in sys.modules]\n"
+        "print(','.join(loaded))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""
