@@ -13,12 +13,12 @@ Building one:
    components that hold no target are independent of the targets given the evidence and
    are dropped (their factors only scale the answer). Factors whose every variable is
    observed become scalar checks (a zero means impossible evidence).
-4. **Contraction order** (:func:`order`): opt_einsum's greedy order of the whole network,
-   computed once per network version (:attr:`Compiled.rank`), restricted to the plan's
-   factors — so a new pattern costs no path search; when that order would build a large
-   intermediate, opt_einsum's greedy search on the plan itself is asked too and the cheaper
-   of the two is used. :class:`~bayesmap.bn.elimination.SumProgram` replays it with every
-   evidence-independent sub-tree pre-contracted once.
+4. **Contraction order** (:func:`order`): a greedy min-weight elimination order of the
+   plan's own (pruned, sliced) factors (:func:`elimination_rank`) — nothing network-wide,
+   so a network's first question costs no more than any new pattern; when that order
+   would build a large intermediate, opt_einsum's greedy search on the plan is asked too
+   and the cheaper of the two is used. :class:`~bayesmap.bn.elimination.SumProgram` replays
+   it with every evidence-independent sub-tree pre-contracted once.
 
 Variable sets are Python-int bit masks (bit ``i`` = variable id ``i``), so pruning costs a
 few integer operations per relevant variable, not a walk over the network.
@@ -26,6 +26,7 @@ few integer operations per relevant variable, not a walk over the network.
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -302,8 +303,8 @@ def order_steps(
 ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int]:
     """A contraction order (opt_einsum SSA path), the labels each step keeps, and its cost.
 
-    The network-wide order of :attr:`Compiled.rank` restricted to these factors: each
-    variable, by rank, has the factors holding it multiplied and summed over it (a variable
+    The greedy elimination order of these factors (:func:`elimination_rank`): each
+    variable, in that order, has the factors holding it multiplied and summed over it (a variable
     no other factor holds is summed at once); a last step multiplies what is left into
     ``output``. The cost is the number of multiply-adds (the sizes of the steps' index
     unions). If that costs more than ``_LARGE`` multiply-adds (and ``_PER_FACTOR`` per factor),
@@ -319,7 +320,7 @@ def order_steps(
     if n == 1:
         size = math.prod([card[u] if u >= 0 else extra[u] for u in scopes[0]])
         return [(0,)], [tuple(output)], size
-    rank = compiled.rank
+    rank = elimination_rank(scopes, output, card, extra)
     holders: dict[int, list[int]] = {}
     for k, scope in enumerate(scopes):
         for u in scope:
@@ -375,6 +376,61 @@ def order_steps(
         if greedy_total < _cost(sets, set(output), path, table):
             return greedy, None, greedy_total
     return path, kept_steps, total
+
+
+def elimination_rank(
+    scopes: Sequence[Sequence[int]],
+    output: Sequence[int],
+    card: Sequence[int],
+    extra: Mapping[int, int],
+) -> dict[int, int]:
+    """Position of each summed-out label in a greedy min-weight elimination order.
+
+    Variable elimination on the interaction graph of ``scopes`` (the labels of each factor
+    linked) repeatedly sums out the label whose factor — the label and its current
+    neighbours — has the fewest entries, then links its neighbours (Koller & Friedman
+    2009, §9.4.3.2). Labels in ``output`` are never summed out. A heap with stale entries
+    skipped keeps it near-linear in the size of the graph. ``card`` gives the size of
+    variable labels, ``extra`` of the others (the case axis, label −1).
+    """
+    neighbours: dict[int, set[int]] = {}
+    for scope in scopes:
+        for u in scope:
+            linked = neighbours.get(u)
+            if linked is None:
+                neighbours[u] = set(scope)
+            else:
+                linked.update(scope)
+    log_size = {u: math.log(card[u] if u >= 0 else extra[u]) for u in neighbours}
+    for u, linked in neighbours.items():
+        linked.discard(u)
+    kept = set(output)
+    current = {
+        u: log_size[u] + sum([log_size[w] for w in linked])
+        for u, linked in neighbours.items()
+        if u not in kept
+    }
+    heap = [(w, u) for u, w in current.items()]
+    heapq.heapify(heap)
+    rank: dict[int, int] = {}
+    pop, push = heapq.heappop, heapq.heappush
+    while heap:
+        w, u = pop(heap)
+        if w != current[u] or u in rank:
+            continue
+        rank[u] = len(rank)
+        around = neighbours.pop(u)
+        for x in around:
+            linked = neighbours[x]
+            linked.discard(u)
+            linked |= around
+            linked.discard(x)
+            if x in current and x not in rank:
+                weight = log_size[x] + sum([log_size[y] for y in linked])
+                if weight != current[x]:
+                    current[x] = weight
+                    push(heap, (weight, x))
+    return rank
 
 
 def _greedy(
