@@ -360,7 +360,9 @@ class Engine:
             constants += [None] * len(observed)
             sizes: dict[Any, int] = dict(enumerate(compiled.card))
             sizes[_CASE] = size_class
-            path, _, _ = plans.order_steps(compiled, scopes, (_CASE,), {_CASE: size_class})
+            path, _, _ = plans.order_steps(
+                compiled, scopes, (_CASE,), {_CASE: size_class}, search=True
+            )
             own = {f.var: k for k, f in enumerate(plan.factors) if f.var in targets}
             pairs = [(own[t], t) for t in targets]
             entry = plan.cache[key] = marginals.TwoPass(
@@ -421,7 +423,9 @@ class Engine:
         if entry is None:
             batched = bool(output)
             scopes = [(_CASE, *f.free) if batched and f.observed else f.free for f in plan.factors]
-            path, _, cost = plans.order_steps(self.compiled, scopes, output, {_CASE: cases})
+            path, _, cost = plans.order_steps(
+                self.compiled, scopes, output, {_CASE: cases}, search=True
+            )
             entry = plan.cache[key] = (scopes, path, cost)
         return entry
 
