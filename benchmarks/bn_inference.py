@@ -6,6 +6,8 @@ variables, values drawn by forward sampling so the evidence is possible), timed 
 - bayesmap *warm*: the question's pattern (target, observed variables) was asked before,
   with other values — the robot's case, a question re-asked every sensor cycle;
 - bayesmap *cold*: the first time this pattern is asked (plan and contraction order built);
+- bayesmap *first query*: the network's very first question (one timing; target < 20 ms up
+  to munin1's size);
 - pyAgrum *fresh*: a new ``LazyPropagation`` with the target set per question (as in issue 2);
 - pyAgrum *warm*: one engine per pattern, ``updateEvidence`` + ``makeInference``;
 - pgmpy: ``VariableElimination.query`` (engine built once per network).
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import gzip
 import logging
+import os
 import statistics
 import sys
 import tempfile
@@ -257,14 +260,17 @@ def markdown(rows: list[dict[str, Any]]) -> str:
     lines = [
         "## Exact inference (`benchmarks/bn_inference.py`)",
         "",
-        f"Machine: {machine()} (shared with other jobs; medians of {N_QUERIES} questions, "
-        f"{N_EVIDENCE} evidence variables each, values by forward sampling).",
+        f"Machine: {machine()} (shared with other jobs, 1-minute load average "
+        f"{os.getloadavg()[0]:.1f} at the end: wall times are inflated and noisy; medians of "
+        f"{N_QUERIES} questions, {N_EVIDENCE} evidence variables each, values by forward "
+        "sampling).",
         "",
         "Single posterior, ms. *warm*: pattern (target, observed variables) seen before, new "
-        "values; *cold*: first time for this pattern (pruning, contraction order and "
-        "evidence-independent pre-contraction done for it). *first query*: the network's very "
-        "first question, which also builds its evidence-independent caches (opt_einsum's "
-        "network-wide order, every prior marginal). pyAgrum *fresh*: new LazyPropagation with "
+        "values; *cold*: first time for this pattern (pruning, its own greedy contraction "
+        "order, the prior marginals it uses if not yet computed, evidence-independent "
+        "pre-contraction). *first query*: the network's very first question (target < 20 ms "
+        "up to munin1; nothing network-wide is computed). pyAgrum *fresh*: new "
+        "LazyPropagation with "
         "the target set per question (issue 2's baseline); *warm*: one engine per pattern, "
         "`updateEvidence`. pgmpy: VariableElimination built once. Every engine and mode is "
         "timed in its own loop over the same questions (no engine measured right after "
@@ -344,7 +350,8 @@ def main() -> None:
         row = measure(name, rng)
         rows.append(row)
         print(
-            f"{name:11s} warm {row['warm_ms']:.3f} ms cold {row['cold_ms']:.3f} ms | pyAgrum "
+            f"{name:11s} first {row['setup_ms']:.1f} ms warm {row['warm_ms']:.3f} ms cold "
+            f"{row['cold_ms']:.3f} ms | pyAgrum "
             f"{row['pyagrum_ms']:.3f}/{row['pyagrum_warm_ms']:.3f} ms | pgmpy {row['pgmpy_ms']:.2f}"
             f" ms | batch {row['batch_us']:.2f}/{row['batch_repeat_us']:.2f} vs "
             f"{row['pyagrum_loop_us']:.1f} µs/case "

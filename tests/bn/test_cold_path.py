@@ -37,7 +37,7 @@ def _sliced_factors(
 def test_order_and_program_contract_exactly(
     seed: int, force_greedy: bool, force_pairwise: bool
 ) -> None:
-    """The restricted network order (or the greedy fallback), with buckets contracted at once
+    """The plan's greedy elimination order (or the opt_einsum fallback), buckets contracted at once
     or pairwise through opt_einsum, gives einsum's exact answer."""
     net = random_net(seed, n_vars=7, max_card=3)
     rng = np.random.default_rng(seed)
@@ -182,3 +182,73 @@ def test_batch_memo_reports_impossible_cases_and_follows_network_changes(
         net.posterior_batch("L", bad, columns=columns)
     net.set_cpt("L", [[0.5, 0.5], [0.5, 0.5]])
     np.testing.assert_allclose(net.posterior_batch("L", good, columns=columns), 0.5)
+
+
+def test_elimination_rank_sums_every_other_label_once_leaves_before_the_hub() -> None:
+    """A star: the hub (label 0) links every leaf; min-weight sums the leaves out first."""
+    scopes = [(0, leaf) for leaf in range(1, 6)] + [(0,)]
+    card = [4, 2, 2, 2, 2, 2]
+    rank = plans.elimination_rank(scopes, (5,), card)
+    assert sorted(rank) == [0, 1, 2, 3, 4]  # every label but the output, once
+    assert sorted(rank.values()) == list(range(5))
+    assert rank[0] == 4  # the hub, whose factor is the largest, goes last
+
+
+def test_elimination_rank_leaves_the_case_axis_out_of_the_graph() -> None:
+    rank = plans.elimination_rank([(-1, 0), (0, 1), (1, 2)], (-1, 2), [3, 2, 2])
+    assert sorted(rank) == [0, 1]  # the variables, not the case axis
+    assert rank[1] > rank[0]  # 0 (with 1 only) before 1 (between 0 and 2)
+
+
+def _diamond() -> BayesNet:
+    """A → B, A → C, (B, C) → D (D's parents share A); E → F (F's one parent)."""
+    net = BayesNet("diamond")
+    net.add_variable("A", ["0", "1"], cpt=[0.3, 0.7])
+    net.add_variable("B", ["0", "1"], parents=["A"], cpt=[[0.9, 0.2], [0.1, 0.8]])
+    net.add_variable("C", ["0", "1"], parents=["A"], cpt=[[0.6, 0.3], [0.4, 0.7]])
+    d = [[[0.9, 0.5], [0.4, 0.2]], [[0.1, 0.5], [0.6, 0.8]]]
+    net.add_variable("D", ["0", "1"], parents=["B", "C"], cpt=d)
+    net.add_variable("E", ["0", "1"], cpt=[0.5, 0.5])
+    net.add_variable(
+        "G",
+        ["0", "1"],
+        parents=["E", "A"],
+        cpt=[[[0.9, 0.5], [0.4, 0.2]], [[0.1, 0.5], [0.6, 0.8]]],
+    )
+    return net
+
+
+def test_independent_parents_means_no_shared_ancestor() -> None:
+    compiled = _diamond()._engine.compiled
+    independent = {name: compiled.independent_parents(compiled.id(name)) for name in "ABCDEG"}
+    assert independent == {"A": True, "B": True, "C": True, "D": False, "E": True, "G": True}
+
+
+@FAST
+@given(seed=SEEDS)
+def test_every_prior_equals_brute_force(seed: int) -> None:
+    """Priors, by one einsum over independent parents' priors or by a plan, are exact."""
+    net = random_net(seed, n_vars=7, max_card=3)
+    engine = net._engine
+    for name in reversed(net.topological_order()):  # children first: priors computed lazily
+        got = engine.prior(engine.compiled.id(name))
+        np.testing.assert_allclose(got, brute_posterior(net, [name], {}), rtol=1e-10, atol=1e-13)
+
+
+def test_a_first_question_computes_only_the_priors_it_uses() -> None:
+    net = _two_parts()
+    net.posterior("B", {"D": "1"})  # D's part is d-separated: only its prior check is needed
+    computed = {net._engine.compiled.names[v] for v in net._engine._priors}
+    assert computed <= {"C", "D"}
+    assert "A" not in computed and "B" not in computed
+
+
+def test_a_long_chain_computes_its_priors_without_recursion() -> None:
+    """P(X_n = 0) = 1/2 + (a − 1/2)(1 − 2f)^n on a chain whose links flip with probability f."""
+    n, a, f = 3000, 0.9, 0.001
+    net = BayesNet("chain")
+    net.add_variable("X0", ["0", "1"], cpt=[a, 1 - a])
+    for k in range(1, n + 1):
+        net.add_variable(f"X{k}", ["0", "1"], parents=[f"X{k - 1}"], cpt=[[1 - f, f], [f, 1 - f]])
+    expected = 0.5 + (a - 0.5) * (1 - 2 * f) ** n
+    assert net.posterior(f"X{n}")["0"] == pytest.approx(expected, rel=1e-9)

@@ -16,12 +16,47 @@ Examples
 0.28
 """
 
-from bayesmap.bn.fixed_point import FixedResult, QFormat
-from bayesmap.bn.forms import discretised_gaussian, gaussian_cpt
-from bayesmap.bn.io import read, write
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from bayesmap.bn.model import BayesNet, NodeKind, Variable, cpt_from_flat
-from bayesmap.bn.naive_bayes import class_ratio
 from bayesmap.bn.propositions import Proposition, V, parse
+
+if TYPE_CHECKING:
+    from bayesmap.bn.fixed_point import FixedResult, QFormat
+    from bayesmap.bn.forms import discretised_gaussian, gaussian_cpt
+    from bayesmap.bn.io import read, write
+    from bayesmap.bn.naive_bayes import class_ratio
+
+_LAZY = {
+    "FixedResult": "bayesmap.bn.fixed_point",
+    "QFormat": "bayesmap.bn.fixed_point",
+    "discretised_gaussian": "bayesmap.bn.forms",
+    "gaussian_cpt": "bayesmap.bn.forms",
+    "read": "bayesmap.bn.io",
+    "write": "bayesmap.bn.io",
+    "class_ratio": "bayesmap.bn.naive_bayes",
+}
+"""Public names whose modules load on first use: the file formats (and the file plumbing
+they need) cost more to import than the engine itself, and a program that builds its
+network in code never reads one."""
+
+
+def __getattr__(name: str) -> Any:
+    """Import a lazily exported name (:data:`_LAZY`) on first access (PEP 562)."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'bayesmap.bn' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
 
 __all__ = [
     "BayesNet",

@@ -7,7 +7,8 @@ table; :func:`run_batch` answers a table or a stream of tables chunk by chunk, s
 stays bounded by the chunk size, and is the unit of work to hand to a Dask worker (one
 partition of cases each). :func:`read_cases` and :func:`write_posteriors` stream files.
 
-pandas and pyarrow are imported on first use, so that ``import bayesmap.bn`` stays fast.
+pandas, pyarrow and the file plumbing are imported on first use, so that
+``import bayesmap.bn`` stays fast.
 """
 
 from __future__ import annotations
@@ -18,7 +19,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bayesmap._io import atomic_open
 from bayesmap._typing import IntArray
 from bayesmap.bn.suggest import unknown
 from bayesmap.errors import FormatError, InputError
@@ -234,6 +234,8 @@ def write_posteriors(
     file appears only when every chunk is written (a failure leaves no partial file).
     """
     import pandas as pd
+
+    from bayesmap._io import atomic_open
 
     path = Path(path)
     empty = pd.DataFrame({c: np.empty(0) for c in columns})

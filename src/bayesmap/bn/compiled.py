@@ -13,7 +13,6 @@ from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
-import opt_einsum
 
 from bayesmap._typing import FloatArray
 from bayesmap.bn.elimination import ConstantMemo
@@ -109,41 +108,6 @@ class Compiled:
         """Evidence-independent contraction steps already computed (``SumProgram`` memo)."""
         self.layouts: dict[tuple[int, int], Any] = {}
         """Observed-first layouts of CPTs, by variable and observed family (``plans.build``)."""
-        self._rank: tuple[int, ...] | None = None
-
-    @property
-    def rank(self) -> tuple[int, ...]:
-        """Position of each variable in a network-wide elimination order chosen by opt_einsum.
-
-        :func:`opt_einsum.paths.ssa_greedy_optimize` orders the contraction of every CPT of
-        the network (the sum of the joint) once per network version; a variable's rank is
-        the step at which its index is summed out. A question's contraction order is this
-        order restricted to its pruned factors (see :func:`bayesmap.bn.plans.order`), so
-        a new pattern of observed variables needs no path search of its own.
-        """
-        if self._rank is None:
-            inputs = [frozenset((v, *self.parents[v])) for v in range(len(self.names))]
-            sizes = dict(enumerate(self.card))
-            rank = [0] * len(self.names)
-            live = list(inputs)
-            count = [0] * len(self.names)
-            for scope in inputs:
-                for u in scope:
-                    count[u] += 1
-            path = opt_einsum.paths.ssa_greedy_optimize(inputs, frozenset(), sizes)
-            for step, positions in enumerate(path):
-                union = frozenset().union(*(live[k] for k in positions))
-                for k in positions:
-                    for u in live[k]:
-                        count[u] -= 1
-                kept = frozenset(u for u in union if count[u] > 0)
-                for u in union - kept:
-                    rank[u] = step
-                for u in kept:
-                    count[u] += 1
-                live.append(kept)
-            self._rank = tuple(rank)
-        return self._rank
 
     def transposed(self, var: int, perm: tuple[int, ...]) -> FloatArray:
         """CPT of ``var`` with axes permuted by ``perm``, C-contiguous (cached)."""
@@ -176,6 +140,21 @@ class Compiled:
             f"variable {self.names[var]!r} has no state {value!r}; "
             + unknown("state", value, self.states[var])
         )
+
+    def independent_parents(self, var: int) -> bool:
+        """Whether the parents of ``var`` are independent when nothing is observed.
+
+        They are when no two of them share an ancestor and none is an ancestor of another:
+        every trail between two parents then passes a collider, so with no evidence they are
+        d-separated (Post et al. 2016 §3.2; Pearl 1988) and ``P(parents) = Π P(parent)``.
+        """
+        seen = 0
+        for parent in self.parents[var]:
+            family = self.ancestor_masks[parent] | 1 << parent
+            if seen & family:
+                return False
+            seen |= family
+        return True
 
     def table(self, var: int, evidence: Mapping[str, str]) -> FloatArray:
         """CPT of ``var``: stored, or asked of its data source with the query's evidence."""

@@ -26,7 +26,7 @@ import opt_einsum
 
 from bayesmap._typing import BoolArray, FloatArray, IntArray
 from bayesmap.bn import ancestral, elimination, marginals, plans
-from bayesmap.bn.compiled import Compiled, NetworkLike
+from bayesmap.bn.compiled import Compiled, NetworkLike, bits
 from bayesmap.bn.fixed_point import (
     Fixed,
     FixedAlgebra,
@@ -82,7 +82,6 @@ class Engine:
         self._compiled: Compiled | None = None
         self._plans: dict[Any, Plan] = {}
         self._priors: dict[int, FloatArray] = {}
-        self._all_priors = False
         self._tables: dict[Any, FloatArray] = {}
 
     # ----------------------------------------------------------------- plumbing
@@ -94,7 +93,6 @@ class Engine:
             compiled = self._compiled = Compiled(self._net)
             self._plans.clear()
             self._priors.clear()
-            self._all_priors = False
             self._tables.clear()
         return compiled
 
@@ -106,7 +104,6 @@ class Engine:
             compiled = self.compiled
             ev = tuple(sorted(evidence))
             if kind == "sum":
-                self._compute_priors()
                 plan = plans.build(compiled, targets, ev, prior=self.prior)
                 plan.cache["ancestral"] = ancestral.is_exact(compiled, targets, evidence)
             elif kind == "evidence":
@@ -119,32 +116,58 @@ class Engine:
         return plan
 
     def prior(self, var: int) -> FloatArray:
-        """Prior marginal ``P(var)`` (no evidence), computed once per network version."""
-        compiled = self.compiled
+        """Prior marginal ``P(var)`` (no evidence), computed once per network version.
+
+        Priors are computed when a plan first needs one (to stand for an evidence-free
+        ancestral sub-network, or to check dropped evidence), after the priors that one
+        uses (:meth:`_prior_inputs`), by a work list rather than recursion, so that a long
+        chain of ancestors cannot exhaust the stack. A network's first question pays only
+        for the priors it uses.
+        """
         cached = self._priors.get(var)
-        if cached is None:
-            if var in compiled.sources:
-                raise AssertionError("data nodes have no evidence-independent prior")
+        if cached is not None:
+            return cached
+        if var in self.compiled.sources:
+            raise AssertionError("data nodes have no evidence-independent prior")
+        todo = [var]
+        while todo:
+            v = todo[-1]
+            if v in self._priors:
+                todo.pop()
+                continue
+            missing = [u for u in self._prior_inputs(v) if u not in self._priors]
+            if missing:
+                todo.extend(missing)
+                continue
+            self._priors[v] = self._marginal(v)
+            todo.pop()
+        return self._priors[var]
+
+    def _prior_inputs(self, var: int) -> list[int]:
+        """The variables whose priors :meth:`_marginal` uses for ``P(var)``: its parents when
+        they are independent a priori, else the roots its plan replaces by their priors."""
+        compiled = self.compiled
+        if compiled.independent_parents(var):
+            return list(compiled.parents[var])
+        r_mask = compiled.ancestor_masks[var] | 1 << var
+        relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
+        return plans.clean_roots(compiled, relevant, r_mask, 1 << var)
+
+    def _marginal(self, var: int) -> FloatArray:
+        """``P(var)`` once the priors it uses are cached: one ``einsum``
+        ``Σ_pa P(var | pa) Π P(parent)`` when its parents are independent a priori
+        (:meth:`Compiled.independent_parents`), else a plan of its own."""
+        compiled = self.compiled
+        parents = compiled.parents[var]
+        if compiled.independent_parents(var):
+            operands: list[Any] = [compiled.cpts[var], list(range(len(parents) + 1))]
+            for axis, parent in enumerate(parents, start=1):
+                operands += [self._priors[parent], [axis]]
+            table = np.einsum(*operands, [0])
+        else:
             plan = plans.build(compiled, (var,), (), prior=self.prior)
             table, _ = _single_program(plan, compiled)
-            cached = self._priors[var] = np.asarray(table / table.sum())
-        return cached
-
-    def _compute_priors(self) -> None:
-        """Compute the prior marginal of every variable once per network version.
-
-        The first new pattern of a network pays for it (1–250 ms on the bnlearn networks);
-        every later plan then replaces evidence-free ancestral sub-networks by cached priors
-        and checks dropped evidence without contracting anything new. Variables at or below
-        a data node have no evidence-independent prior and are skipped.
-        """
-        if self._all_priors:
-            return
-        compiled = self.compiled
-        for v in compiled.topo:
-            if not compiled.source_mask & (compiled.ancestor_masks[v] | 1 << v):
-                self.prior(v)
-        self._all_priors = True
+        return np.asarray(table / table.sum())
 
     def _check_dropped(
         self, plan: Plan, values: Callable[[int], Any], case: Callable[[], str]
@@ -337,7 +360,9 @@ class Engine:
             constants += [None] * len(observed)
             sizes: dict[Any, int] = dict(enumerate(compiled.card))
             sizes[_CASE] = size_class
-            path, _, _ = plans.order_steps(compiled, scopes, (_CASE,), {_CASE: size_class})
+            path, _, _ = plans.order_steps(
+                compiled, scopes, (_CASE,), {_CASE: size_class}, search=True
+            )
             own = {f.var: k for k, f in enumerate(plan.factors) if f.var in targets}
             pairs = [(own[t], t) for t in targets]
             entry = plan.cache[key] = marginals.TwoPass(
@@ -398,7 +423,9 @@ class Engine:
         if entry is None:
             batched = bool(output)
             scopes = [(_CASE, *f.free) if batched and f.observed else f.free for f in plan.factors]
-            path, _, cost = plans.order_steps(self.compiled, scopes, output, {_CASE: cases})
+            path, _, cost = plans.order_steps(
+                self.compiled, scopes, output, {_CASE: cases}, search=True
+            )
             entry = plan.cache[key] = (scopes, path, cost)
         return entry
 

@@ -36,12 +36,11 @@ import math
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import CPT, FloatArray, IntArray
 from bayesmap.bn.cases import case_array, posterior_frame
 from bayesmap.bn.fixed_point import FixedResult, QFormat
@@ -64,6 +63,9 @@ from bayesmap.bn.tables import CPTNormalisationWarning as CPTNormalisationWarnin
 from bayesmap.bn.tables import DataSource as DataSource
 from bayesmap.bn.tables import checked_cpt
 from bayesmap.errors import ConfigError, InputError, ModelError
+
+if TYPE_CHECKING:
+    from bayesmap._rng import RNGLike
 
 _MAX_SHADOWS = 32
 """Shadow networks kept for soft evidence (one per set of softly observed variables)."""
@@ -575,6 +577,8 @@ class BayesNet:
         >>> net.sample(5, rng=0).shape
         (5, 1)
         """
+        from bayesmap._rng import as_generator  # numpy.random loads only for sampling
+
         return forward_sample(self._engine.compiled, n, rng=as_generator(rng))
 
     def probability_of_evidence(self, evidence: Evidence | None = None) -> float:

@@ -9,7 +9,7 @@ import logging
 import shlex
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
@@ -36,7 +36,9 @@ from bayesmap.cli import sweep as sweep_commands
 from bayesmap.cli._console import console as make_console
 from bayesmap.cli._console import print_error, styled
 from bayesmap.errors import BayesmapError
-from bayesmap.experiments import EXPERIMENTS, ExperimentResult, load
+
+if TYPE_CHECKING:
+    from bayesmap.experiments import ExperimentResult
 
 app = typer.Typer(
     name="bayesmap",
@@ -92,6 +94,8 @@ def reproduce(
     Each experiment's folder appears only once it is complete, with a manifest.json
     listing every file (size, SHA-256); an interrupted run leaves the previous one intact.
     """
+    from bayesmap.experiments import EXPERIMENTS, load  # pydantic and the experiments
+
     if list_:
         for name in EXPERIMENTS:
             doc = (load(name).__doc__ or "").strip()

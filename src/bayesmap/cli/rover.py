@@ -1,4 +1,8 @@
-"""``bayesmap rover``: run the micro-rover on a world file, or generate stress worlds."""
+"""``bayesmap rover``: run the micro-rover on a world file, or generate stress worlds.
+
+The simulator, the experiments and matplotlib are imported inside the commands, so that
+``bayesmap --help`` and the other command groups start without them.
+"""
 
 from __future__ import annotations
 
@@ -7,13 +11,10 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import typer
-from numpy.random import SeedSequence
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
 from bayesmap.errors import BayesmapError
-from bayesmap.experiments import rover_log, rover_world
-from bayesmap.sim.rover_worlds import WORLD_SCHEMA, generate_world, save_world
 
 app = typer.Typer(
     help="The micro-rover (Post et al. 2016): run it on a world file, generate worlds.",
@@ -47,6 +48,8 @@ def run_command(
     ] = None,
 ) -> None:
     """Drive the rover on WORLD until the stop rule or the budget; write metrics, figures, map."""
+    from bayesmap.experiments import rover_world  # the simulator and matplotlib load here
+
     config = rover_world.Config(
         world=world, explorer=explorer, entropy_init=entropy_init, seed=seed, max_steps=max_steps
     )
@@ -79,6 +82,10 @@ def generate_command(
     ] = None,
 ) -> None:
     """Write COUNT generated stress worlds (walls, L-shapes, corridors, passages, boxes)."""
+    from numpy.random import SeedSequence
+
+    from bayesmap.sim.rover_worlds import generate_world, save_world
+
     for k in range(count):
         spec = generate_world(
             SeedSequence([seed, k]), size=size, name=f"rover-generated-v1-s{seed}-{k:02d}"
@@ -108,6 +115,8 @@ def map_command(
     strict: Annotated[bool, typer.Option("--strict", help="Abort at the first bad row.")] = False,
 ) -> None:
     """Replay a logged drive through the rover's sensing and mapping; write the maps."""
+    from bayesmap.experiments import rover_log
+
     try:
         summary = rover_log.map_log(
             log,
@@ -130,4 +139,6 @@ def map_command(
 @app.command("schema")
 def schema_command() -> None:
     """Print the JSON Schema of WORLD.json files."""
+    from bayesmap.sim.rover_worlds import WORLD_SCHEMA
+
     typer.echo(json.dumps(WORLD_SCHEMA, indent=2))

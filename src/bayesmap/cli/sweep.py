@@ -20,7 +20,6 @@ from rich.text import Text
 from bayesmap.cli._console import console as make_console
 from bayesmap.cli._console import print_error
 from bayesmap.errors import BayesmapError
-from bayesmap.experiments import load
 
 console = make_console(stderr=True)
 
@@ -90,6 +89,7 @@ def sweep(
 ) -> None:
     """Run an experiment over worlds × seeds × conditions; write tables and report.html."""
     # Dask, pandas and the report load only when a sweep runs, so `bayesmap --help` is quick.
+    from bayesmap.experiments import load
     from bayesmap.sweeps import aggregate, expand, run_sweep
     from bayesmap.sweeps.grid import parse_condition, parse_setting
     from bayesmap.sweeps.report import paired_lines, sections_from_sweep, write_report

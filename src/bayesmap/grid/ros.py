@@ -26,18 +26,20 @@ import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 import yaml
-from PIL import Image, UnidentifiedImageError
 
 from bayesmap._io import read_input, write_bytes, write_text
 from bayesmap._numbers import PlainNumberLoader
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError, InputError
 from bayesmap.limits import DEFAULT_LIMITS, ReadLimits, check_size
+
+if TYPE_CHECKING:
+    from PIL import Image
 
 FREE_PIXEL = 254
 OCCUPIED_PIXEL = 0
@@ -336,6 +338,8 @@ def read_ros_map(yaml_path: str | Path, *, limits: ReadLimits | None = None) -> 
 
 def _image_grey_levels(path: Path, limits: ReadLimits) -> FloatArray:
     """Grey levels of the image file ``path``, its pixel count checked before decoding."""
+    from PIL import Image, UnidentifiedImageError  # Pillow loads only to read a map image
+
     data = read_input(path, max_bytes=limits.max_bytes)
     try:
         with warnings.catch_warnings():

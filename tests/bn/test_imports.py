@@ -1,0 +1,89 @@
+"""What ``import bayesmap.bn`` and the ``bayesmap`` command load: never the heavy libraries
+they do not use (issue 15, fast start). Each case runs in a fresh interpreter and lists
+``sys.modules``; the start-up times themselves are measured in benchmarks/bn_startup.py."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pgmpy
+import pytest
+
+ALARM = Path(pgmpy.__file__).parent / "utils" / "example_models" / "alarm.bif.gz"
+
+NEVER = ("scipy", "matplotlib", "pandas", "pyarrow", "dask", "PIL", "skimage")
+"""Loaded by no ``bayesmap bn`` command that does not draw, learn from a table or batch.
+
+(pydantic is not in the list: Typer converts every option value that is not a flag through
+a pydantic ``TypeAdapter``, so any sub-command with options loads it.)"""
+
+LOADED = """
+import json, sys
+{code}
+print(json.dumps(sorted(name for name in sys.modules)))
+"""
+
+
+def loaded_modules(code: str) -> set[str]:
+    """The modules a fresh interpreter holds after running ``code``."""
+    result = subprocess.run(
+        [sys.executable, "-c", LOADED.format(code=code)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return set(json.loads(result.stdout.splitlines()[-1]))
+
+
+def command_modules(*args: str) -> set[str]:
+    """The modules loaded by ``bayesmap ARGS`` run to its end (its exit caught)."""
+    code = (
+        "from bayesmap.cli import main\n"
+        f"sys.argv = ['bayesmap', *{list(args)!r}]\n"
+        "try:\n    main()\n"
+        "except SystemExit as stop:\n    assert stop.code in (0, None), stop.code\n"
+    )
+    return loaded_modules(code)
+
+
+def test_import_bayesmap_bn_loads_only_numpy_and_the_engine():
+    modules = loaded_modules("import bayesmap.bn")
+    heavy = {*NEVER, "pydantic", "rich", "typer", "yaml", "lxml", "numpy.random", "bayesmap._io"}
+    assert not heavy & modules
+    assert "bayesmap.bn.inference" in modules
+    assert "bayesmap.bn.io" not in modules  # the file formats load on first use
+
+
+def test_lazy_exports_resolve_to_the_modules_names():
+    modules = loaded_modules(
+        "import bayesmap.bn as bn\n"
+        "from bayesmap.bn.io import read\n"
+        "from bayesmap.bn.fixed_point import QFormat\n"
+        "assert bn.read is read and bn.QFormat is QFormat\n"
+        "assert set(bn.__all__) <= set(dir(bn))\n"
+    )
+    assert "bayesmap.bn.io" in modules
+
+
+def test_an_unknown_name_is_an_attribute_error():
+    import bayesmap.bn as bn
+
+    with pytest.raises(AttributeError, match="no_such_name"):
+        bn.no_such_name  # noqa: B018
+
+
+@pytest.mark.parametrize("args", [("--help",), ("--version",), ("bn", "--help")])
+def test_the_command_line_starts_without_the_engine_or_the_experiments(args):
+    modules = command_modules(*args)
+    assert not {*NEVER, "bayesmap.bn", "bayesmap.experiments", "opt_einsum"} & modules
+    if args[0].startswith("--"):
+        assert "pydantic" not in modules
+
+
+def test_a_bn_question_loads_the_engine_but_no_heavy_library():
+    modules = command_modules("bn", "query", str(ALARM), "-t", "HYPOVOLEMIA", "-e", "BP=LOW")
+    assert "bayesmap.bn.inference" in modules
+    assert not {*NEVER, "lxml"} & modules
