@@ -45,10 +45,9 @@ def test_path_costs_match_dijkstra(seed: int) -> None:
     rows = slice(plan.row0, plan.row0 + plan.cost.shape[0])
     cols = slice(plan.col0, plan.col0 + plan.cost.shape[1])
     patch = grid.probability[rows, cols]  # the patch lies inside the map here
-    costs = crossing_costs(patch, np.ones(patch.shape, dtype=bool), PARAMS, 0.5)
     start = grid.world_to_cell(x, y)
     i, j = int(start[0]) - plan.row0, int(start[1]) - plan.col0
-    costs[i, j] = 1.0  # the rover's own cell
+    costs = crossing_costs(patch, np.ones(patch.shape, dtype=bool), PARAMS, 0.5, rover=(i, j))
     np.testing.assert_allclose(plan.cost, _oracle(costs, (i, j), 0.5))
     assert np.isinf(plan.cost[patch >= PARAMS.p_block]).all()
 
