@@ -43,6 +43,8 @@ from bayesmap.sim.rover_worlds import generate_world  # noqa: E402
 from bayesmap.sim.world2d import box_world  # noqa: E402
 
 WORLD_SEED = 2026
+GENERATOR = "rover-generated-v2"
+"""The generator version: results of another version are never reused."""
 EXPLORERS = ("paper", "frontier")
 INITS = ("flat", "random")
 
@@ -56,7 +58,7 @@ def job_name(job: Job) -> str:
     if kind == "paper":
         return f"paper-{list(rover.RUNS)[world]}-{explorer}"
     side = "any" if size is None else f"{size:g}m"
-    return f"world{world:02d}-{side}-{explorer}-{init}-seed{seed}"
+    return f"{GENERATOR}-{world:02d}-{side}-{explorer}-{init}-seed{seed}"
 
 
 def one_run(job: Job, out: Path) -> dict[str, Any]:
@@ -75,7 +77,7 @@ def one_run(job: Job, out: Path) -> dict[str, Any]:
         metrics["area_m"] = 20.0
     else:
         spec = generate_world(
-            SeedSequence([WORLD_SEED, world]), size=size, name=f"rover-generated-v1-{world:02d}"
+            SeedSequence([WORLD_SEED, world]), size=size, name=f"{GENERATOR}-{world:02d}"
         )
         metrics = run_spec(spec, None, explorer=explorer, entropy_init=init, seed=seed)
         metrics["boxes"] = len(spec.world.boxes)
@@ -98,6 +100,9 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="processes")
     parser.add_argument("--out", type=Path, default=Path("results/rover_worlds"))
     parser.add_argument("--no-paper", action="store_true", help="skip the paper's four runs")
+    parser.add_argument(
+        "--report-only", action="store_true", help="summarise the finished runs, run nothing"
+    )
     args = parser.parse_args()
     jobs: list[Job] = [
         ("generated", w, s, e, i, args.size)
@@ -121,6 +126,9 @@ def main() -> None:
             runs.append(json.loads(done.read_text(encoding="utf-8")))
         else:
             todo.append(job)
+    if args.report_only:  # every finished run in OUT, whatever grid it came from
+        runs = [json.loads(f.read_text(encoding="utf-8")) for f in sorted(args.out.glob("*.json"))]
+        todo = []
     print(f"{len(runs)} runs already in {args.out}; {len(todo)} to run on {args.jobs} processes")
     started = time.perf_counter()
     with ProcessPoolExecutor(max_workers=max(args.jobs, 1)) as pool:
@@ -167,6 +175,10 @@ def _rows(runs: list[dict[str, Any]]) -> list[str]:
     return rows
 
 
+def _expected(args: argparse.Namespace) -> int:
+    return args.worlds * args.seeds * 4 + (0 if args.no_paper else 8)
+
+
 def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -> str:
     """The Markdown section: per-configuration rows and the issue's targets."""
     generated = [m for m in runs if m.get("kind") == "generated"]
@@ -192,25 +204,27 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
         or m["distance_to_90"] is None
     ]
     sizes = sorted({round(m["area_m"], 1) for m in generated})
-    side = (
-        f"{args.size:g} m"
-        if args.size
-        else f"{min(sizes, default=0):g}–{max(sizes, default=0):g} m"
-    )
+    worlds = sorted({m["world"] for m in generated})
+    seeds = sorted({m["seed"] for m in generated})
     load = os.getloadavg()
+    command = (
+        f"python benchmarks/rover_worlds.py --worlds {args.worlds} --seeds {args.seeds}"
+        + (f" --size {args.size:g}" if args.size else "")
+        + f" --jobs {args.jobs}"
+    )
     return "\n".join(
         [
             "## rover_worlds: the rover on generated stress worlds",
             "",
-            f"`python benchmarks/rover_worlds.py --worlds {args.worlds} --seeds {args.seeds}"
-            + (f" --size {args.size:g}" if args.size else "")
-            + f" --jobs {args.jobs}`. Machine: {machine()}, load average at the end "
+            f"`{command}`. Machine: {machine()}, load average at the end "
             f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} (shared; ms per cycle is wall "
-            f"time and swings with the load). {args.worlds} generated worlds (world seeds "
-            f"{WORLD_SEED}/0..{args.worlds - 1}, sides {side}) x {args.seeds} seed(s) x 2 entropy "
-            f"initialisations x 2 explorers = {len(generated)} runs, 5000 cycles per 400 m² "
-            f"at most; coverage counts the observable cells (docs/rover.md). Wall time of "
-            f"this invocation {wall / 60:.0f} min (finished runs are reused).",
+            f"time and swings with the load). {len(worlds)} generated worlds "
+            f"({', '.join(worlds) or 'none'}; sides "
+            f"{min(sizes, default=0):g}–{max(sizes, default=0):g} m) x {len(seeds)} seed(s) x "
+            f"entropy initialisations x explorers = {len(generated)} runs, 5000 cycles per "
+            f"400 m² at most; coverage counts the observable cells (docs/rover.md). "
+            f"{len(runs)} of the {_expected(args)} runs the command asks for have finished; "
+            f"wall time of this invocation {wall / 60:.0f} min (finished runs are reused).",
             "",
             *_rows(generated),
             "",

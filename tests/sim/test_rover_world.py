@@ -14,7 +14,15 @@ from bayesmap.sensing.ir import range_from_raw
 from bayesmap.sim import ir
 from bayesmap.sim import rover as sim_rover
 from bayesmap.sim.rover import observable_cells
-from bayesmap.sim.world2d import BoxWorld, box_world, circle_hits, occupancy_truth, ray_cast
+from bayesmap.sim.world2d import (
+    BoxWorld,
+    box_world,
+    circle_hits,
+    occupancy_truth,
+    ray_cast,
+    world_distance,
+    world_ray_cast,
+)
 
 BOXES = box_world("rover-field-obstacles-v1").boxes
 
@@ -123,3 +131,15 @@ def test_observable_cells_leave_out_interiors_and_shut_off_ground() -> None:
     assert open_[:, 14:].all()  # the far side, reached through the gap
     assert not shut[:, 12:].any()  # beyond the sensing range of the near side
     assert shut[:, :8].all()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(0, 20), st.floats(0, 20), st.floats(-math.pi, math.pi))
+def test_polygon_edges_cast_like_the_boxes_they_outline(x: float, y: float, angle: float) -> None:
+    outlines = tuple(np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) for x0, y0, x1, y1 in BOXES)
+    as_polygons = BoxWorld("p", 20.0, 20.0, np.zeros((0, 4)), outlines)
+    if world_distance(as_polygons, x, y) == 0.0:
+        return  # inside a box the slab test says 0, the edges the far side
+    d = float(world_ray_cast(as_polygons, [[x, y]], [angle])[0])
+    expected = float(ray_cast(BOXES, [[x, y]], [angle])[0])
+    assert d == pytest.approx(expected, abs=1e-9) or (np.isinf(d) and np.isinf(expected))

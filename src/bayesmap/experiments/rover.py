@@ -41,7 +41,7 @@ from bayesmap.rover.params import RoverParams
 from bayesmap.rover.targets import EntropyTarget, FrontierTarget, TargetRule
 from bayesmap.sensing.ir import informative_range
 from bayesmap.sim import rover as sim_rover
-from bayesmap.sim.world2d import BoxWorld, box_world, occupancy_truth
+from bayesmap.sim.world2d import BoxWorld, box_world, world_truth
 from bayesmap.viz.rover import coverage_figure, maps_pair_figure
 
 __all__ = ["RUNS", "Config", "map_metrics", "roc_auc", "run"]
@@ -254,7 +254,7 @@ def run_metrics(
     trace: Trace, world: BoxWorld, config: Config, explorer_name: str
 ) -> dict[str, Any]:
     grid = trace.explorer.grid
-    truth = occupancy_truth(world.boxes, grid.shape, grid.resolution, grid.origin)
+    truth = world_truth(world, grid.shape, grid.resolution, grid.origin)
     curve = [[round(d, 3), round(c, 5)] for d, c in trace.curve]
     to_90 = next((d for d, c in trace.curve if c >= 0.9), None)
     metrics: dict[str, Any] = {
@@ -292,7 +292,13 @@ def write_run(
         write_bytes(
             folder / "path.png",
             maps_pair_figure(
-                grid.probability, grid.entropy, grid.extent, title=title, path=path, boxes=boxes
+                grid.probability,
+                grid.entropy,
+                grid.extent,
+                title=title,
+                path=path,
+                boxes=boxes,
+                polygons=world.polygons,
             ),
         ),
     ]

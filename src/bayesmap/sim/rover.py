@@ -23,7 +23,7 @@ from scipy import ndimage
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.errors import ConfigError
 from bayesmap.sim import ir
-from bayesmap.sim.world2d import BoxWorld, box_distance, circle_hits, occupancy_truth
+from bayesmap.sim.world2d import BoxWorld, world_distance, world_truth
 
 
 @dataclass(frozen=True)
@@ -134,14 +134,14 @@ def transition(
 
 def h(state: RoverState, world: BoxWorld, params: RoverParams) -> Observation:
     """Noise-free observation: exact pose and unquantised IR readings."""
-    return Observation(ir.h(world.boxes, state.pose, params.rangers), state.pose.copy())
+    return Observation(ir.h(world, state.pose, params.rangers), state.pose.copy())
 
 
 def observe(
     state: RoverState, world: BoxWorld, params: RoverParams, *, rng: np.random.Generator
 ) -> Observation:
     """Noisy observation: quantised IR readings, GPS position and compass heading."""
-    raw = ir.observe(world.boxes, state.pose, params.rangers, rng=rng)
+    raw = ir.observe(world, state.pose, params.rangers, rng=rng)
     x, y, psi = state.pose
     heading = math.remainder(psi + rng.normal(0.0, params.compass_sigma), 2.0 * math.pi)
     return Observation(raw, np.array([x + state.gps_error[0], y + state.gps_error[1], heading]))
@@ -149,12 +149,12 @@ def observe(
 
 def collides(state: RoverState, world: BoxWorld, params: RoverParams) -> bool:
     """Whether the rover's footprint touches an obstacle."""
-    return circle_hits(world.boxes, float(state.pose[0]), float(state.pose[1]), params.radius)
+    return world_distance(world, float(state.pose[0]), float(state.pose[1])) <= params.radius
 
 
 def clearance(state: RoverState, world: BoxWorld, params: RoverParams) -> float:
     """Distance [m] from the rover's footprint to the nearest obstacle (negative: overlap)."""
-    return box_distance(world.boxes, float(state.pose[0]), float(state.pose[1])) - params.radius
+    return world_distance(world, float(state.pose[0]), float(state.pose[1])) - params.radius
 
 
 def off_map(state: RoverState, world: BoxWorld) -> bool:
@@ -185,7 +185,7 @@ def observable_cells(
     """
     nyf = max(int(math.ceil(world.height / step)), 1)
     nxf = max(int(math.ceil(world.width / step)), 1)
-    occupied = occupancy_truth(world.boxes, (nyf, nxf), step, (0.0, 0.0))
+    occupied = world_truth(world, (nyf, nxf), step, (0.0, 0.0))
     if occupied.any():
         distance = ndimage.distance_transform_edt(~occupied) * step - step / 2
     else:
