@@ -104,19 +104,20 @@ def main() -> None:
         "--report-only", action="store_true", help="summarise the finished runs, run nothing"
     )
     args = parser.parse_args()
-    jobs: list[Job] = [
+    jobs: list[Job] = []
+    if not args.no_paper:  # the paper's explorer first: its runs are the reproduction
+        jobs += [
+            ("paper", k, 0, e, "random" if rover.RUNS[name][1] else "flat", 20.0)
+            for e in EXPLORERS
+            for k, name in enumerate(rover.RUNS)
+        ]
+    jobs += [
         ("generated", w, s, e, i, args.size)
         for w in range(args.worlds)
         for s in range(args.seeds)
         for e in EXPLORERS
         for i in INITS
     ]
-    if not args.no_paper:
-        jobs += [
-            ("paper", k, 0, e, "random" if rover.RUNS[name][1] else "flat", 20.0)
-            for k, name in enumerate(rover.RUNS)
-            for e in EXPLORERS
-        ]
     args.out.mkdir(parents=True, exist_ok=True)
     runs: list[dict[str, Any]] = []
     todo = []

@@ -239,21 +239,24 @@ class FrontierTarget:
         plan: LocalPlan,
         uncertain_blocks: UncertainBlocks,
     ) -> tuple[float, float] | None:
-        del plan, uncertain_blocks  # the baseline searches the whole map
-        uncertain = grid.entropy >= self.params.h_desired
-        if not uncertain.any():
+        del plan  # the baseline searches the whole map, but only when it re-plans
+        if uncertain_blocks.total == 0:
             self.target_ = None
             return None
-        unknown = grid.unobserved()
         self._age += 1
         if self.target_ is not None:
-            rows, cols = grid.world_to_cell(*self.target_)
-            pending = unknown[int(rows), int(cols)] or uncertain[int(rows), int(cols)]
+            row, col = (int(v) for v in grid.world_to_cell(*self.target_))
+            pending = bool(
+                grid.probability[row, col] == grid.prior
+                or grid.entropy[row, col] >= self.params.h_desired
+            )
             if pending and self._age < self.replan_every:
                 return self.target_
             if pending:
                 self.reject(self.target_)
         self._age = 0
+        uncertain = grid.entropy >= self.params.h_desired
+        unknown = grid.unobserved()
         x, y = float(np.asarray(pose)[0]), float(np.asarray(pose)[1])
         self.target_ = self._plan(grid, unknown, uncertain, x, y)
         return self.target_
