@@ -73,3 +73,19 @@ def test_footprint_kernel_grows_with_the_radius() -> None:
     assert footprint_kernel(0.2, 0.5).sum() == 1
     assert footprint_kernel(0.3, 0.5).sum() == 5
     assert footprint_kernel(0.4, 0.5).sum() == 9
+
+
+def test_paths_keep_the_margin_the_footprint_check_demands() -> None:
+    # two walls across the field (rows of likely obstacles) with a gap of `width` free cells
+    def plan_through(width: int):  # type: ignore[no-untyped-def]
+        grid = OccupancyGrid(12.0, 12.0, 0.5, prior=0.2)
+        grid.probability[:] = 0.01  # certainly free around
+        grid.probability[12, :] = 0.95  # a wall at y = 6.0..6.5
+        grid.probability[12, 10 : 10 + width] = 0.01  # its gap, x = 5.0 ..
+        return local_plan(grid, 5.6, 4.0, PARAMS)
+
+    keep_off = PARAMS.footprint_radius + PARAMS.safety_margin
+    assert keep_off == 0.5  # a passable centre needs no hazard among its 8 neighbours
+    behind = (5.6, 7.75)  # seen only from beyond the wall (view_range 1 m)
+    assert np.isinf(plan_through(2).cost_to(*behind))  # 1.0 m mapped gap: body + 2 margins
+    assert np.isfinite(plan_through(3).cost_to(*behind))

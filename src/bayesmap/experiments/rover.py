@@ -332,7 +332,9 @@ def _summary(config: Config, results: dict[str, dict[str, dict[str, Any]]]) -> s
         f"d_max = {config.d_max} m, "
         f"P(R) = {config.prior}, δ_h = {config.delta_h}, H_desired = {config.h_desired} bits, "
         f"M = {config.n_headings} headings, seed {config.seed}, at most {config.max_steps} cycles "
-        "(0.1 m each at full speed). Coverage = fraction of cells with entropy below H_desired.",
+        "(0.1 m each at full speed). Coverage = fraction of the observable cells (those a "
+        "ranger can see from where the rover may go with its margin) with entropy below "
+        "H_desired; on this field every cell is observable.",
         "",
         "## The paper's exploration rule (eqs. 38–39)",
         "",
