@@ -100,7 +100,7 @@ def main() -> None:
             "",
             f"`python benchmarks/rover_cycle.py`. Machine: {machine()}, shared with other "
             f"jobs: load average {load_before:.1f} at the start, {load[0]:.1f} / {load[1]:.1f} "
-            f"/ {load[2]:.1f} at the end (absolute rates are inflated by the load; the ratio "
+            f"/ {load[2]:.1f} at the end (absolute times are inflated by the load; the ratio "
             f"is not, see below). A complete recorded run on the 20 m obstacle field "
             f"({len(log)} cycles, to the stop rule or the {CYCLES}-cycle budget) replayed on "
             "both maps in lockstep, the two explorers taking turns cycle by cycle.",
