@@ -1,20 +1,28 @@
 """Rover on generated stress worlds: safety, completeness and distance, both explorers.
 
 Worlds come from :func:`bayesmap.sim.rover_worlds.generate_world` (walls, L-shapes, corridors,
-narrow passages of at least 1.2 m, random boxes) with fresh seeds nobody tuned on. Every
-world is run with the paper's explorer and the frontier baseline, with the flat and the
-pseudo-random entropy initialisation, for each seed, through the same code path as
-``bayesmap rover run``. Runs go to worker processes; each reports the issue's targets:
-collisions, the smallest clearance, whether 90 % coverage was reached within the step
-budget, the distance to 90 %, stalled and off-map cycles.
+narrow passages of at least 1.2 m, random boxes, 20–60 m areas) with world seeds nobody
+tuned on. Every world is run with the paper's explorer and the frontier baseline, with the
+flat and the pseudo-random entropy initialisation, for each seed, through the same code
+path as ``bayesmap rover run``; the paper's four runs (``bayesmap reproduce rover``) are run
+too. Each run reports the issue's targets: collisions, the smallest clearance, whether
+90 % coverage (of the observable cells, see docs/rover.md) was reached within the step
+budget, the distance to it, stalled and off-map cycles.
 
-Run from the repository root: ``python benchmarks/rover_worlds.py [N_WORLDS N_SEEDS SIZE]``
-(defaults 6 worlds, 1 seed, 20 m: what the shared 2-core machine affords; the issue asks
-for 12 worlds x 3 seeds on 20–60 m areas).
+Every run writes its metrics to ``OUT/<run>.json`` as soon as it ends, and a run whose file
+exists is not run again, so an interrupted benchmark resumes where it stopped. Runs go to
+``--jobs`` worker processes. Run from the repository root, e.g.::
+
+    python benchmarks/rover_worlds.py --worlds 12 --seeds 3 --jobs 8   # the issue's grid
+
+(``--size 20`` fixes the side of every world; by default each world draws it from 20–60 m.)
 """
 
 from __future__ import annotations
 
+import argparse
+import json
+import os
 import statistics
 import sys
 import time
@@ -28,83 +36,160 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks._report import machine, update_section  # noqa: E402
 
-from bayesmap.experiments.rover_world import run_spec  # noqa: E402
+from bayesmap._io import write_json  # noqa: E402
+from bayesmap.experiments import rover  # noqa: E402
+from bayesmap.experiments.rover_world import EXPLORER_RULES, run_spec  # noqa: E402
 from bayesmap.sim.rover_worlds import generate_world  # noqa: E402
+from bayesmap.sim.world2d import box_world  # noqa: E402
 
 WORLD_SEED = 2026
+GENERATOR = "rover-generated-v2"
+"""The generator version: results of another version are never reused."""
 EXPLORERS = ("paper", "frontier")
 INITS = ("flat", "random")
 
+Job = tuple[str, int, int, str, str, float | None]
+"""(kind, world index, seed, explorer, entropy init, size): kind is "generated" or "paper"."""
 
-def one_run(world: int, seed: int, explorer: str, init: str, size: float) -> dict[str, Any]:
-    """Generate world ``world`` and run one configuration on it; return its metrics."""
-    spec = generate_world(
-        SeedSequence([WORLD_SEED, world]), size=size, name=f"rover-generated-v1-{world:02d}"
-    )
-    metrics = run_spec(spec, None, explorer=explorer, entropy_init=init, seed=seed)
-    metrics["boxes"] = len(spec.world.boxes)
-    metrics["world_index"] = world
+
+def job_name(job: Job) -> str:
+    """The file stem of a run's result."""
+    kind, world, seed, explorer, init, size = job
+    if kind == "paper":
+        return f"paper-{list(rover.RUNS)[world]}-{explorer}"
+    side = "any" if size is None else f"{size:g}m"
+    return f"{GENERATOR}-{world:02d}-{side}-{explorer}-{init}-seed{seed}"
+
+
+def one_run(job: Job, out: Path) -> dict[str, Any]:
+    """Run one configuration, write its metrics to ``out`` and return them."""
+    kind, world, seed, explorer, init, size = job
+    started = time.perf_counter()
+    if kind == "paper":
+        name = list(rover.RUNS)[world]
+        config = rover.Config(runs=(name,))
+        rule = EXPLORER_RULES[explorer]
+        trace = rover.simulate(
+            box_world(rover.RUNS[name][0]), config, rule, rover.RUNS[name][1], _quiet, name
+        )
+        metrics = rover.run_metrics(trace, box_world(rover.RUNS[name][0]), config, rule)
+        metrics.update({"explorer": explorer, "entropy_init": init, "seed": config.seed})
+        metrics["area_m"] = 20.0
+    else:
+        spec = generate_world(
+            SeedSequence([WORLD_SEED, world]), size=size, name=f"{GENERATOR}-{world:02d}"
+        )
+        metrics = run_spec(spec, None, explorer=explorer, entropy_init=init, seed=seed)
+        metrics["boxes"] = len(spec.world.boxes)
+        metrics["area_m"] = spec.world.width
+    metrics.update({"kind": kind, "world_index": world, "wall_s": time.perf_counter() - started})
+    metrics.pop("coverage_curve", None)
+    write_json(out / f"{job_name(job)}.json", metrics)
     return metrics
 
 
+def _quiet(stage: str, done: int, total: int) -> None:
+    del stage, done, total
+
+
 def main() -> None:
-    n_worlds = int(sys.argv[1]) if len(sys.argv) > 1 else 6
-    n_seeds = int(sys.argv[2]) if len(sys.argv) > 2 else 1
-    size = float(sys.argv[3]) if len(sys.argv) > 3 else 20.0
-    jobs = [
-        (w, s, e, i, size)
-        for w in range(n_worlds)
-        for s in range(n_seeds)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--worlds", type=int, default=12, help="generated worlds (default 12)")
+    parser.add_argument("--seeds", type=int, default=3, help="seeds per world (default 3)")
+    parser.add_argument("--size", type=float, default=None, help="side [m]; default 20-60")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="processes")
+    parser.add_argument("--out", type=Path, default=Path("results/rover_worlds"))
+    parser.add_argument("--no-paper", action="store_true", help="skip the paper's four runs")
+    parser.add_argument(
+        "--report-only", action="store_true", help="summarise the finished runs, run nothing"
+    )
+    args = parser.parse_args()
+    jobs: list[Job] = []
+    if not args.no_paper:  # the paper's explorer first: its runs are the reproduction
+        jobs += [
+            ("paper", k, 0, e, "random" if rover.RUNS[name][1] else "flat", 20.0)
+            for e in EXPLORERS
+            for k, name in enumerate(rover.RUNS)
+        ]
+    jobs += [
+        ("generated", w, s, e, i, args.size)
+        for w in range(args.worlds)
+        for s in range(args.seeds)
         for e in EXPLORERS
         for i in INITS
     ]
-    started = time.perf_counter()
+    args.out.mkdir(parents=True, exist_ok=True)
     runs: list[dict[str, Any]] = []
-    with ProcessPoolExecutor(max_workers=2) as pool:
-        futures = [pool.submit(one_run, *job) for job in jobs]
+    todo = []
+    for job in jobs:
+        done = args.out / f"{job_name(job)}.json"
+        if done.exists():
+            runs.append(json.loads(done.read_text(encoding="utf-8")))
+        else:
+            todo.append(job)
+    if args.report_only:  # every finished run in OUT, whatever grid it came from
+        runs = [json.loads(f.read_text(encoding="utf-8")) for f in sorted(args.out.glob("*.json"))]
+        todo = []
+    print(f"{len(runs)} runs already in {args.out}; {len(todo)} to run on {args.jobs} processes")
+    started = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=max(args.jobs, 1)) as pool:
+        futures = [pool.submit(one_run, job, args.out) for job in todo]
         for k, future in enumerate(as_completed(futures), start=1):
-            runs.append(future.result())
-            m = runs[-1]
+            m = future.result()
+            runs.append(m)
             print(
-                f"[{k}/{len(jobs)}] world {m['world_index']} {m['explorer']}/{m['entropy_init']} "
-                f"seed {m['seed']}: collisions {m['collisions']}, clearance "
-                f"{m['min_clearance_m']}, coverage {m['coverage']:.3f}, to 90 % "
-                f"{m['distance_to_90']}",
+                f"[{k}/{len(todo)}] {m['world']} {m['explorer']}/{m['entropy_init']} seed "
+                f"{m['seed']}: collisions {m['collisions']}, clearance {m['min_clearance_m']}, "
+                f"coverage {m['coverage']:.3f}, to 90 % {m['distance_to_90']}",
                 flush=True,
             )
     wall = time.perf_counter() - started
-    print(summary(runs, n_worlds, n_seeds, size, wall))
-    update_section("rover_worlds", summary(runs, n_worlds, n_seeds, size, wall))
+    text = summary(runs, args, wall)
+    print(text)
+    update_section("rover_worlds", text)
 
 
-def summary(
-    runs: list[dict[str, Any]], n_worlds: int, n_seeds: int, size: float, wall: float
-) -> str:
-    """The Markdown section: per-configuration rows and the issue's targets."""
+def _rows(runs: list[dict[str, Any]]) -> list[str]:
     rows = [
         "| explorer | entropy init | runs | collisions | min clearance [m] | reached 90 % | "
-        "median distance to 90 % [m] | stalled cycles (median) | off-map cycles (max) | "
-        "ms per cycle (median) |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "coverage (min / median) | median distance to 90 % [m] | stalled cycles (median) | "
+        "off-map cycles (max) | ms per cycle (median) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for explorer in EXPLORERS:
         for init in INITS:
             group = [m for m in runs if m["explorer"] == explorer and m["entropy_init"] == init]
+            if not group:
+                continue
             reached = [m["distance_to_90"] for m in group if m["distance_to_90"] is not None]
+            clearances = [m["min_clearance_m"] for m in group if m["min_clearance_m"] is not None]
+            cover = [m["coverage"] for m in group]
             rows.append(
                 f"| {explorer} | {init} | {len(group)} | {sum(m['collisions'] for m in group)} | "
-                f"{min(m['min_clearance_m'] for m in group):.3f} | {len(reached)}/{len(group)} | "
+                f"{min(clearances, default=float('nan')):.3f} | {len(reached)}/{len(group)} | "
+                f"{min(cover):.3f} / {statistics.median(cover):.3f} | "
                 f"{statistics.median(reached) if reached else float('nan'):.1f} | "
                 f"{statistics.median(m['stalled_cycles'] for m in group):.0f} | "
                 f"{max(m['off_map_cycles'] for m in group)} | "
                 f"{statistics.median(m['cycle_ms'] for m in group):.1f} |"
             )
+    return rows
+
+
+def _expected(args: argparse.Namespace) -> int:
+    return args.worlds * args.seeds * 4 + (0 if args.no_paper else 8)
+
+
+def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -> str:
+    """The Markdown section: per-configuration rows and the issue's targets."""
+    generated = [m for m in runs if m.get("kind") == "generated"]
+    paper = [m for m in runs if m.get("kind") == "paper"]
     ratios = []
-    for w in range(n_worlds):
+    for w in sorted({m["world_index"] for m in generated}):
         by = {
             e: [
                 m["distance_to_90"]
-                for m in runs
+                for m in generated
                 if m["world_index"] == w and m["explorer"] == e and m["distance_to_90"] is not None
             ]
             for e in EXPLORERS
@@ -113,24 +198,43 @@ def summary(
             ratios.append(statistics.median(by["paper"]) / statistics.median(by["frontier"]))
     ratio = statistics.median(ratios) if ratios else float("nan")
     failing = [
-        f"world {m['world_index']} {m['explorer']}/{m['entropy_init']} seed {m['seed']}"
+        f"{m['world']} {m['explorer']}/{m['entropy_init']} seed {m['seed']}"
         for m in runs
-        if m["collisions"] or m["min_clearance_m"] <= 0.05 or m["distance_to_90"] is None
+        if m["collisions"]
+        or (m["min_clearance_m"] is not None and m["min_clearance_m"] <= 0.05)
+        or m["distance_to_90"] is None
     ]
+    sizes = sorted({round(m["area_m"], 1) for m in generated})
+    worlds = sorted({m["world"] for m in generated})
+    seeds = sorted({m["seed"] for m in generated})
+    load = os.getloadavg()
+    command = (
+        f"python benchmarks/rover_worlds.py --worlds {args.worlds} --seeds {args.seeds}"
+        + (f" --size {args.size:g}" if args.size else "")
+        + f" --jobs {args.jobs}"
+    )
     return "\n".join(
         [
             "## rover_worlds: the rover on generated stress worlds",
             "",
-            f"Machine: {machine()}, shared with other jobs (2 worker processes). "
-            f"{n_worlds} worlds of {size:g} m x {size:g} m from `generate_world` (world seeds "
-            f"{WORLD_SEED}/0..{n_worlds - 1}) x {n_seeds} seed(s) x 2 entropy initialisations x "
-            f"2 explorers = {len(runs)} runs, 5000 cycles each at most; wall time "
-            f"{wall / 60:.0f} min.",
+            f"`{command}`. Machine: {machine()}, load average at the end "
+            f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} (shared; ms per cycle is wall "
+            f"time and swings with the load). {len(worlds)} generated worlds "
+            f"({', '.join(worlds) or 'none'}; sides "
+            f"{min(sizes, default=0):g}–{max(sizes, default=0):g} m) x {len(seeds)} seed(s) x "
+            f"entropy initialisations x explorers = {len(generated)} runs, 5000 cycles per "
+            f"400 m² at most; coverage counts the observable cells (docs/rover.md). "
+            f"{len(runs)} of the {_expected(args)} runs the command asks for have finished; "
+            f"wall time of this invocation {wall / 60:.0f} min (finished runs are reused).",
             "",
-            *rows,
+            *_rows(generated),
             "",
-            f"Paper / frontier distance to 90 % coverage, median over worlds where both reach "
-            f"it: **{ratio:.2f}** (target <= 1.2).",
+            f"Paper / frontier distance to 90 % coverage, median over the {len(ratios)} worlds "
+            f"where both reach it: **{ratio:.2f}** (target <= 1.2).",
+            "",
+            "The paper's four runs (`bayesmap reproduce rover`, seed 2016):",
+            "",
+            *_rows(paper),
             "",
             "Runs missing a target (collision, clearance <= 0.05 m, or 90 % not reached): "
             + (", ".join(failing) if failing else "none")

@@ -84,14 +84,30 @@ def test_frontier_target_picks_unknown_next_to_open() -> None:
     assert _select(FrontierTarget(PARAMS), grid, (1.0, 5.0, 0.0)) is None
 
 
-def test_targets_keep_clear_of_likely_obstacles() -> None:
+def test_frontier_targets_keep_clear_of_likely_obstacles() -> None:
+    grid = OccupancyGrid(10.0, 10.0, 0.5, prior=0.2, initial_entropy=0.1)
+    grid.probability[grid.world_to_cell(5.7, 5.2)] = 0.9
+    clear = clear_of_obstacles(grid.probability, PARAMS, grid.resolution)
+    assert not clear[grid.world_to_cell(5.2, 5.2)] and clear[grid.world_to_cell(8.2, 5.2)]
+
+
+def test_entropy_target_beside_an_obstacle_is_looked_at_from_a_safe_viewpoint() -> None:
     grid = OccupancyGrid(10.0, 10.0, 0.5, prior=0.2, initial_entropy=0.1)
     rows, cols = grid.world_to_cell(np.array([5.2, 8.2]), np.array([5.2, 5.2]))
     grid.entropy[rows, cols] = 1.0  # two unseen cells; the nearer sits against an obstacle
     grid.probability[grid.world_to_cell(5.7, 5.2)] = 0.9
-    clear = clear_of_obstacles(grid.probability, PARAMS, grid.resolution)
-    assert not clear[grid.world_to_cell(5.2, 5.2)] and clear[grid.world_to_cell(8.2, 5.2)]
-    assert _select(EntropyTarget(PARAMS), grid, (3.0, 5.2, 0.0)) == (8.25, 5.25)
+    pose = (3.0, 5.2, 0.0)
+    target = _select(EntropyTarget(PARAMS), grid, pose)
+    assert target == (5.25, 5.25)  # the nearer, though against the obstacle
+    plan = local_plan(grid, *pose[:2], PARAMS)
+    waypoint = plan.waypoint(target)
+    assert waypoint is not None and waypoint != target
+    assert np.isfinite(plan.cost[plan._index(*waypoint)])
+    assert np.hypot(waypoint[0] - target[0], waypoint[1] - target[1]) <= PARAMS.view_range
+    # standing at the viewpoint, the rover steers at the target itself to look at it
+    there = local_plan(grid, *waypoint, PARAMS)
+    assert there.waypoint(target) == target
+    assert np.isinf(there.cost[there._index(*target)])  # the target cell itself is closed
 
 
 def test_default_ranger_geometry_matches_the_simulated_rover() -> None:

@@ -45,10 +45,9 @@ def test_path_costs_match_dijkstra(seed: int) -> None:
     rows = slice(plan.row0, plan.row0 + plan.cost.shape[0])
     cols = slice(plan.col0, plan.col0 + plan.cost.shape[1])
     patch = grid.probability[rows, cols]  # the patch lies inside the map here
-    costs = crossing_costs(patch, np.ones(patch.shape, dtype=bool), PARAMS, 0.5)
     start = grid.world_to_cell(x, y)
     i, j = int(start[0]) - plan.row0, int(start[1]) - plan.col0
-    costs[i, j] = 1.0  # the rover's own cell
+    costs = crossing_costs(patch, np.ones(patch.shape, dtype=bool), PARAMS, 0.5, rover=(i, j))
     np.testing.assert_allclose(plan.cost, _oracle(costs, (i, j), 0.5))
     assert np.isinf(plan.cost[patch >= PARAMS.p_block]).all()
 
@@ -74,3 +73,19 @@ def test_footprint_kernel_grows_with_the_radius() -> None:
     assert footprint_kernel(0.2, 0.5).sum() == 1
     assert footprint_kernel(0.3, 0.5).sum() == 5
     assert footprint_kernel(0.4, 0.5).sum() == 9
+
+
+def test_paths_keep_the_margin_the_footprint_check_demands() -> None:
+    # two walls across the field (rows of likely obstacles) with a gap of `width` free cells
+    def plan_through(width: int):  # type: ignore[no-untyped-def]
+        grid = OccupancyGrid(12.0, 12.0, 0.5, prior=0.2)
+        grid.probability[:] = 0.01  # certainly free around
+        grid.probability[12, :] = 0.95  # a wall at y = 6.0..6.5
+        grid.probability[12, 10 : 10 + width] = 0.01  # its gap, x = 5.0 ..
+        return local_plan(grid, 5.6, 4.0, PARAMS)
+
+    keep_off = PARAMS.footprint_radius + PARAMS.safety_margin
+    assert keep_off == 0.5  # a passable centre needs no hazard among its 8 neighbours
+    behind = (5.6, 7.75)  # seen only from beyond the wall (view_range 1 m)
+    assert np.isinf(plan_through(2).cost_to(*behind))  # 1.0 m mapped gap: body + 2 margins
+    assert np.isfinite(plan_through(3).cost_to(*behind))

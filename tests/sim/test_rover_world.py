@@ -14,7 +14,15 @@ from bayesmap.geometry import cast_on_boxes
 from bayesmap.sensing.ir import range_from_raw
 from bayesmap.sim import ir
 from bayesmap.sim import rover as sim_rover
-from bayesmap.sim.world2d import box_world, circle_hits, occupancy_truth
+from bayesmap.sim.rover import observable_cells
+from bayesmap.sim.world2d import (
+    BoxWorld,
+    box_world,
+    circle_hits,
+    occupancy_truth,
+    world_distance,
+    world_ray_cast,
+)
 
 BOXES = box_world("rover-field-obstacles-v1").boxes
 
@@ -108,3 +116,30 @@ def test_same_seed_same_readings() -> None:
 def test_bad_rover_params_name_the_field(kwargs: dict[str, float], field: str) -> None:
     with pytest.raises(ConfigError, match=field):
         sim_rover.SimulatedRoverParams(**kwargs)
+
+
+def test_observable_cells_leave_out_interiors_and_shut_off_ground() -> None:
+    # a 4 m x 4 m field; a 2 m x 2 m box in the middle; then a room closed by walls
+    box = BoxWorld("box", 4.0, 4.0, np.array([[1.0, 1.0, 3.0, 3.0]]))
+    seen = observable_cells(box, (8, 8), 0.5, (0.5, 0.5), clearance=0.2, sense_range=1.4)
+    assert not seen[3:5, 3:5].any()  # the box's inner cells: no ray enters them
+    assert seen[2, 2:6].all() and seen[0].all()  # its faces and the ground around it
+    # a wall across the field with a gap of 0.8 m: wide enough for clearance 0.2, not 0.5
+    wall = BoxWorld("wall", 8.0, 4.0, np.array([[3.9, 0.0, 4.1, 1.6], [3.9, 2.4, 4.1, 4.0]]))
+    open_ = observable_cells(wall, (8, 16), 0.5, (1.0, 2.0), clearance=0.2, sense_range=1.4)
+    shut = observable_cells(wall, (8, 16), 0.5, (1.0, 2.0), clearance=0.5, sense_range=1.4)
+    assert open_[:, 14:].all()  # the far side, reached through the gap
+    assert not shut[:, 12:].any()  # beyond the sensing range of the near side
+    assert shut[:, :8].all()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(0, 20), st.floats(0, 20), st.floats(-math.pi, math.pi))
+def test_polygon_edges_cast_like_the_boxes_they_outline(x: float, y: float, angle: float) -> None:
+    outlines = tuple(np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) for x0, y0, x1, y1 in BOXES)
+    as_polygons = BoxWorld("p", 20.0, 20.0, np.zeros((0, 4)), outlines)
+    if world_distance(as_polygons, x, y) == 0.0:
+        return  # inside a box the slab test says 0, the edges the far side
+    d = float(world_ray_cast(as_polygons, [[x, y]], [angle])[0])
+    expected = float(cast_on_boxes(BOXES, [[x, y]], [angle])[0])
+    assert d == pytest.approx(expected, abs=1e-9) or (np.isinf(d) and np.isinf(expected))

@@ -7,10 +7,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import shapely
 
 from bayesmap.errors import FormatError
 from bayesmap.sim.rover_worlds import generate_world, load_world, save_world
-from bayesmap.sim.world2d import box_distance
+from bayesmap.sim.world2d import world_distance, world_ray_cast, world_truth
 
 ISSUE_EXAMPLE = {
     "size": [20.0, 20.0],
@@ -34,8 +35,9 @@ def test_the_issue_example_loads(tmp_path: Path) -> None:
     [
         ({"size": [20.0]}, "size"),
         ({"start": [1.0, 1.0]}, "start"),
-        ({"obstacles": [[[0, 0], [1, 0], [0.5, 1]]]}, "obstacles/0"),
-        ({"obstacles": [[[0, 0], [1, 0.2], [1, 1], [0, 1]]]}, "obstacles/0"),
+        ({"obstacles": [[[3, 3], [5, 5], [5, 3], [3, 5]]]}, "obstacles/0.*simple polygon"),
+        ({"obstacles": [[[3, 3], [4, 4], [5, 5]]]}, "obstacles/0.*positive area"),
+        ({"obstacles": [[[3, 3], [3, 3], [3, 3]]]}, "obstacles/0"),
         ({"start": [14.5, 16.5, 0.0]}, "start"),
         ({"start": [30.0, 1.0, 0.0]}, "outside"),
         ({"colour": "red"}, "colour"),
@@ -55,17 +57,47 @@ def test_broken_json_reports_the_line(tmp_path: Path) -> None:
         load_world(path)
 
 
+def test_polygons_of_any_shape_load_and_are_obstacles(tmp_path: Path) -> None:
+    triangle = [[3.0, 3.0], [6.0, 3.0], [4.0, 6.0]]
+    ell = [[10, 10], [14, 10], [14, 11], [11, 11], [11, 14], [10, 14]]  # concave
+    path = tmp_path / "w.json"
+    path.write_text(json.dumps({**ISSUE_EXAMPLE, "obstacles": [triangle, ell]}))
+    world = load_world(path).world
+    assert world.boxes.shape == (0, 4) and len(world.polygons) == 2
+    assert world_distance(world, 4.0, 4.0) == 0.0  # inside the triangle
+    assert world_distance(world, 12.5, 12.5) == pytest.approx(1.5)  # in the L's notch
+    # the simulated rangers see the tilted face; the truth covers the concave shape
+    hit = world_ray_cast(world, [[12.5, 12.5]], [np.pi])
+    assert hit[0] == pytest.approx(1.5)
+    truth = world_truth(world, (40, 40), 0.5, (0.0, 0.0))
+    assert truth[20, 20] and truth[26, 20] and not truth[25, 25]  # (10.25, 10.25) (10.25, 13.25)
+
+
 @pytest.mark.parametrize("seed", range(8))
 def test_generated_worlds_keep_passages_and_round_trip(tmp_path: Path, seed: int) -> None:
     spec = generate_world(seed)
-    side = spec.world.width
-    boxes = spec.world.boxes
-    assert 20.0 <= side <= 60.0 and len(boxes) >= 3
-    assert (boxes[:, :2] >= 1.2 - 1e-9).all() and (boxes[:, 2:] <= side - 1.2 + 1e-9).all()
-    assert box_distance(boxes, *spec.start[:2]) >= 1.7
+    world = spec.world
+    side = world.width
+    assert 20.0 <= side <= 60.0 and world.n_obstacles >= 3
+    solid = shapely.union_all(
+        [shapely.box(*b) for b in world.boxes] + [shapely.Polygon(p) for p in world.polygons]
+    )
+    xmin, ymin, xmax, ymax = solid.bounds
+    assert min(xmin, ymin) >= 1.2 - 1e-9 and max(xmax, ymax) <= side - 1.2 + 1e-9
+    assert world_distance(world, *spec.start[:2]) >= 1.7
     back = load_world(save_world(tmp_path / "w.json", spec))
-    np.testing.assert_allclose(back.world.boxes, np.round(boxes, 4))
+    np.testing.assert_allclose(back.world.boxes, np.round(world.boxes, 4))
+    assert len(back.world.polygons) == len(world.polygons)
     assert back.world.name == spec.world.name
+
+
+def test_generator_draws_obstacles_at_any_angle() -> None:
+    worlds = [generate_world(seed, size=30.0).world for seed in range(6)]
+    tilted = [p for w in worlds for p in w.polygons]
+    assert tilted
+    edges = np.concatenate([np.diff(np.vstack([p, p[:1]]), axis=0) for p in tilted])
+    angles = np.degrees(np.arctan2(edges[:, 1], edges[:, 0])) % 90.0
+    assert ((angles > 5.0) & (angles < 85.0)).any()
 
 
 def test_generator_is_reproducible() -> None:

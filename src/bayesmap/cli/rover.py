@@ -81,17 +81,17 @@ def generate_command(
         float | None, typer.Option("--size", help="Side of the area [m] (default 20–60).")
     ] = None,
 ) -> None:
-    """Write COUNT generated stress worlds (walls, L-shapes, corridors, passages, boxes)."""
+    """Write COUNT generated stress worlds (walls, L-shapes, corridors, passages, boxes, tilted)."""
     from numpy.random import SeedSequence
 
     from bayesmap.sim.rover_worlds import generate_world, save_world
 
     for k in range(count):
         spec = generate_world(
-            SeedSequence([seed, k]), size=size, name=f"rover-generated-v1-s{seed}-{k:02d}"
+            SeedSequence([seed, k]), size=size, name=f"rover-generated-v2-s{seed}-{k:02d}"
         )
         path = save_world(out / f"world_{k:02d}.json", spec)
-        typer.echo(f"{path}: {spec.world.width:g} m, {len(spec.world.boxes)} boxes")
+        typer.echo(f"{path}: {spec.world.width:g} m, {spec.world.n_obstacles} obstacles")
 
 
 @app.command("map")

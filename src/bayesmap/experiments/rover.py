@@ -44,9 +44,10 @@ from bayesmap.rover.explorer import Explorer
 from bayesmap.rover.network import DecisionNetwork
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.targets import EntropyTarget, FrontierTarget, TargetRule
+from bayesmap.sensing.ir import informative_range
 from bayesmap.sim import rover as sim_rover
 from bayesmap.sim import rover_worlds
-from bayesmap.sim.world2d import BoxWorld, box_world, occupancy_truth
+from bayesmap.sim.world2d import BoxWorld, box_world, world_truth
 from bayesmap.viz.rover import coverage_figure, maps_pair_figure
 
 __all__ = ["RUNS", "Config", "map_metrics", "roc_auc", "run"]
@@ -122,6 +123,8 @@ class Trace:
     min_clearance: float = math.inf
     stalled_cycles: int = 0
     off_map_cycles: int = 0
+    observable: BoolArray | None = None
+    """The cells coverage counts (:func:`observable_mask`)."""
 
 
 def roc_auc(scores: FloatArray, labels: BoolArray) -> float | None:
@@ -135,14 +138,52 @@ def roc_auc(scores: FloatArray, labels: BoolArray) -> float | None:
     return float((ranks[y].sum() - n_pos * (n_pos + 1) / 2) / (n_pos * n_neg))
 
 
-def map_metrics(grid: OccupancyGrid, truth: BoolArray, h_desired: float) -> dict[str, Any]:
-    """Coverage, summed entropy [bits], ROC AUC and obstacle peak ratio of a finished map."""
+def observable_mask(
+    world: BoxWorld, grid: OccupancyGrid, params: RoverParams, start: Any
+) -> BoolArray:
+    """The cells a rover keeping its margin could make certain: what coverage counts.
+
+    Cells a ranger can see (within the range where eq. 31 still informs,
+    :func:`~bayesmap.sensing.ir.informative_range`, plus the rangers' offset) from where the
+    rover's centre keeps its footprint and safety margin from every obstacle, connected to
+    the start (:func:`bayesmap.sim.rover.observable_cells`). Obstacle interiors and ground
+    shut off by gaps narrower than the footprint plus two margins are left out.
+    """
+    return sim_rover.observable_cells(
+        world,
+        grid.shape,
+        grid.resolution,
+        (float(start[0]), float(start[1])),
+        clearance=params.footprint_radius + params.safety_margin,
+        sense_range=params.sensor_offset
+        + informative_range(r_max=params.r_max, beta_b=params.beta_b),
+    )
+
+
+def coverage(grid: OccupancyGrid, observable: BoolArray, h_desired: float) -> float:
+    """Fraction of the observable cells whose entropy is below ``h_desired``."""
+    if not observable.any():
+        return 1.0
+    return float(np.mean(grid.entropy[observable] < h_desired))
+
+
+def map_metrics(
+    grid: OccupancyGrid, truth: BoolArray, h_desired: float, observable: BoolArray | None = None
+) -> dict[str, Any]:
+    """Coverage, summed entropy [bits], ROC AUC and obstacle peak ratio of a finished map.
+
+    ``coverage`` counts the ``observable`` cells (all cells when ``None``);
+    ``coverage_all_cells`` every cell, as the paper's stop rule does.
+    """
     free = ~truth
     ratio = None
     if truth.any():
         ratio = float(grid.probability[truth].mean() / grid.probability[free].mean())
+    seen = np.ones(grid.shape, dtype=bool) if observable is None else observable
     return {
-        "coverage": float(np.mean(grid.entropy < h_desired)),
+        "coverage": coverage(grid, seen, h_desired),
+        "coverage_all_cells": float(np.mean(grid.entropy < h_desired)),
+        "observable_fraction": float(np.mean(seen)),
         "entropy_bits": float(grid.entropy.sum()),
         "roc_auc": roc_auc(grid.probability, truth),
         "obstacle_peak_ratio": ratio,
@@ -180,6 +221,7 @@ def simulate(
         EntropyTarget(params) if explorer_name == "entropy" else FrontierTarget(params)
     )
     trace = Trace(Explorer(grid, params, rule))
+    trace.observable = observable = observable_mask(world, grid, params, config.start)
     state = sim_rover.initial(config.start, sim_params, rng=drive_rng)
     trace.path.append(state.pose.copy())
     trace.min_clearance = sim_rover.clearance(world, state, sim_params)
@@ -188,7 +230,7 @@ def simulate(
     started = time.perf_counter()
     for step in range(config.max_steps):
         if step % config.curve_every == 0:
-            trace.curve.append((trace.distance, float(np.mean(grid.entropy < config.h_desired))))
+            trace.curve.append((trace.distance, coverage(grid, observable, config.h_desired)))
             progress(stage, step, config.max_steps)
         observation = sim_rover.observe(world, state, sim_params, rng=sensor_rng)
         decision = trace.explorer.step(observation.raw, observation.pose)
@@ -211,7 +253,7 @@ def simulate(
         trace.collisions += int(now_touching and not touching)
         touching = now_touching
     trace.seconds = time.perf_counter() - started
-    trace.curve.append((trace.distance, float(np.mean(grid.entropy < config.h_desired))))
+    trace.curve.append((trace.distance, coverage(grid, observable, config.h_desired)))
     progress(stage, config.max_steps, config.max_steps)
     return trace
 
@@ -220,7 +262,7 @@ def run_metrics(
     trace: Trace, world: BoxWorld, config: Config, explorer_name: str
 ) -> dict[str, Any]:
     grid = trace.explorer.grid
-    truth = occupancy_truth(world.boxes, grid.shape, grid.resolution, grid.origin)
+    truth = world_truth(world, grid.shape, grid.resolution, grid.origin)
     curve = [[round(d, 3), round(c, 5)] for d, c in trace.curve]
     to_90 = next((d for d, c in trace.curve if c >= 0.9), None)
     metrics: dict[str, Any] = {
@@ -235,7 +277,7 @@ def run_metrics(
         else None,
         "stalled_cycles": trace.stalled_cycles,
         "off_map_cycles": trace.off_map_cycles,
-        **map_metrics(grid, truth, config.h_desired),
+        **map_metrics(grid, truth, config.h_desired, trace.observable),
         "coverage_curve": curve,
         "distance_to_90": None if to_90 is None else round(to_90, 3),
         "h_desired_bits": config.h_desired,
@@ -258,7 +300,13 @@ def write_run(
         write_bytes(
             folder / "path.png",
             maps_pair_figure(
-                grid.probability, grid.entropy, grid.extent, title=title, path=path, boxes=boxes
+                grid.probability,
+                grid.entropy,
+                grid.extent,
+                title=title,
+                path=path,
+                boxes=boxes,
+                polygons=world.polygons,
             ),
         ),
     ]
@@ -292,7 +340,9 @@ def _summary(config: Config, results: dict[str, dict[str, dict[str, Any]]], fiel
         f"d_max = {config.d_max} m, "
         f"P(R) = {config.prior}, δ_h = {config.delta_h}, H_desired = {config.h_desired} bits, "
         f"M = {config.n_headings} headings, seed {config.seed}, at most {config.max_steps} cycles "
-        "(0.1 m each at full speed). Coverage = fraction of cells with entropy below H_desired.",
+        "(0.1 m each at full speed). Coverage = fraction of the observable cells (those a "
+        "ranger can see from where the rover may go with its margin) with entropy below "
+        "H_desired; on this field every cell is observable.",
         "",
         "## The paper's exploration rule (eqs. 38–39)",
         "",

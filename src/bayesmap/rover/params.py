@@ -78,6 +78,11 @@ class RoverParams:
     hit_memory
         Cycles for which the points the rangers read stay obstacles to the footprint check
         (about the GPS error's correlation time, so they stay where the map put them).
+    view_range
+        A target is reached when the rover stands this close to it [m]: it goes to the
+        nearest point it can reach within this distance and turns to look at the target
+        (the rangers see obstacles' sides from there, well inside the range where eq. 31
+        informs).
     target_timeout
         Cycles a target may stay unreached beyond the time its path cost needs at
         ``speed``, before it is blacklisted.
@@ -111,6 +116,7 @@ class RoverParams:
     lookahead: float = 0.6
     hit_memory: int = 50
     target_timeout: int = 60
+    view_range: float = 1.0
 
     def __post_init__(self) -> None:
         checks = {
@@ -127,6 +133,7 @@ class RoverParams:
                 4 <= self.n_headings <= 360
             ),
             "clearance > 0": self.clearance > 0,
+            "view_range > 0": self.view_range > 0,
             "p_block in (0, 1]": 0.0 < self.p_block <= 1.0,
             "h_desired in (0, 1]": 0.0 < self.h_desired <= 1.0,
             "speed, min_turn_radius, pivot_rate > 0": min(

@@ -4,11 +4,14 @@ The paper steers straight at its target (eq. 40), so a target behind a wall pull
 into the wall. Here the cost of reaching each cell of the local area (radius ``d_max``) is
 the length of the shortest 8-connected path through passable cells, computed with
 scikit-image's minimum-cost-path solver (:class:`skimage.graph.MCP_Geometric`, Dijkstra).
-A cell is passable when the footprint centred on it would not overlap a hazard (a likely
-obstacle or its doubtful neighbour, :func:`~bayesmap.rover.safety.hazard_cells`) and it lies
-on the map; a passable cell within the safety margin of a hazard costs ``_NEAR_COST`` times
-as much to cross, so paths keep to open ground and squeeze through a narrow gap only when
-there is no other way. Cells never observed count as passable (optimistic planning: the
+A cell is passable when the footprint centred on it keeps the safety margin from every
+hazard (a likely obstacle or its doubtful neighbour,
+:func:`~bayesmap.rover.safety.hazard_cells`) and lies on the map, as the footprint check
+demands of the drive; a passable cell within one more cell of a hazard costs
+``_NEAR_COST`` times as much to cross, so paths keep to open ground and squeeze through a
+narrow gap only when there is no other way. A target is reached from any cell within
+``view_range`` of it (the rover looks at it from there), so cells beside an obstacle are
+reachable targets. Cells never observed count as passable (optimistic planning: the
 footprint check of :mod:`bayesmap.rover.safety` guards the drive).
 The rover then steers toward a waypoint along that path instead of at the target itself.
 Cost depends on ``d_max`` only, never on the size of the map.
@@ -45,16 +48,42 @@ def footprint_kernel(radius: float, resolution: float) -> BoolArray:
 
 
 def crossing_costs(
-    probability: npt.ArrayLike, on_map: npt.ArrayLike, params: RoverParams, resolution: float
+    probability: npt.ArrayLike,
+    on_map: npt.ArrayLike,
+    params: RoverParams,
+    resolution: float,
+    rover: tuple[int, int] | None = None,
 ) -> FloatArray:
-    """Cost per metre of each cell: ``inf`` where the footprint would overlap a hazard or
-    leave the map, ``_NEAR_COST`` within the safety margin of a hazard, 1 elsewhere."""
+    """Cost per metre of each cell: ``inf`` where the footprint would come within the safety
+    margin of a hazard or leave the map, ``_NEAR_COST`` within one more cell of a hazard,
+    1 elsewhere.
+
+    The rover's own cell ``rover`` (patch indices) costs 1 whatever the map says, and its
+    8 neighbours, when only the margin closes them, ``_NEAR_COST``: it can always step
+    away from where it stands. Passable cells are those where the footprint check of
+    :mod:`bayesmap.rover.safety` lets the rover's centre be, so a path never leads
+    through a gap the drive would refuse.
+    """
     hazard = hazard_cells(probability, params)
-    blocked = hazard | ~np.asarray(on_map, dtype=bool)
-    kernel = footprint_kernel(params.footprint_radius, resolution)
-    near_kernel = footprint_kernel(params.footprint_radius + params.safety_margin, resolution)
-    costs = np.where(ndimage.binary_dilation(hazard, structure=near_kernel), _NEAR_COST, 1.0)
-    return np.asarray(np.where(ndimage.binary_dilation(blocked, structure=kernel), np.inf, costs))
+    body = ndimage.binary_dilation(
+        hazard | ~np.asarray(on_map, dtype=bool),
+        structure=footprint_kernel(params.footprint_radius, resolution),
+    )
+    keep_off = params.footprint_radius + params.safety_margin
+    margin = ndimage.binary_dilation(hazard, structure=footprint_kernel(keep_off, resolution))
+    near = ndimage.binary_dilation(
+        hazard, structure=footprint_kernel(keep_off + resolution, resolution)
+    )
+    costs = np.where(near, _NEAR_COST, 1.0)
+    costs[margin] = np.inf
+    if rover is not None:
+        i, j = rover
+        around = costs[max(i - 1, 0) : i + 2, max(j - 1, 0) : j + 2]
+        around[np.isinf(around)] = _NEAR_COST
+    costs[body] = np.inf
+    if rover is not None:
+        costs[rover] = 1.0
+    return np.asarray(costs)
 
 
 @dataclass
@@ -68,18 +97,25 @@ class LocalPlan:
     cost
         ``(n, n)`` path cost [m] from the rover's cell (length, with cells near hazards
         counting ``_NEAR_COST`` times); ``inf`` where unreachable.
+    view
+        ``(n, n)`` cost [m] of reaching a cell from which the rover sees each cell: the
+        smallest ``cost`` within ``view_range`` of it.
     row0, col0
         Grid indices of the patch's first cell (may be negative, off the map).
     resolution
         Cell side [m].
+    view_range
+        How close [m] the rover must come to a target to look at it.
     """
 
     xc: FloatArray
     yc: FloatArray
     cost: FloatArray
+    view: FloatArray
     row0: int
     col0: int
     resolution: float
+    view_range: float
     _solver: MCP_Geometric
 
     def _index(self, x: float, y: float) -> tuple[int, int] | None:
@@ -89,16 +125,19 @@ class LocalPlan:
         return (i, j) if 0 <= i < n and 0 <= j < n else None
 
     def cost_to(self, x: float, y: float) -> float:
-        """Path length [m] to the cell holding ``(x, y)``; ``nan`` outside the patch."""
+        """Path length [m] to a point within ``view_range`` of ``(x, y)``; ``nan`` outside
+        the patch, ``inf`` if no such point is reachable."""
         index = self._index(x, y)
-        return math.nan if index is None else float(self.cost[index])
+        return math.nan if index is None else float(self.view[index])
 
     def waypoint(self, target: tuple[float, float]) -> tuple[float, float] | None:
         """The point to steer toward on the way to ``target``, or ``None`` if unreachable.
 
-        Inside the patch: the cell ``1.5 m`` along the shortest path (or the target itself
-        when closer). Outside: the same along the path to the patch cell that minimises path
-        cost plus straight-line distance to the target.
+        Inside the patch the rover heads for the cheapest reachable cell within
+        ``view_range`` of the target (its viewpoint): the cell ``1.5 m`` along the shortest
+        path to it, or, once there, the target itself, so that the rover turns to look at
+        it. Outside: the same along the path to the patch cell that minimises path cost
+        plus straight-line distance to the target.
         """
         index = self._index(*target)
         if index is None:
@@ -107,8 +146,14 @@ class LocalPlan:
             if not np.isfinite(remaining.flat[flat]):
                 return None
             index = (flat // self.cost.shape[1], flat % self.cost.shape[1])
-        elif not np.isfinite(self.cost[index]):
-            return None
+        else:
+            if not np.isfinite(self.view[index]):
+                return None
+            within = np.hypot(self.xc - target[0], self.yc - target[1]) <= self.view_range + 1e-9
+            flat = int(np.argmin(np.where(within, self.cost, np.inf)))
+            index = (flat // self.cost.shape[1], flat % self.cost.shape[1])
+            if self.cost[index] <= self.resolution:
+                return target
         path = self._solver.traceback(index)
         lengths = np.array([self.cost[cell] for cell in path])
         ahead = int(np.searchsorted(lengths, _WAYPOINT_AHEAD))
@@ -120,20 +165,33 @@ def local_plan(grid: OccupancyGrid, x: float, y: float, params: RoverParams) -> 
     """Path costs from ``(x, y)`` [m] over the local area of radius ``d_max`` (Dijkstra)."""
     xc, yc, prob = local_patch(grid, grid.probability, x, y, params.d_max, np.nan)
     on_map = np.isfinite(prob)
-    costs = crossing_costs(np.nan_to_num(prob, nan=0.0), on_map, params, grid.resolution)
     n = prob.shape[0]
     i0 = int(np.clip(math.floor((y - yc[0, 0]) / grid.resolution + 0.5), 0, n - 1))
     j0 = int(np.clip(math.floor((x - xc[0, 0]) / grid.resolution + 0.5), 0, n - 1))
-    costs[i0, j0] = 1.0  # the rover's own cell: it is there, whatever the map says
+    prob = np.nan_to_num(prob, nan=0.0)
+    costs = crossing_costs(prob, on_map, params, grid.resolution, rover=(i0, j0))
     solver = MCP_Geometric(costs, fully_connected=True)
     cumulative, _ = solver.find_costs([(i0, j0)])
+    cost = np.asarray(cumulative) * grid.resolution
+    view = ndimage.minimum_filter(
+        cost, footprint=_disk(params.view_range, grid.resolution), mode="constant", cval=np.inf
+    )
     rows0, cols0 = grid.world_to_cell(float(xc[0, 0]), float(yc[0, 0]))
     return LocalPlan(
         np.asarray(xc),
         np.asarray(yc),
-        np.asarray(cumulative) * grid.resolution,
+        cost,
+        np.asarray(view),
         int(rows0),
         int(cols0),
         grid.resolution,
+        params.view_range,
         solver,
     )
+
+
+def _disk(radius: float, resolution: float) -> BoolArray:
+    """Cell offsets whose centre lies within ``radius`` [m] of the middle cell's centre."""
+    k = int(math.floor(radius / resolution))
+    di, dj = np.mgrid[-k : k + 1, -k : k + 1] * resolution
+    return np.asarray(np.hypot(di, dj) <= radius + 1e-9)

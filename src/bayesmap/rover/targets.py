@@ -63,18 +63,19 @@ def clear_of_obstacles(
 class EntropyTarget:
     """The paper's rule (eqs. 38–39) on path costs, with hysteresis, timeout and blacklist.
 
-    Within the local area the candidates are the cells reachable over the map
-    (:class:`~bayesmap.rover.planning.LocalPlan`) with a path shorter than ``d_max``, clear
-    of likely obstacles (:func:`clear_of_obstacles`) and not blacklisted; among those
-    whose entropy is at least ``h_desired``, eq. 38 takes the largest entropy and eq. 39 the
-    nearest by path length within ``delta_h`` of it. A target is kept (hysteresis) until
-    its entropy falls below ``h_desired``, the rover comes within ``d_min`` of it, or it
-    times out: a target not reached within ``target_timeout`` cycles plus twice the cycles
-    its path cost needs is blacklisted with the uncertain cells within ``d_min`` of it, and
-    one the planner finds unreachable is blacklisted alone. When
-    nothing local qualifies, the nearest uncertain cell of the whole map is taken, found
-    block by block (:class:`~bayesmap.rover.mapping.UncertainBlocks`), so that the search
-    does not grow with the map. ``None`` when no such cell is left.
+    Within the local area the candidates are the cells the rover can come within
+    ``view_range`` of over the map (:class:`~bayesmap.rover.planning.LocalPlan`) with a path
+    shorter than ``d_max``, at least ``d_min`` away, not likely obstacles and not
+    blacklisted; among those whose entropy is at least ``h_desired``, eq. 38 takes the
+    largest entropy and eq. 39 the nearest by path length within ``delta_h`` of it. Cells
+    beside an obstacle qualify: the rover looks at them from its viewpoint. A target is
+    kept (hysteresis) until its entropy falls below ``h_desired`` or it times out: a target
+    still uncertain after ``target_timeout`` cycles plus twice the cycles its path cost
+    needs is blacklisted with the uncertain cells within ``d_min`` of it, and one the
+    planner finds unreachable is blacklisted alone. When nothing local qualifies, the
+    nearest uncertain cell of the whole map is taken, found block by block
+    (:class:`~bayesmap.rover.mapping.UncertainBlocks`), so that the search does not grow
+    with the map. ``None`` when no such cell is left.
 
     Attributes
     ----------
@@ -108,15 +109,12 @@ class EntropyTarget:
         if self.target_ is not None:
             self._age += 1
             cell = grid.world_to_cell(*self.target_)
-            kept = (
-                grid.entropy[int(cell[0]), int(cell[1])] >= p.h_desired
-                and math.hypot(self.target_[0] - x, self.target_[1] - y) >= p.d_min
-            )
+            kept = grid.entropy[int(cell[0]), int(cell[1])] >= p.h_desired
             if kept and self._age > self._deadline:
                 self._give_up_around(grid, self.target_)
             elif kept:
                 return self.target_
-        self.target_ = self._local(grid, plan) or self._global(grid, x, y, uncertain)
+        self.target_ = self._local(grid, plan, x, y) or self._global(grid, x, y, uncertain)
         self._age = 0
         if self.target_ is not None:
             cost = plan.cost_to(*self.target_)
@@ -140,7 +138,9 @@ class EntropyTarget:
         self.blacklist_.update(zip(xc[near].tolist(), yc[near].tolist(), strict=True))
         self.reject(target)
 
-    def _local(self, grid: OccupancyGrid, plan: LocalPlan) -> tuple[float, float] | None:
+    def _local(
+        self, grid: OccupancyGrid, plan: LocalPlan, x: float, y: float
+    ) -> tuple[float, float] | None:
         p = self.params
         rows = np.arange(plan.row0, plan.row0 + plan.cost.shape[0])
         cols = np.arange(plan.col0, plan.col0 + plan.cost.shape[1])
@@ -149,40 +149,33 @@ class EntropyTarget:
             return None
         rr, cc = rows[r_ok], cols[c_ok]
         entropy = grid.entropy[np.ix_(rr, cc)].copy()
-        clear = clear_of_obstacles(grid.probability[np.ix_(rr, cc)], p, grid.resolution)
-        entropy[~clear | (entropy < p.h_desired)] = np.nan
+        likely = grid.probability[np.ix_(rr, cc)] >= p.p_block
+        xs, ys = np.broadcast_arrays(*grid.cell_centers(rr[:, None], cc[None, :]))
+        near = np.hypot(xs - x, ys - y) < p.d_min
+        entropy[likely | near | (entropy < p.h_desired)] = np.nan
         for r, c in _cells(grid, self.blacklist_):
             i, j = r - rr[0], c - cc[0]
             if 0 <= i < entropy.shape[0] and 0 <= j < entropy.shape[1]:
                 entropy[i, j] = np.nan
-        cost = plan.cost[np.ix_(r_ok, c_ok)]
-        pick = exploration_target(
-            entropy, cost, d_max=p.d_max, d_min=p.d_min, margin=p.target_margin
-        )
+        cost = plan.view[np.ix_(r_ok, c_ok)]
+        pick = exploration_target(entropy, cost, d_max=p.d_max, margin=p.target_margin)
         if pick < 0:
             return None
         i, j = divmod(pick, entropy.shape[1])
-        xs, ys = grid.cell_centers(rr[i], cc[j])
-        return float(xs), float(ys)
+        return float(xs[i, j]), float(ys[i, j])
 
     def _global(
         self, grid: OccupancyGrid, x: float, y: float, uncertain: UncertainBlocks
     ) -> tuple[float, float] | None:
         p = self.params
         row, col = grid.world_to_cell(x, y)
-        k = int(math.ceil(p.clearance / grid.resolution)) + 1
+        banned = _cells(grid, self.blacklist_)
         for flat in uncertain.nearest_first(float(row), float(col)):
             block = uncertain.block(int(flat))
-            r0, c0 = max(block.row0 - k, 0), max(block.col0 - k, 0)
-            padded = grid.probability[r0 : block.row1 + k, c0 : block.col1 + k]
-            clear = clear_of_obstacles(padded, p, grid.resolution)
             entropy = grid.entropy[block.rows, block.cols]
-            inner = clear[block.row0 - r0 :, block.col0 - c0 :][
-                : entropy.shape[0], : entropy.shape[1]
-            ]
-            rows, cols = np.nonzero((entropy >= p.h_desired) & inner)
+            unlikely = grid.probability[block.rows, block.cols] < p.p_block
+            rows, cols = np.nonzero((entropy >= p.h_desired) & unlikely)
             rows, cols = rows + block.row0, cols + block.col0
-            banned = _cells(grid, self.blacklist_)
             keep = [(int(r), int(c)) not in banned for r, c in zip(rows, cols, strict=True)]
             rows, cols = rows[keep], cols[keep]
             xs, ys = grid.cell_centers(rows, cols)
@@ -246,21 +239,24 @@ class FrontierTarget:
         plan: LocalPlan,
         uncertain_blocks: UncertainBlocks,
     ) -> tuple[float, float] | None:
-        del plan, uncertain_blocks  # the baseline searches the whole map
-        uncertain = grid.entropy >= self.params.h_desired
-        if not uncertain.any():
+        del plan  # the baseline searches the whole map, but only when it re-plans
+        if uncertain_blocks.total == 0:
             self.target_ = None
             return None
-        unknown = grid.unobserved()
         self._age += 1
         if self.target_ is not None:
-            rows, cols = grid.world_to_cell(*self.target_)
-            pending = unknown[int(rows), int(cols)] or uncertain[int(rows), int(cols)]
+            row, col = (int(v) for v in grid.world_to_cell(*self.target_))
+            pending = bool(
+                grid.probability[row, col] == grid.prior
+                or grid.entropy[row, col] >= self.params.h_desired
+            )
             if pending and self._age < self.replan_every:
                 return self.target_
             if pending:
                 self.reject(self.target_)
         self._age = 0
+        uncertain = grid.entropy >= self.params.h_desired
+        unknown = grid.unobserved()
         x, y = float(np.asarray(pose)[0]), float(np.asarray(pose)[1])
         self.target_ = self._plan(grid, unknown, uncertain, x, y)
         return self.target_

@@ -62,6 +62,27 @@ def beta_r(
     return np.asarray(np.maximum(np.where(distance <= r_max, inside, beta_b), floor))
 
 
+def informative_range(*, r_max: float = R_MAX, beta_b: float = 0.2) -> float:
+    """Distance [m] within which eq. 31 makes a reading evidence for what it says.
+
+    Beyond the distance where ``beta_r`` falls to 1/2, eq. 32 carries no information (with
+    a floor of 1/2) or reverses it (the literal ``beta_b < 1/2``). Solving
+    ``beta_b + (1 - beta_b)(r_max^2 - R^2)^2 / r_max^4 = 1/2`` gives
+    ``R = r_max sqrt(1 - sqrt((1/2 - beta_b) / (1 - beta_b)))``; ``r_max`` when
+    ``beta_b >= 1/2``.
+
+    Examples
+    --------
+    >>> round(informative_range(beta_b=0.2), 3)
+    1.245
+    >>> informative_range(beta_b=0.5)
+    2.0
+    """
+    if beta_b >= 0.5:
+        return float(r_max)
+    return float(r_max * math.sqrt(1.0 - math.sqrt((0.5 - beta_b) / (1.0 - beta_b))))
+
+
 def sensor_posterior(beta: npt.ArrayLike, prior: npt.ArrayLike, o: npt.ArrayLike) -> FloatArray:
     """Probability of an object at range ``R`` after a reading with contact flag ``o``.
 

@@ -24,6 +24,7 @@ from bayesmap.sensing.ir import (
     ranger_poses,
     raw_from_range,
 )
+from bayesmap.sim.world2d import BoxWorld, world_ray_cast
 
 
 @dataclass(frozen=True)
@@ -65,13 +66,24 @@ class IRRangers:
         return ranger_poses(pose, self.angles, self.offset)
 
 
-def true_ranges(boxes: npt.ArrayLike, pose: npt.ArrayLike, rangers: IRRangers) -> FloatArray:
-    """``(n,)`` range [m] each ranger senses (``inf`` if nothing in its fan), noise-free."""
+Obstacles = npt.ArrayLike | BoxWorld
+"""``(k, 4)`` boxes, or a world with boxes and polygons."""
+
+
+def true_ranges(boxes: Obstacles, pose: npt.ArrayLike, rangers: IRRangers) -> FloatArray:
+    """``(n,)`` range [m] each ranger senses (``inf`` if nothing in its fan), noise-free.
+
+    ``boxes`` is an array of boxes or a :class:`~bayesmap.sim.world2d.BoxWorld` (whose
+    polygons count too).
+    """
     sensors = rangers.poses(pose)
     offsets = np.linspace(-rangers.w_r, rangers.w_r, rangers.n_rays)
     angles = sensors[:, 2:3] + offsets[None, :]
     origins = np.repeat(sensors[:, :2], rangers.n_rays, axis=0)
-    d = cast_on_boxes(boxes, origins, angles.ravel()).reshape(angles.shape)
+    if isinstance(boxes, BoxWorld):
+        d = world_ray_cast(boxes, origins, angles.ravel()).reshape(angles.shape)
+    else:
+        d = cast_on_boxes(boxes, origins, angles.ravel()).reshape(angles.shape)
     # the ranger reports the hit it is most sensitive to: the hit ray nearest its axis
     order = np.argsort(np.abs(offsets), kind="stable")
     ordered: FloatArray = d[:, order]
@@ -79,13 +91,13 @@ def true_ranges(boxes: npt.ArrayLike, pose: npt.ArrayLike, rangers: IRRangers) -
     return np.asarray(ordered[np.arange(len(first)), first])
 
 
-def h(boxes: npt.ArrayLike, pose: npt.ArrayLike, rangers: IRRangers) -> FloatArray:
+def h(boxes: Obstacles, pose: npt.ArrayLike, rangers: IRRangers) -> FloatArray:
     """Noise-free ADC readings (unquantised, unclipped) of the rangers at ``pose``."""
     return raw_from_range(true_ranges(boxes, pose, rangers))
 
 
 def observe(
-    boxes: npt.ArrayLike, pose: npt.ArrayLike, rangers: IRRangers, *, rng: np.random.Generator
+    boxes: Obstacles, pose: npt.ArrayLike, rangers: IRRangers, *, rng: np.random.Generator
 ) -> FloatArray:
     """8-bit ADC readings: noise-free reading + N(0, sigma_r), rounded and clipped to 0..255."""
     clean = h(boxes, pose, rangers)

@@ -18,11 +18,12 @@ from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
+from scipy import ndimage
 
-from bayesmap._typing import FloatArray
+from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.errors import ConfigError
 from bayesmap.sim import ir
-from bayesmap.sim.world2d import BoxWorld, box_distance, circle_hits
+from bayesmap.sim.world2d import BoxWorld, world_distance, world_truth
 
 
 @dataclass(frozen=True)
@@ -135,14 +136,14 @@ def transition(
 
 def h(world: BoxWorld, state: RoverState, params: SimulatedRoverParams) -> Observation:
     """Noise-free observation: exact pose and unquantised IR readings."""
-    return Observation(ir.h(world.boxes, state.pose, params.rangers), state.pose.copy())
+    return Observation(ir.h(world, state.pose, params.rangers), state.pose.copy())
 
 
 def observe(
     world: BoxWorld, state: RoverState, params: SimulatedRoverParams, *, rng: np.random.Generator
 ) -> Observation:
     """Noisy observation: quantised IR readings, GPS position and compass heading."""
-    raw = ir.observe(world.boxes, state.pose, params.rangers, rng=rng)
+    raw = ir.observe(world, state.pose, params.rangers, rng=rng)
     x, y, psi = state.pose
     heading = math.remainder(psi + rng.normal(0.0, params.compass_sigma), 2.0 * math.pi)
     return Observation(raw, np.array([x + state.gps_error[0], y + state.gps_error[1], heading]))
@@ -150,15 +151,76 @@ def observe(
 
 def collides(world: BoxWorld, state: RoverState, params: SimulatedRoverParams) -> bool:
     """Whether the rover's footprint touches an obstacle."""
-    return circle_hits(world.boxes, float(state.pose[0]), float(state.pose[1]), params.radius)
+    return world_distance(world, float(state.pose[0]), float(state.pose[1])) <= params.radius
 
 
 def clearance(world: BoxWorld, state: RoverState, params: SimulatedRoverParams) -> float:
     """Distance [m] from the rover's footprint to the nearest obstacle (negative: overlap)."""
-    return box_distance(world.boxes, float(state.pose[0]), float(state.pose[1])) - params.radius
+    return world_distance(world, float(state.pose[0]), float(state.pose[1])) - params.radius
 
 
 def off_map(world: BoxWorld, state: RoverState) -> bool:
     """Whether the rover's centre is outside the mapped area ``[0, width] x [0, height]``."""
     x, y = float(state.pose[0]), float(state.pose[1])
     return not (0.0 <= x <= world.width and 0.0 <= y <= world.height)
+
+
+def observable_cells(
+    world: BoxWorld,
+    shape: tuple[int, int],
+    resolution: float,
+    start: tuple[float, float],
+    *,
+    clearance: float,
+    sense_range: float,
+    step: float = 0.1,
+    n_rays: int = 48,
+) -> BoolArray:
+    """``(ny, nx)`` map cells a ranger can see from where the rover may go: the coverage base.
+
+    The rover may go where its centre keeps ``clearance`` [m] from every obstacle, inside the
+    area and connected to ``start`` (free space rasterised at ``step`` [m]). From positions
+    of that region ``resolution`` apart, rays in ``n_rays`` directions (the rover can
+    turn in place) reach ``sense_range`` [m] or the first obstacle; a cell is observable when
+    a ray enters it, so cells wholly inside an obstacle, or seen only through one, are not.
+    The map's lower-left corner is the origin.
+    """
+    nyf = max(int(math.ceil(world.height / step)), 1)
+    nxf = max(int(math.ceil(world.width / step)), 1)
+    occupied = world_truth(world, (nyf, nxf), step, (0.0, 0.0))
+    if occupied.any():
+        distance = ndimage.distance_transform_edt(~occupied) * step - step / 2
+    else:
+        distance = np.full(occupied.shape, np.inf)
+    room = distance >= clearance
+    labels, _ = ndimage.label(room, structure=np.ones((3, 3), dtype=bool))
+    i0 = int(np.clip(start[1] / step, 0, nyf - 1))
+    j0 = int(np.clip(start[0] / step, 0, nxf - 1))
+    if labels[i0, j0] == 0:  # the start itself is too close: take the nearest room
+        if not room.any():
+            return np.zeros(shape, dtype=bool)
+        _, (ri, rj) = ndimage.distance_transform_edt(~room, return_indices=True)
+        i0, j0 = int(ri[i0, j0]), int(rj[i0, j0])
+    stride = max(int(round(resolution / step)), 1)
+    reach = labels == labels[i0, j0]
+    rows, cols = np.nonzero(reach[::stride, ::stride])
+    px = (cols * stride + 0.5) * step
+    py = (rows * stride + 0.5) * step
+    angles = np.linspace(0.0, 2.0 * math.pi, n_rays, endpoint=False)
+    along = np.arange(step / 2, sense_range + step / 2, step)
+    dx = np.cos(angles)[:, None] * along[None, :]
+    dy = np.sin(angles)[:, None] * along[None, :]
+    seen = np.zeros(shape, dtype=bool)
+    for k in range(0, px.size, 1024):
+        sx = px[k : k + 1024, None, None] + dx[None]
+        sy = py[k : k + 1024, None, None] + dy[None]
+        fi, fj = np.floor(sy / step).astype(np.int64), np.floor(sx / step).astype(np.int64)
+        inside = (fi >= 0) & (fi < nyf) & (fj >= 0) & (fj < nxf)
+        hit = ~inside | occupied[np.clip(fi, 0, nyf - 1), np.clip(fj, 0, nxf - 1)]
+        before = np.logical_or.accumulate(hit, axis=2)
+        visible = inside & np.concatenate([np.ones_like(hit[..., :1]), ~before[..., :-1]], axis=2)
+        ci = np.floor(sy[visible] / resolution).astype(np.int64)
+        cj = np.floor(sx[visible] / resolution).astype(np.int64)
+        keep = (ci >= 0) & (ci < shape[0]) & (cj >= 0) & (cj < shape[1])
+        seen[ci[keep], cj[keep]] = True
+    return seen

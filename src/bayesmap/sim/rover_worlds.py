@@ -8,12 +8,13 @@ A world file is JSON checked against :data:`WORLD_SCHEMA`::
 
 ``size`` is the mapped area [m] (lower-left corner at the origin), ``resolution`` the map's
 cell side [m], ``obstacles`` polygons in metres and ``start`` the rover's ``x, y`` [m] and
-heading [rad]. The rover simulator's ray caster works on axis-aligned boxes, so every
-polygon must be an axis-aligned rectangle (an L-shape is written as two overlapping
-rectangles); anything else is refused with a :class:`~bayesmap.errors.FormatError`.
+heading [rad]. An obstacle may be any simple polygon of positive area, convex or not
+(axis-aligned rectangles are kept as boxes, for the fast ray caster); a self-intersecting or
+degenerate one is refused with a :class:`~bayesmap.errors.FormatError` naming it.
 
 :func:`generate_world` draws worlds from walls, L-shapes, corridors, walls with a narrow
-passage (at least 1.2 m wide) and random boxes, on 20–60 m areas, keeping at least
+passage (at least 1.2 m wide), random boxes, and boxes and walls at any angle, on 20–60 m
+areas, keeping at least
 ``passage`` metres between separate obstacles and from the edge of the area.
 """
 
@@ -27,12 +28,13 @@ from typing import Any
 
 import jsonschema
 import numpy as np
+import shapely
 
 from bayesmap._io import write_json
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError
-from bayesmap.sim.world2d import BoxWorld, box_distance
+from bayesmap.sim.world2d import BoxWorld, world_distance
 
 __all__ = ["WORLD_SCHEMA", "WorldSpec", "generate_world", "load_world", "save_world"]
 
@@ -58,7 +60,7 @@ WORLD_SCHEMA: dict[str, Any] = {
             "default": 0.5,
         },
         "obstacles": {
-            "description": "Polygons [m]; each an axis-aligned rectangle of 4 corners.",
+            "description": "Obstacles: simple polygons [m] (convex or not), vertices in order.",
             "type": "array",
             "items": {
                 "type": "array",
@@ -99,7 +101,7 @@ class WorldSpec:
         polygons = [
             [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
             for x0, y0, x1, y1 in np.round(self.world.boxes, 4).tolist()
-        ]
+        ] + [np.round(p, 4).tolist() for p in self.world.polygons]
         return {
             "name": self.world.name,
             "size": [self.world.width, self.world.height],
@@ -109,11 +111,8 @@ class WorldSpec:
         }
 
 
-def _rectangle(polygon: list[list[float]], where: str, path: Path) -> tuple[float, ...]:
-    """``(xmin, ymin, xmax, ymax)`` of an axis-aligned rectangle given by its 4 corners."""
-    corners = [tuple(corner) for corner in polygon]
-    if len(corners) == 5 and corners[0] == corners[-1]:
-        corners = corners[:4]
+def _rectangle(corners: list[tuple[float, float]]) -> tuple[float, ...] | None:
+    """``(xmin, ymin, xmax, ymax)`` when the corners form an axis-aligned rectangle."""
     xs = sorted({x for x, _ in corners})
     ys = sorted({y for _, y in corners})
     ring = corners + corners[:1]
@@ -124,14 +123,27 @@ def _rectangle(polygon: list[list[float]], where: str, path: Path) -> tuple[floa
         and set(corners) == {(x, y) for x in xs for y in ys}
         and all((a[0] == b[0]) != (a[1] == b[1]) for a, b in zip(ring, ring[1:], strict=False))
     )
-    if not rectangle:
+    return (xs[0], ys[0], xs[1], ys[1]) if rectangle else None
+
+
+def _obstacle(polygon: list[list[float]], where: str, path: Path) -> tuple[float, ...] | FloatArray:
+    """A box ``(xmin, ymin, xmax, ymax)`` for an axis-aligned rectangle, else the checked
+    ``(v, 2)`` vertices of a simple polygon of positive area (convex or not)."""
+    corners = [(float(x), float(y)) for x, y in polygon]
+    if len(corners) > 3 and corners[0] == corners[-1]:
+        corners = corners[:-1]
+    if not all(math.isfinite(v) for corner in corners for v in corner):
+        raise FormatError("has a vertex that is not a finite number", path=path, element=where)
+    box = _rectangle(corners)
+    if box is not None:
+        return box
+    shape = shapely.Polygon(corners)
+    if len(set(corners)) < 3 or not shape.is_valid or shape.area <= 0:
+        reason = shapely.is_valid_reason(shape) if len(set(corners)) >= 3 else "too few vertices"
         raise FormatError(
-            f"{where} must be an axis-aligned rectangle of 4 corners (split other shapes "
-            "into rectangles)",
-            path=path,
-            element=where,
+            f"must be a simple polygon of positive area ({reason})", path=path, element=where
         )
-    return (xs[0], ys[0], xs[1], ys[1])
+    return np.asarray(corners, dtype=np.float64)
 
 
 def load_world(path: str | Path) -> WorldSpec:
@@ -151,23 +163,23 @@ def load_world(path: str | Path) -> WorldSpec:
         where = "/".join(str(part) for part in error.absolute_path) or "the document"
         raise FormatError(error.message, path=file, element=where) from None
     width, height = (float(v) for v in document["size"])
-    boxes = np.array(
-        [
-            _rectangle(polygon, f"obstacles/{k}", file)
-            for k, polygon in enumerate(document["obstacles"])
-        ],
-        dtype=np.float64,
-    ).reshape(-1, 4)
+    obstacles = [
+        _obstacle(polygon, f"obstacles/{k}", file)
+        for k, polygon in enumerate(document["obstacles"])
+    ]
+    boxes = np.array([o for o in obstacles if isinstance(o, tuple)], dtype=np.float64)
+    polygons = tuple(o for o in obstacles if not isinstance(o, tuple))
     x, y, heading = (float(v) for v in document["start"])
     if not (0.0 <= x <= width and 0.0 <= y <= height):
         raise FormatError(f"start ({x}, {y}) lies outside the {width} x {height} m area", path=file)
-    if box_distance(boxes, x, y) < START_CLEARANCE:
+    name = str(document.get("name", file.stem))
+    world = BoxWorld(name, width, height, boxes.reshape(-1, 4), polygons)
+    if world_distance(world, x, y) < START_CLEARANCE:
         raise FormatError(
             f"start ({x}, {y}) is within {START_CLEARANCE} m of an obstacle", path=file
         )
-    name = str(document.get("name", file.stem))
     resolution = float(document.get("resolution", 0.5))
-    return WorldSpec(BoxWorld(name, width, height, boxes), resolution, (x, y, heading))
+    return WorldSpec(world, resolution, (x, y, heading))
 
 
 def save_world(path: str | Path, spec: WorldSpec) -> Path:
@@ -182,37 +194,60 @@ def _wall(rng: np.random.Generator, x: float, y: float, length: float) -> FloatA
     return np.array([[x, y, x + thickness, y + length]])
 
 
-def _group(rng: np.random.Generator, kind: str, x: float, y: float, passage: float) -> FloatArray:
+Group = tuple[FloatArray, tuple[FloatArray, ...]]
+"""An obstacle group: ``(k, 4)`` boxes and polygons (``(v, 2)`` vertices)."""
+
+
+def _tilted(rng: np.random.Generator, x: float, y: float) -> FloatArray:
+    """A box of sides 0.5–2 m (or a wall 3–6 m by 0.3–0.6 m) at any angle, lower-left near
+    ``(x, y)`` [m]."""
+    if rng.uniform() < 0.5:
+        sides = rng.uniform(0.5, 2.0, size=2)
+    else:
+        sides = np.array([rng.uniform(3.0, 6.0), rng.uniform(0.3, 0.6)])
+    angle = rng.uniform(0.0, math.pi)
+    c, s = math.cos(angle), math.sin(angle)
+    corners = np.array([[0, 0], [sides[0], 0], [sides[0], sides[1]], [0, sides[1]]])
+    turned = corners @ np.array([[c, s], [-s, c]])
+    return np.asarray(turned - turned.min(axis=0) + np.array([x, y]))
+
+
+def _group(rng: np.random.Generator, kind: str, x: float, y: float, passage: float) -> Group:
     """One obstacle group with its lower-left near ``(x, y)`` [m]."""
+    if kind == "tilted":
+        return np.zeros((0, 4)), (_tilted(rng, x, y),)
     length = rng.uniform(3.0, 8.0)
     t = rng.uniform(0.3, 0.6)
     if kind == "wall":
-        return _wall(rng, x, y, length)
+        return _wall(rng, x, y, length), ()
     if kind == "l-shape":
         other = rng.uniform(2.0, 5.0)
-        return np.array([[x, y, x + length, y + t], [x, y, x + t, y + other]])
+        return np.array([[x, y, x + length, y + t], [x, y, x + t, y + other]]), ()
     if kind == "corridor":
         gap = rng.uniform(passage, 2.5)
         if rng.uniform() < 0.5:
             return np.array(
                 [[x, y, x + length, y + t], [x, y + t + gap, x + length, y + 2 * t + gap]]
-            )
-        return np.array([[x, y, x + t, y + length], [x + t + gap, y, x + 2 * t + gap, y + length]])
+            ), ()
+        return np.array(
+            [[x, y, x + t, y + length], [x + t + gap, y, x + 2 * t + gap, y + length]]
+        ), ()
     if kind == "passage":
         gap = rng.uniform(passage, 2.0)
         half = length / 2
         if rng.uniform() < 0.5:
-            return np.array([[x, y, x + half, y + t], [x + half + gap, y, x + length + gap, y + t]])
-        return np.array([[x, y, x + t, y + half], [x, y + half + gap, x + t, y + length + gap]])
+            return np.array(
+                [[x, y, x + half, y + t], [x + half + gap, y, x + length + gap, y + t]]
+            ), ()
+        return np.array([[x, y, x + t, y + half], [x, y + half + gap, x + t, y + length + gap]]), ()
     side = rng.uniform(0.5, 2.0, size=2)
-    return np.array([[x, y, x + side[0], y + side[1]]])
+    return np.array([[x, y, x + side[0], y + side[1]]]), ()
 
 
-def _gap(a: FloatArray, b: FloatArray) -> float:
-    """Smallest distance [m] between the boxes of two groups."""
-    dx = np.maximum(np.maximum(a[:, None, 0] - b[None, :, 2], b[None, :, 0] - a[:, None, 2]), 0)
-    dy = np.maximum(np.maximum(a[:, None, 1] - b[None, :, 3], b[None, :, 1] - a[:, None, 3]), 0)
-    return float(np.hypot(dx, dy).min())
+def _shape(group: Group) -> shapely.Geometry:
+    boxes, polygons = group
+    parts = [shapely.box(*b) for b in boxes] + [shapely.Polygon(p) for p in polygons]
+    return shapely.union_all(parts)
 
 
 def generate_world(
@@ -222,9 +257,12 @@ def generate_world(
     n_groups: int | None = None,
     passage: float = 1.2,
     resolution: float = 0.5,
-    name: str = "rover-generated-v1",
+    name: str = "rover-generated-v2",
 ) -> WorldSpec:
-    """Draw a stress world: walls, L-shapes, corridors, narrow passages and random boxes.
+    """Draw a stress world: walls, L-shapes, corridors, narrow passages, random boxes, and
+    boxes and walls at any angle (polygons).
+
+    Version 2 of the generator (``v1`` had no tilted obstacles).
 
     Parameters
     ----------
@@ -245,17 +283,23 @@ def generate_world(
     gen = as_generator(rng)
     side = float(gen.uniform(20.0, 60.0)) if size is None else float(size)
     wanted = max(int(side * side / 40.0), 3) if n_groups is None else n_groups
-    kinds = ("wall", "l-shape", "corridor", "passage", "box", "box")
+    kinds = ("wall", "l-shape", "corridor", "passage", "box", "tilted")
     start = (1.0, 1.0, float(gen.uniform(-math.pi, math.pi)))
-    groups: list[FloatArray] = []
+    groups: list[Group] = []
+    shapes: list[shapely.Geometry] = []
+    area = shapely.box(passage, passage, side - passage, side - passage)
+    here = shapely.Point(start[0], start[1])
     for _ in range(wanted * 20):
         if len(groups) == wanted:
             break
         x, y = gen.uniform(passage, side - passage, size=2)
         group = _group(gen, str(gen.choice(kinds)), float(x), float(y), passage)
-        inside = (group[:, :2] >= passage).all() and (group[:, 2:] <= side - passage).all()
-        apart = all(_gap(group, other) >= passage for other in groups)
-        if inside and apart and box_distance(group, start[0], start[1]) >= passage + 0.5:
+        shape = _shape(group)
+        inside = area.contains(shape)
+        apart = all(shapely.distance(shape, other) >= passage for other in shapes)
+        if inside and apart and shapely.distance(shape, here) >= passage + 0.5:
             groups.append(group)
-    boxes = np.vstack(groups) if groups else np.zeros((0, 4))
-    return WorldSpec(BoxWorld(name, side, side, boxes), resolution, start)
+            shapes.append(shape)
+    boxes = np.vstack([g[0] for g in groups] + [np.zeros((0, 4))])
+    polygons = tuple(p for g in groups for p in g[1])
+    return WorldSpec(BoxWorld(name, side, side, boxes, polygons), resolution, start)

@@ -1,7 +1,9 @@
-"""Bounded 2-D worlds with axis-aligned rectangular obstacles, under versioned names.
+"""Bounded 2-D worlds with box and polygon obstacles, under versioned names.
 
 A world is a rectangle ``[0, width] x [0, height]`` [m] (the mapped area; nothing stops a
-robot from leaving it) holding boxes ``(xmin, ymin, xmax, ymax)`` [m].
+robot from leaving it) holding boxes ``(xmin, ymin, xmax, ymax)`` [m] and polygons (any
+simple polygon, convex or not, as its vertices [m]). Boxes have a fast slab ray caster;
+polygons are cast against their edges. The ``world_*`` functions take both.
 
 Registered worlds (Post et al. 2016 §5):
 
@@ -12,14 +14,17 @@ Registered worlds (Post et al. 2016 §5):
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+import shapely
 
 from bayesmap._typing import BoolArray, FloatArray
+from bayesmap.geometry import cast_on_boxes, cast_on_segments
 from bayesmap.sim.scenarios import register, scenario
 
 __all__ = [
@@ -28,6 +33,9 @@ __all__ = [
     "box_world",
     "circle_hits",
     "occupancy_truth",
+    "world_distance",
+    "world_ray_cast",
+    "world_truth",
 ]
 
 
@@ -43,12 +51,31 @@ class BoxWorld:
         Size of the field [m]; its lower-left corner is the origin.
     boxes
         ``(k, 4)`` obstacles ``(xmin, ymin, xmax, ymax)`` [m].
+    polygons
+        Further obstacles, each a ``(v, 2)`` array of a simple polygon's vertices [m].
     """
 
     name: str
     width: float
     height: float
     boxes: FloatArray
+    polygons: tuple[FloatArray, ...] = ()
+
+    @functools.cached_property
+    def segments(self) -> FloatArray:
+        """``(n, 4)`` edges ``(x0, y0, x1, y1)`` [m] of all the polygons."""
+        edges = [np.hstack([p, np.roll(p, -1, axis=0)]) for p in self.polygons]
+        return np.vstack(edges) if edges else np.zeros((0, 4))
+
+    @functools.cached_property
+    def solid(self) -> shapely.Geometry:
+        """The polygons as one shapely geometry (empty without polygons)."""
+        return shapely.union_all([shapely.Polygon(p) for p in self.polygons])
+
+    @property
+    def n_obstacles(self) -> int:
+        """Boxes plus polygons."""
+        return int(self.boxes.shape[0]) + len(self.polygons)
 
 
 def _centred(cx: float, cy: float, sx: float, sy: float) -> tuple[float, float, float, float]:
@@ -118,4 +145,48 @@ def occupancy_truth(
         cols = (x0 < xmax) & (x0 + resolution > xmin)
         rows = (y0 < ymax) & (y0 + resolution > ymin)
         truth |= rows[:, None] & cols[None, :]
+    return truth
+
+
+def world_ray_cast(world: BoxWorld, origins: npt.ArrayLike, angles: npt.ArrayLike) -> FloatArray:
+    """Distance [m] along each ray to the first box or polygon edge (``inf`` if none)."""
+    d = cast_on_boxes(world.boxes, origins, angles)
+    if world.polygons:
+        a = np.asarray(angles, dtype=np.float64).reshape(-1)
+        directions = np.column_stack([np.cos(a), np.sin(a)])
+        on_edges, _ = cast_on_segments(
+            np.asarray(origins, dtype=np.float64).reshape(-1, 2), directions, world.segments
+        )
+        d = np.minimum(d, on_edges)
+    return d
+
+
+def world_distance(world: BoxWorld, x: float, y: float) -> float:
+    """Distance [m] from ``(x, y)`` to the nearest obstacle (0 inside one, ``inf`` with none)."""
+    d = box_distance(world.boxes, x, y)
+    if world.polygons:
+        d = min(d, float(shapely.distance(world.solid, shapely.Point(x, y))))
+    return d
+
+
+def world_truth(
+    world: BoxWorld, shape: tuple[int, int], resolution: float, origin: tuple[float, float]
+) -> BoolArray:
+    """``(ny, nx)`` cells that overlap a box or a polygon by a positive area."""
+    truth = occupancy_truth(world.boxes, shape, resolution, origin)
+    for polygon in world.polygons:
+        xmin, ymin = polygon.min(axis=0)
+        xmax, ymax = polygon.max(axis=0)
+        c0 = max(int(math.floor((xmin - origin[0]) / resolution)), 0)
+        r0 = max(int(math.floor((ymin - origin[1]) / resolution)), 0)
+        c1 = min(int(math.ceil((xmax - origin[0]) / resolution)), shape[1])
+        r1 = min(int(math.ceil((ymax - origin[1]) / resolution)), shape[0])
+        if c1 <= c0 or r1 <= r0:
+            continue
+        rows, cols = np.mgrid[r0:r1, c0:c1]
+        x0 = origin[0] + cols * resolution
+        y0 = origin[1] + rows * resolution
+        cells = shapely.box(x0, y0, x0 + resolution, y0 + resolution)
+        area = shapely.area(shapely.intersection(cells, shapely.Polygon(polygon)))
+        truth[r0:r1, c0:c1] |= area > 1e-9 * resolution**2
     return truth

@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
-from matplotlib.patches import Rectangle
+from matplotlib.patches import Polygon, Rectangle
 
 _DPI = 90
 
@@ -26,9 +26,25 @@ def _png(fig: Figure) -> bytes:
 
 
 def _draw_extras(
-    ax: Axes, path: npt.ArrayLike | None, boxes: npt.ArrayLike | None, colour: str
+    ax: Axes,
+    path: npt.ArrayLike | None,
+    boxes: npt.ArrayLike | None,
+    colour: str,
+    polygons: Sequence[npt.ArrayLike] = (),
 ) -> None:
     """Obstacle outlines, path and start, each labelled once for the legend."""
+    for k, polygon in enumerate(polygons):
+        ax.add_patch(
+            Polygon(
+                np.asarray(polygon, dtype=float),
+                closed=True,
+                fill=False,
+                edgecolor="red",
+                linewidth=1.2,
+                linestyle="--",
+                label="true obstacle" if k == 0 and boxes is None else None,
+            )
+        )
     if boxes is not None:
         for k, (xmin, ymin, xmax, ymax) in enumerate(np.asarray(boxes, dtype=float).reshape(-1, 4)):
             ax.add_patch(
@@ -70,6 +86,7 @@ def _layer_panel(
     path: npt.ArrayLike | None,
     boxes: npt.ArrayLike | None,
     path_colour: str,
+    polygons: Sequence[npt.ArrayLike] = (),
 ) -> None:
     """Draw one map layer in [0, 1] (row 0 at the bottom) with its colour bar and extras."""
     image = ax.imshow(
@@ -82,7 +99,7 @@ def _layer_panel(
         interpolation="nearest",
     )
     fig.colorbar(image, ax=ax, label=label, fraction=0.046, pad=0.04)
-    _draw_extras(ax, path, boxes, path_colour)
+    _draw_extras(ax, path, boxes, path_colour, polygons)
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
     ax.set_xlabel("x [m]")
@@ -111,8 +128,12 @@ def maps_pair_figure(
     title: str,
     path: npt.ArrayLike | None = None,
     boxes: npt.ArrayLike | None = None,
+    polygons: Sequence[npt.ArrayLike] = (),
 ) -> bytes:
-    """Probability and entropy maps side by side with the path, as in Figs. 11–14."""
+    """Probability and entropy maps side by side with the path, as in Figs. 11–14.
+
+    ``boxes`` ``(k, 4)`` and ``polygons`` (vertex arrays) are the true obstacles.
+    """
     fig = Figure(figsize=(10.5, 5.0), layout="constrained")
     axes = fig.subplots(1, 2)
     panels = [
@@ -130,6 +151,7 @@ def maps_pair_figure(
             path=path,
             boxes=boxes,
             path_colour=colour,
+            polygons=polygons,
         )
         ax.set_title(sub, fontsize=10)
         ax.set_ylabel("y [m]")
