@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import ConfigDict, Field
+from scipy.spatial import cKDTree
 
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap._rng import spawn
@@ -147,11 +148,8 @@ def _cell_centres(grid: OccupancyGrid) -> tuple[np.ndarray, np.ndarray]:
 def path_cells(grid: OccupancyGrid, path: np.ndarray, radius: float) -> np.ndarray:
     """``(ny, nx)``: cells whose centre is within ``radius`` [m] of a point of ``path``."""
     x, y = _cell_centres(grid)
-    hit = np.zeros(x.size, dtype=bool)
-    res = grid.resolution
-    for px, py in np.unique(np.round(path[:, :2] / (res / 2)) * (res / 2), axis=0):
-        hit |= (x - px) ** 2 + (y - py) ** 2 <= radius**2
-    return hit.reshape(grid.shape)
+    distance, _ = cKDTree(np.asarray(path)[:, :2]).query(np.column_stack([x, y]))
+    return np.asarray(distance <= radius).reshape(grid.shape)
 
 
 def truth_layers(

@@ -28,6 +28,7 @@ from bayesmap.sonar.verification import (
     certainty,
     equivalent,
     extend_segments,
+    head_on,
     reconcile,
 )
 
@@ -285,7 +286,7 @@ class SpecularFilter:
             flagged |= verdict.flag
         reasons = {int(k): _STAGE_REASONS[Stage(int(stage[k]))] for k in np.flatnonzero(stage)}
         if self.stages[Stage.TRAIT_VERIFICATION]:
-            self._clean_l(p, r, echo & ~flagged & (stage == Stage.ACCEPTED), centres, axis)
+            self._clean_l(p, r, echo, ~flagged & (stage == Stage.ACCEPTED), centres, axis)
             tv = self._trait_verification(
                 p, r, echo, centres, axis, flagged, stage == Stage.ACCEPTED
             )
@@ -360,6 +361,7 @@ class SpecularFilter:
             match_offset=self.match_offset,
             margin=self.margin,
             no_echo_spread=self.no_echo_spread,
+            critical_angle=self.critical_angle,
         )
         kept = candidate & (reason == TVReason.KEPT)
         rejected_traits = set(labels[candidate & ~kept & (labels >= 0)].tolist())
@@ -375,19 +377,30 @@ class SpecularFilter:
         self,
         pose: FloatArray,
         r: FloatArray,
+        echo: BoolArray,
         trusted: BoolArray,
         centres: FloatArray,
         axis: FloatArray,
     ) -> None:
-        """Trait hygiene: drop traits of ``L`` the robot stands on or echoes see through."""
+        """Trait hygiene: drop traits of ``L`` the robot stands on or readings see through.
+
+        A trusted reading (not flagged by the bottom-up stages) sees through a trait when its
+        echo lies more than ``margin`` beyond the trait on its axis, or, with no echo, when
+        its axis meets the trait head-on (within the critical angle of its normal) inside
+        the max range: a wall there would have echoed.
+        """
         if len(self.l_segments_) == 0:
             return
         keep = point_segment_distance(pose[:2], self.l_segments_)[0] > self.footprint
         if np.any(trusted):
             k = np.flatnonzero(trusted)
             crossings = axis_segment_hits(centres[k], axis[k], self.l_segments_)
-            through = np.any(crossings < (r[k] - self.margin)[:, None], axis=0)
-            self.l_passes_ = self.l_passes_ + through
+            reach = np.where(echo[k], r[k], self.geometry.max_range) - self.margin
+            seen = crossings < reach[:, None]
+            silent = ~echo[k]
+            if np.any(silent):
+                seen[silent] &= head_on(axis[k][silent], self.l_segments_, self.critical_angle)
+            self.l_passes_ = self.l_passes_ + np.any(seen, axis=0)
             keep &= self.l_passes_ < self.pass_limit
         self.l_segments_ = self.l_segments_[keep]
         self.l_seen_ = self.l_seen_[keep]
