@@ -6,11 +6,14 @@ and baseline), or takes the output folder of a finished ``bayesmap reproduce son
 and rewrites the section ``sonar_worlds`` of docs/sonar.md with the tables of summary.md.
 It also maps the example log of ``tests/sonar/data`` with ``bayesmap sonar map`` (default
 pipeline) into ``docs/sonar_cli_example.png``.
-Run from the repository root: ``python benchmarks/sonar_worlds.py [--from DIR]``.
+Run from the repository root: ``python benchmarks/sonar_worlds.py [--jobs N] [--from DIR]``
+(``--jobs``: worker processes for the world × seed runs; the numbers do not depend on it).
 """
 
 from __future__ import annotations
 
+import argparse
+import os
 import shutil
 import sys
 import tempfile
@@ -48,15 +51,28 @@ def cli_example() -> str:
 
 
 def main(argv: list[str]) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    parser.add_argument("--from", dest="source", type=Path, help="a finished run's folder")
+    args = parser.parse_args(argv)
     started = time.perf_counter()
-    if len(argv) >= 2 and argv[0] == "--from":
-        folder = Path(argv[1])
+    if args.source is not None:
+        folder = args.source
         note = "Taken from one finished `bayesmap reproduce sonar` run."
     else:
         folder = Path(tempfile.mkdtemp(prefix="sonar_worlds_"))
-        run(Config(), folder, progress=lambda what, done, total: print(what, flush=True))
+        run(
+            Config(jobs=args.jobs),
+            folder,
+            progress=lambda what, done, total: print(f"{what} ({done}/{total})", flush=True),
+        )
         minutes = (time.perf_counter() - started) / 60
-        note = f"Run by this script in {minutes:.0f} min on {machine()} (shared machine)."
+        load = " / ".join(f"{v:.1f}" for v in os.getloadavg())
+        note = (
+            f"Run by `python benchmarks/sonar_worlds.py --jobs {args.jobs}` in {minutes:.1f} min "
+            f"on {machine()}; load average at the end {load} (a shared machine: wall time "
+            "is inflated by other jobs)."
+        )
     summary = (folder / "summary.md").read_text(encoding="utf-8")
     body = summary.split("\n", 1)[1].replace("\n## ", "\n### ")
     figures = []

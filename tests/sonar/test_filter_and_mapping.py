@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -318,3 +319,14 @@ def test_silent_glancing_reading_through_a_known_wall_is_rejected() -> None:
     filt.l_passes_ = np.zeros(1, dtype=np.int64)
     verdict = filt.process([0.0, 0.0, 0.0], [6.0, 1.0, 1.0, 1.0])
     assert not verdict.accepted[0] and verdict.stage[0] == Stage.TRAIT_VERIFICATION
+
+
+def test_a_pipelines_free_probability_reaches_its_mapper() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+    cleared = {}
+    for p_free in (0.35, 0.45):
+        grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
+        mapper = replace(PIPELINES["elfes"], p_free=p_free).make_mapper(grid, geometry)
+        mapper.integrate([0.0, 0.0, 0.0], [3.0, 6.0])
+        cleared[p_free] = mapper.probability()[grid.world_to_cell(1.0, 0.0)]
+    assert cleared[0.35] == pytest.approx(0.35, abs=0.01) and cleared[0.45] > cleared[0.35]

@@ -340,9 +340,17 @@ class SpecularFilter:
             residual, r, sigma=self.geometry.sigma, half_width=self.geometry.beam_width / 2
         )
         l_view = self.l_segments_
-        if not self.enough_state and len(l_view):
-            near = point_segment_distance(pose[:2], l_view)[0] <= self.geometry.max_range
-            l_view = l_view[near]
+        if len(l_view):
+            distance = point_segment_distance(pose[:2], l_view)[0]
+            if self.enough_state:
+                # Only traits that some beam, echo point or trait of V can reach matter; the
+                # rest are left out of the (per-trait) tests, which gives the same verdicts.
+                spread = float(np.hypot(*(points - pose[:2]).T).max()) if len(points) else 0.0
+                limit = max(spread, self.geometry.max_range + self.geometry.reach)
+                limit += self.extension + self.match_offset + self.margin
+            else:
+                limit = self.geometry.max_range
+            l_view = l_view[distance <= limit]
         reason = reconcile(
             candidate=candidate,
             echo=echo,
@@ -391,16 +399,20 @@ class SpecularFilter:
         """
         if len(self.l_segments_) == 0:
             return
-        keep = point_segment_distance(pose[:2], self.l_segments_)[0] > self.footprint
-        if np.any(trusted):
+        distance = point_segment_distance(pose[:2], self.l_segments_)[0]
+        keep = distance > self.footprint
+        # Beams cross only traits within their range of the robot (plus the ring's size).
+        near = np.flatnonzero(distance <= self.geometry.max_range + self.geometry.reach)
+        if np.any(trusted) and len(near):
             k = np.flatnonzero(trusted)
-            crossings = axis_segment_hits(centres[k], axis[k], self.l_segments_)
+            segments = self.l_segments_[near]
+            crossings = axis_segment_hits(centres[k], axis[k], segments)
             reach = np.where(echo[k], r[k], self.geometry.max_range) - self.margin
             seen = crossings < reach[:, None]
             silent = ~echo[k]
             if np.any(silent):
-                seen[silent] &= head_on(axis[k][silent], self.l_segments_, self.critical_angle)
-            self.l_passes_ = self.l_passes_ + np.any(seen, axis=0)
+                seen[silent] &= head_on(axis[k][silent], segments, self.critical_angle)
+            self.l_passes_[near] += np.any(seen, axis=0)
             keep &= self.l_passes_ < self.pass_limit
         self.l_segments_ = self.l_segments_[keep]
         self.l_seen_ = self.l_seen_[keep]

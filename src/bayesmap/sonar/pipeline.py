@@ -213,6 +213,8 @@ class Pipeline:
     clamp, decay, footprint
         Log-odds saturation, decay and footprint clearing radius [m] of the eq. 1 model
         (saturation and decay also of Thrun's).
+    p_free
+        Probability deep in the free part of an eq. 1 cone (its occupied peak stays 0.7).
     merge_repeats
         Count identical stationary rings once.
     filter_options
@@ -228,6 +230,7 @@ class Pipeline:
     clamp: float = 10.0
     decay: float = 0.0
     footprint: float = 0.0
+    p_free: float = 0.35
     merge_repeats: bool = False
     filter_options: tuple[tuple[str, float], ...] = ()
 
@@ -263,6 +266,7 @@ class Pipeline:
             clamp=self.clamp,
             decay=self.decay,
             footprint=self.footprint,
+            p_free=self.p_free,
         )
 
 

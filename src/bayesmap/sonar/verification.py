@@ -216,17 +216,23 @@ def reconcile(
     )
     supported = np.zeros(n, dtype=bool)
     supported[on_trait] = trait_supported[labels[on_trait]]
-    crossing = axis_crossings(centres, axis, l_segments)
-    quiet = ~echo
-    if np.any(quiet) and len(l_segments):
-        silent = np.zeros((int(quiet.sum()), len(l_segments)), dtype=bool)
-        if critical_angle is not None:
-            silent = head_on(axis[quiet], l_segments, critical_angle)
-        hits = axis_segment_hits(centres[quiet], axis[quiet], l_segments)
-        for side in (-no_echo_spread, no_echo_spread) if no_echo_spread > 0.0 else ():
-            edge = axis_segment_hits(centres[quiet], axis[quiet] + side, l_segments)
-            hits = np.minimum(hits, edge)
-        crossing[quiet] = np.where(silent, np.inf, hits).min(axis=1)
+    crossing = np.full(n, np.inf)
+    if len(l_segments):
+        quiet = np.flatnonzero(~echo)
+        spread = (-no_echo_spread, no_echo_spread) if no_echo_spread > 0.0 and len(quiet) else ()
+        # Every axis, then each spread ray of the no-echo readings, in one pass.
+        rays = np.concatenate([axis, *(axis[quiet] + side for side in spread)])
+        starts = np.concatenate([centres, *(centres[quiet] for _ in spread)])
+        hits = axis_segment_hits(starts, rays, l_segments)
+        quiet_hits = hits[quiet]
+        for j in range(len(spread)):
+            quiet_hits = np.minimum(quiet_hits, hits[n + j * len(quiet) : n + (j + 1) * len(quiet)])
+        if critical_angle is not None and len(quiet):
+            quiet_hits = np.where(
+                head_on(axis[quiet], l_segments, critical_angle), np.inf, quiet_hits
+            )
+        hits[quiet] = quiet_hits
+        crossing = hits[:n].min(axis=1)
     reach = np.where(echo, ranges, max_range)
     contradicted = crossing < reach - margin
     loose = echo & ~on_trait
