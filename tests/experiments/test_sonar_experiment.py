@@ -88,3 +88,4 @@ def test_default_pipeline_wins_on_a_building_nobody_tuned_on() -> None:
     assert kappa["default"] > kappa["paper"] + 0.1
     assert kappa["default"] > max(kappa["elfes-ignore-no-echo"], kappa["ros"])
     assert metrics["default"]["missed_wall_rate"] <= metrics["ros"]["missed_wall_rate"] + 0.05
+    assert metrics["default"]["path_occupied"] == 0  # people crossing the path leave no trace

@@ -278,6 +278,7 @@ PIPELINES: dict[str, Pipeline] = {
         no_echo="clear",
         clear_distance=1.0,
         footprint=0.2,
+        p_free=0.4,
         merge_repeats=True,
         filter_options=(("no_echo_spread", 0.2), ("certainty_threshold", 0.3)),
     ),
@@ -295,7 +296,8 @@ PIPELINES: dict[str, Pipeline] = {
 ``default``: all three stages with the settings learnt on simulated logs with known truth
 (``benchmarks/sonar_tuning.py``, docs/sonar.md): no-echo readings tested across their cone
 (±0.2 rad) against ``L``, certainty threshold 0.3; no-echo readings clear 1 m; the robot's
-footprint (0.2 m) cleared; identical stationary rings merged. ``paper``: all three stages
+footprint (0.2 m) cleared and kept free; free strength ``p_free`` 0.4; identical stationary
+rings merged. ``paper``: all three stages
 with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single
 stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
 ``ros``: unfiltered baselines (the ROS layer exactly as ``range_sensor_layer`` does it)."""
