@@ -13,6 +13,8 @@ Run from the repository root: ``python benchmarks/sonar_worlds.py [--jobs N] [--
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import os
 import shutil
 import sys
@@ -24,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks._report import machine, update_section  # noqa: E402
 
-from bayesmap.experiments.sonar import Config, run  # noqa: E402
+from bayesmap.experiments.sonar import BASELINES, Config, run  # noqa: E402
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 
@@ -48,6 +50,52 @@ def cli_example() -> str:
             raise SystemExit(result.output)
         shutil.copyfile(Path(folder) / "map.png", DOCS / "sonar_cli_example.png")
     return result.output.strip().splitlines()[-1].split("; wrote")[0]
+
+
+def _mean(values: list[float]) -> float:
+    finite = [v for v in values if math.isfinite(v)]
+    return sum(finite) / len(finite) if finite else float("nan")
+
+
+def targets_table(metrics: dict) -> str:
+    """The issue's targets per world for the default pipeline, each marked met or missed."""
+    by_world: dict[str, dict[str, dict[str, list[float]]]] = {}
+    for record in metrics["runs"]:
+        table = by_world.setdefault(record["world"], {})
+        for name, scores in record["pipelines"].items():
+            for key, value in scores.items():
+                table.setdefault(name, {}).setdefault(key, []).append(value)
+    default = metrics["default"]
+    lines = [
+        "| world | κ default | best baseline (κ) | κ margin (≥ +0.10) | missed wall − ROS (≤ 0) "
+        "| path cells occupied (0) | rej. precision / recall (≥ 0.85) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+
+    def mark(ok: bool) -> str:
+        return "**met**" if ok else "missed"
+
+    for name, table in by_world.items():
+        mean = {p: {k: _mean(v) for k, v in m.items()} for p, m in table.items()}
+        best = max((b for b in BASELINES if b in mean), key=lambda b: mean[b]["kappa"])
+        kappa = mean[default]["kappa"]
+        margin = kappa - mean[best]["kappa"]
+        missed = mean[default]["missed_wall_rate"] - mean["ros"]["missed_wall_rate"]
+        path = mean[default]["path_occupied"]
+        precision = mean[default]["rejection_precision"]
+        recall = mean[default]["rejection_recall"]
+        lines.append(
+            f"| {name} | {kappa:.3f} | {best} ({mean[best]['kappa']:.3f}) | {margin:+.3f} "
+            f"{mark(margin >= 0.1)} | {missed:+.3f} {mark(missed <= 0)} | {path:.1f} "
+            f"{mark(path == 0)} | {precision:.2f} / {recall:.2f} "
+            f"{mark(min(precision, recall) >= 0.85)} |"
+        )
+    runs = len(metrics["runs"]) // max(len(by_world), 1)
+    return (
+        f"### The issue's targets, world by world (default pipeline, {runs} runs each)\n\n"
+        + "\n".join(lines)
+        + "\n"
+    )
 
 
 def main(argv: list[str]) -> None:
@@ -74,6 +122,7 @@ def main(argv: list[str]) -> None:
             "is inflated by other jobs)."
         )
     summary = (folder / "summary.md").read_text(encoding="utf-8")
+    targets = targets_table(json.loads((folder / "metrics.json").read_text(encoding="utf-8")))
     body = summary.split("\n", 1)[1].replace("\n## ", "\n### ")
     figures = []
     for png in sorted(folder.glob("maps_*.png")):
@@ -88,6 +137,7 @@ def main(argv: list[str]) -> None:
             "",
             body.strip(),
             "",
+            targets,
             "### Maps",
             "",
             "Panels: truth (black = solid), then every pipeline on the same log; true walls in "
