@@ -68,7 +68,13 @@ n = int(sys.argv[2])
 started = time.perf_counter()
 build_map(log.poses[:n], log.ranges[:n], preset("pioneer16"), 0.1)
 mapped = time.perf_counter() - started
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+# VmHWM: the peak of this program's own memory. ru_maxrss would also count the parent's
+# pages at the moment it spawned us (Linux carries the high-water mark across exec).
+try:
+    status = open("/proc/self/status").read().split("VmHWM:")[1].split()
+    peak = float(status[0]) / 1024
+except (OSError, IndexError):
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 print(len(log.timestamps), read, mapped, peak)
 """
 

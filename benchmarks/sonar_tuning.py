@@ -18,6 +18,7 @@ Writes the section ``sonar_tuning`` of docs/sonar.md. Run from the repository ro
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from dataclasses import replace
@@ -67,12 +68,14 @@ MAP_GRID: dict[str, list[Any]] = {
     "clamp": [3.0, 10.0],
     "decay": [0.0, 0.1],
     "footprint": [0.0, 0.2],
+    "p_free": [0.35, 0.38, 0.4, 0.42, 0.45],
 }
 MAP_START: dict[str, Any] = {
     "no_echo": ("cone", 5.0),
     "clamp": 10.0,
     "decay": 0.0,
     "footprint": 0.0,
+    "p_free": 0.35,
 }
 
 
@@ -170,6 +173,7 @@ def _map_pipeline(base: Pipeline, options: dict[str, Any]) -> Pipeline:
         clamp=options["clamp"],
         decay=options["decay"],
         footprint=options["footprint"],
+        p_free=options["p_free"],
         merge_repeats=True,
     )
 
@@ -224,7 +228,8 @@ def main() -> None:
             score, per_world = _map_scores(
                 cases, geometry, _map_pipeline(base, trial), best_verdicts
             )
-            lines.append(f"- {key} = {value}: {score:.3f}")
+            worlds = ", ".join(f"{v:.3f}" for v in per_world.values())
+            lines.append(f"- {key} = {value}: {score:.3f} (κ per world: {worlds})")
             print(key, value, round(score, 3), flush=True)
             if score > map_score + 1e-4:
                 map_best, map_score, map_worlds = trial, score, per_world
@@ -249,7 +254,8 @@ def main() -> None:
     elapsed = time.perf_counter() - started
     lines += [
         "",
-        f"{len(cases)} tuning logs; {elapsed / 60:.1f} min on {machine()} (shared machine).",
+        f"{len(cases)} tuning logs; {elapsed / 60:.1f} min on {machine()}; load average at "
+        f"the end {' / '.join(f'{v:.1f}' for v in os.getloadavg())} (shared machine).",
     ]
     text = "\n".join(lines)
     print(text)

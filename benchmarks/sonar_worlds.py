@@ -6,11 +6,16 @@ and baseline), or takes the output folder of a finished ``bayesmap reproduce son
 and rewrites the section ``sonar_worlds`` of docs/sonar.md with the tables of summary.md.
 It also maps the example log of ``tests/sonar/data`` with ``bayesmap sonar map`` (default
 pipeline) into ``docs/sonar_cli_example.png``.
-Run from the repository root: ``python benchmarks/sonar_worlds.py [--from DIR]``.
+Run from the repository root: ``python benchmarks/sonar_worlds.py [--jobs N] [--from DIR]``
+(``--jobs``: worker processes for the world × seed runs; the numbers do not depend on it).
 """
 
 from __future__ import annotations
 
+import argparse
+import json
+import math
+import os
 import shutil
 import sys
 import tempfile
@@ -21,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks._report import machine, update_section  # noqa: E402
 
-from bayesmap.experiments.sonar import Config, run  # noqa: E402
+from bayesmap.experiments.sonar import BASELINES, Config, run  # noqa: E402
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 
@@ -47,17 +52,77 @@ def cli_example() -> str:
     return result.output.strip().splitlines()[-1].split("; wrote")[0]
 
 
+def _mean(values: list[float]) -> float:
+    finite = [v for v in values if math.isfinite(v)]
+    return sum(finite) / len(finite) if finite else float("nan")
+
+
+def targets_table(metrics: dict) -> str:
+    """The issue's targets per world for the default pipeline, each marked met or missed."""
+    by_world: dict[str, dict[str, dict[str, list[float]]]] = {}
+    for record in metrics["runs"]:
+        table = by_world.setdefault(record["world"], {})
+        for name, scores in record["pipelines"].items():
+            for key, value in scores.items():
+                table.setdefault(name, {}).setdefault(key, []).append(value)
+    default = metrics["default"]
+    lines = [
+        "| world | κ default | best baseline (κ) | κ margin (≥ +0.10) | missed wall − ROS (≤ 0) "
+        "| path cells occupied (0) | rej. precision / recall (≥ 0.85) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+
+    def mark(ok: bool) -> str:
+        return "**met**" if ok else "missed"
+
+    for name, table in by_world.items():
+        mean = {p: {k: _mean(v) for k, v in m.items()} for p, m in table.items()}
+        best = max((b for b in BASELINES if b in mean), key=lambda b: mean[b]["kappa"])
+        kappa = mean[default]["kappa"]
+        margin = kappa - mean[best]["kappa"]
+        missed = mean[default]["missed_wall_rate"] - mean["ros"]["missed_wall_rate"]
+        path = mean[default]["path_occupied"]
+        precision = mean[default]["rejection_precision"]
+        recall = mean[default]["rejection_recall"]
+        lines.append(
+            f"| {name} | {kappa:.3f} | {best} ({mean[best]['kappa']:.3f}) | {margin:+.3f} "
+            f"{mark(margin >= 0.1)} | {missed:+.3f} {mark(missed <= 0)} | {path:.1f} "
+            f"{mark(path == 0)} | {precision:.2f} / {recall:.2f} "
+            f"{mark(min(precision, recall) >= 0.85)} |"
+        )
+    runs = len(metrics["runs"]) // max(len(by_world), 1)
+    return (
+        f"### The issue's targets, world by world (default pipeline, {runs} runs each)\n\n"
+        + "\n".join(lines)
+        + "\n"
+    )
+
+
 def main(argv: list[str]) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    parser.add_argument("--from", dest="source", type=Path, help="a finished run's folder")
+    args = parser.parse_args(argv)
     started = time.perf_counter()
-    if len(argv) >= 2 and argv[0] == "--from":
-        folder = Path(argv[1])
+    if args.source is not None:
+        folder = args.source
         note = "Taken from one finished `bayesmap reproduce sonar` run."
     else:
         folder = Path(tempfile.mkdtemp(prefix="sonar_worlds_"))
-        run(Config(), folder, progress=lambda what, done, total: print(what, flush=True))
+        run(
+            Config(jobs=args.jobs),
+            folder,
+            progress=lambda what, done, total: print(f"{what} ({done}/{total})", flush=True),
+        )
         minutes = (time.perf_counter() - started) / 60
-        note = f"Run by this script in {minutes:.0f} min on {machine()} (shared machine)."
+        load = " / ".join(f"{v:.1f}" for v in os.getloadavg())
+        note = (
+            f"Run by `python benchmarks/sonar_worlds.py --jobs {args.jobs}` in {minutes:.1f} min "
+            f"on {machine()}; load average at the end {load} (a shared machine: wall time "
+            "is inflated by other jobs)."
+        )
     summary = (folder / "summary.md").read_text(encoding="utf-8")
+    targets = targets_table(json.loads((folder / "metrics.json").read_text(encoding="utf-8")))
     body = summary.split("\n", 1)[1].replace("\n## ", "\n### ")
     figures = []
     for png in sorted(folder.glob("maps_*.png")):
@@ -72,6 +137,7 @@ def main(argv: list[str]) -> None:
             "",
             body.strip(),
             "",
+            targets,
             "### Maps",
             "",
             "Panels: truth (black = solid), then every pipeline on the same log; true walls in "

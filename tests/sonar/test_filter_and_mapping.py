@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -229,6 +230,18 @@ def test_footprint_clearing_frees_the_robots_cells() -> None:
     assert mapper.probability()[grid.world_to_cell(1.0, 0.0)] < 0.5
 
 
+def test_cells_the_robot_stood_on_stay_free_when_a_person_passes_later() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+    grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
+    mapper = ElfesMapper(grid, geometry, footprint=0.2, no_echo="ignore")
+    mapper.integrate([1.0, 0.0, 0.0], [6.0, 6.0])  # the robot stands at x = 1
+    for _ in range(30):  # back at the start, it sees a person standing where it stood
+        mapper.integrate([0.0, 0.0, 0.0], [1.0, 6.0])
+    assert mapper.swept_[grid.world_to_cell(1.0, 0.0)]
+    assert mapper.probability()[grid.world_to_cell(1.0, 0.0)] < 0.5
+    assert mapper.probability()[grid.world_to_cell(1.4, 0.0)] == 0.5  # beyond: untouched
+
+
 def test_ros_layer_drops_readings_above_max_range_and_marks_at_it() -> None:
     geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
     grid = OccupancyGrid(12.0, 2.0, 0.1, origin=(-6.0, -1.0))
@@ -281,3 +294,39 @@ def test_traits_echoes_see_through_leave_l() -> None:
     for _ in range(3):  # echoes keep coming from a wall 3 m ahead, through the phantom
         filt.process([0.0, 0.0, 0.0], [3.0, 2.0, 2.0, 2.0])
     assert not np.any(np.all(np.isclose(filt.l_segments_, [1.0, -0.5, 1.0, 0.5]), axis=1))
+
+
+def test_silent_head_on_readings_remove_a_trait_and_are_not_rejected_by_it() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi / 2, math.pi, -math.pi / 2), max_range=5.0)
+    filt = SpecularFilter(geometry, acceptability=False, agreeability=False, pass_limit=3)
+    filt.path_ = 100.0  # enough state: case B
+    filt.l_segments_ = np.array([[1.0, -0.5, 1.0, 0.5]])  # a person who has walked on
+    filt.l_seen_ = np.full(1, 100.0)
+    filt.l_passes_ = np.zeros(1, dtype=np.int64)
+    verdict = filt.process([0.0, 0.0, 0.0], [6.0, 2.0, 2.0, 2.0])  # faces it head-on: silence
+    assert verdict.accepted[0]
+    for _ in range(2):
+        filt.process([0.0, 0.0, 0.0], [6.0, 2.0, 2.0, 2.0])
+    assert len(filt.l_segments_) == 0
+
+
+def test_silent_glancing_reading_through_a_known_wall_is_rejected() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi / 2, math.pi, -math.pi / 2), max_range=5.0)
+    filt = SpecularFilter(geometry, acceptability=False, agreeability=False)
+    filt.path_ = 100.0
+    filt.l_segments_ = np.array([[-1.0, -3.0, 4.0, 2.0]])  # a wall met at 45°: echo lost
+    filt.l_seen_ = np.full(1, 100.0)
+    filt.l_passes_ = np.zeros(1, dtype=np.int64)
+    verdict = filt.process([0.0, 0.0, 0.0], [6.0, 1.0, 1.0, 1.0])
+    assert not verdict.accepted[0] and verdict.stage[0] == Stage.TRAIT_VERIFICATION
+
+
+def test_a_pipelines_free_probability_reaches_its_mapper() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+    cleared = {}
+    for p_free in (0.35, 0.45):
+        grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
+        mapper = replace(PIPELINES["elfes"], p_free=p_free).make_mapper(grid, geometry)
+        mapper.integrate([0.0, 0.0, 0.0], [3.0, 6.0])
+        cleared[p_free] = mapper.probability()[grid.world_to_cell(1.0, 0.0)]
+    assert cleared[0.35] == pytest.approx(0.35, abs=0.01) and cleared[0.45] > cleared[0.35]

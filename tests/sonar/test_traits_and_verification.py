@@ -15,6 +15,7 @@ from bayesmap.sonar.verification import (
     certainty,
     equivalent,
     extend_segments,
+    head_on,
     reconcile,
 )
 
@@ -171,3 +172,14 @@ def test_short_traits_are_equivalent_to_nothing_far_away() -> None:
     # ... but one that only shares the line, not a stretch of it, does not.
     beyond = np.array([[2.5, 0.0, 4.0, 0.0]])
     assert not equivalent(beyond, wall, match_angle=0.2, match_offset=0.2).any()
+
+
+@pytest.mark.parametrize("tilt_deg", [0.0, 10.0, 14.0, 16.0, 40.0, 89.0])
+def test_head_on_is_incidence_within_the_critical_angle(tilt_deg: float) -> None:
+    # A wall along y at x = 2, rotated by tilt; the beam runs along x, so the incidence
+    # off the wall's normal is the tilt, whichever way the segment is drawn.
+    t = math.radians(tilt_deg)
+    wall = np.array([[2 - math.sin(t), math.cos(t), 2 + math.sin(t), -math.cos(t)]])
+    expected = tilt_deg <= 15.0
+    assert head_on(np.array([0.0]), wall, math.radians(15.0))[0, 0] == expected
+    assert head_on(np.array([math.pi]), wall[:, [2, 3, 0, 1]], math.radians(15.0))[0, 0] == expected

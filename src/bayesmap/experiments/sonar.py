@@ -15,13 +15,17 @@ the runs are driven in that world instead of the registered ones.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from pydantic import ConfigDict, Field
+from scipy.spatial import cKDTree
 
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap._rng import spawn
@@ -87,6 +91,11 @@ class Config(ExperimentConfig):
     realism: Realism = Field(default_factory=Realism)
     world: Path | None = Field(
         None, description="A world file driven in instead of the registered worlds."
+    )
+    jobs: int = Field(
+        1,
+        ge=1,
+        description="Worker processes for the (world, run) tasks; results do not depend on it.",
     )
 
 
@@ -154,11 +163,8 @@ def _cell_centres(grid: OccupancyGrid) -> tuple[np.ndarray, np.ndarray]:
 def path_cells(grid: OccupancyGrid, path: np.ndarray, radius: float) -> np.ndarray:
     """``(ny, nx)``: cells whose centre is within ``radius`` [m] of a point of ``path``."""
     x, y = _cell_centres(grid)
-    hit = np.zeros(x.size, dtype=bool)
-    res = grid.resolution
-    for px, py in np.unique(np.round(path[:, :2] / (res / 2)) * (res / 2), axis=0):
-        hit |= (x - px) ** 2 + (y - py) ** 2 <= radius**2
-    return hit.reshape(grid.shape)
+    distance, _ = cKDTree(np.asarray(path)[:, :2]).query(np.column_stack([x, y]))
+    return np.asarray(distance <= radius).reshape(grid.shape)
 
 
 def truth_layers(
@@ -283,6 +289,36 @@ def _targets(by_world: dict[str, dict[str, dict[str, list[float]]]]) -> dict[str
     return out
 
 
+class _Task(NamedTuple):
+    """What one (world, run) task sends back: its record, scores, maps and what to draw."""
+
+    record: dict[str, Any]
+    metrics: dict[str, dict[str, float]]
+    maps: dict[str, np.ndarray]
+    truth: np.ndarray
+    extent: tuple[float, float, float, float]
+    path: np.ndarray
+
+
+def _simulate_and_score(
+    task: tuple[Config, PolygonWorld, int, np.random.Generator, tuple[str, ...]],
+) -> _Task:
+    """Simulate one log of a world and score every pipeline on it (runs in a worker)."""
+    config, w, k, rng, names = task
+    world_name = w.name
+    log = simulate_log(w, make_ring(config), config.realism, rng=rng)
+    metrics, maps, grid, truth = score_world(config, w, log, names)
+    record = {
+        "world": world_name,
+        "run": k,
+        "rings": len(log.times),
+        "readings": int(log.ranges.size),
+        "specular_fraction": float(log.specular.mean()),
+        "pipelines": metrics,
+    }
+    return _Task(record, metrics, maps, truth, grid.extent, log.odometry[:, :2])
+
+
 def _run(
     config: Config,
     out_dir: Path,
@@ -296,44 +332,41 @@ def _run(
     names = tuple(n for n in PIPELINES if n in config.pipelines)
     jobs = [(w, k) for w in worlds for k in range(config.runs)]
     streams = spawn(config.seed, len(jobs))
-    ring = make_ring(config)
     records: list[dict[str, Any]] = []
     by_world: dict[str, dict[str, dict[str, list[float]]]] = {}
     figures: list[Path] = []
-    for index, ((w, k), rng) in enumerate(zip(jobs, streams, strict=True)):
-        world_name = w.name
-        hook(f"{world_name} run {k}", index, len(jobs))
-        log = simulate_log(w, ring, config.realism, rng=rng)
-        metrics, maps, grid, truth = score_world(config, w, log, names)
-        records.append(
-            {
-                "world": world_name,
-                "run": k,
-                "rings": len(log.times),
-                "readings": int(log.ranges.size),
-                "specular_fraction": float(log.specular.mean()),
-                "pipelines": metrics,
-            }
-        )
-        table = by_world.setdefault(world_name, {})
-        for name, scores in metrics.items():
-            for key, value in scores.items():
-                table.setdefault(name, {}).setdefault(key, []).append(value)
-        if k == 0:
-            panels = [("truth", truth.astype(float))] + [(n, maps[n]) for n in names]
-            path = out / f"maps_{world_name}.png"
-            write_bytes(
-                path,
-                maps_side_by_side(
-                    panels,
-                    grid.extent,
-                    walls=w.segments,
-                    path=log.odometry[:, :2],
-                    title=f"{world_name}: Pioneer {config.ring}-sonar ring, run 0",
-                    columns=5,
-                ),
-            )
-            figures.append(path)
+    tasks = [(config, w, k, rng, names) for (w, k), rng in zip(jobs, streams, strict=True)]
+    hook("simulating and mapping", 0, len(jobs))
+    with contextlib.ExitStack() as stack:
+        if config.jobs > 1:
+            pool = stack.enter_context(ProcessPoolExecutor(min(config.jobs, len(tasks))))
+            outcomes: Iterator[_Task] = pool.map(_simulate_and_score, tasks)
+        else:
+            outcomes = map(_simulate_and_score, tasks)
+        for index, task in enumerate(outcomes):
+            w, k = jobs[index]
+            world_name = w.name
+            hook(f"{world_name} run {k}", index + 1, len(jobs))
+            records.append(task.record)
+            table = by_world.setdefault(world_name, {})
+            for name, scores in task.metrics.items():
+                for key, value in scores.items():
+                    table.setdefault(name, {}).setdefault(key, []).append(value)
+            if k == 0:
+                panels = [("truth", task.truth.astype(float))] + [(n, task.maps[n]) for n in names]
+                path = out / f"maps_{world_name}.png"
+                write_bytes(
+                    path,
+                    maps_side_by_side(
+                        panels,
+                        task.extent,
+                        walls=w.segments,
+                        path=task.path,
+                        title=f"{world_name}: Pioneer {config.ring}-sonar ring, run 0",
+                        columns=5,
+                    ),
+                )
+                figures.append(path)
     hook("writing results", len(jobs), len(jobs))
     overall: dict[str, dict[str, list[float]]] = {}
     for table in by_world.values():

@@ -149,23 +149,23 @@ def acceptability(
     """
     threshold = reading_likelihood(k * sigma, sigma)
 
-    def refuted(neighbour: IntArray) -> BoolArray:
-        idx = np.where(neighbour >= 0, neighbour, 0)
-        lower, upper = neighbour_bounds(
-            ranges,
-            centres,
-            axis,
-            centres[idx],
-            axis[idx],
-            half_width=half_width,
-            critical_angle=critical_angle,
-            tilts=tilts,
-        )
-        value = ranges[idx]
-        gap = np.maximum(np.maximum(lower - value, value - upper), 0.0)
-        return np.asarray(reading_likelihood(gap, sigma) < threshold) & echo
-
-    return _combine(refuted(left), refuted(right), left, right)
+    n = len(ranges)
+    # Both neighbours in one pass: the left ones, then the right ones.
+    idx = np.where(np.concatenate([left, right]) >= 0, np.concatenate([left, right]), 0)
+    lower, upper = neighbour_bounds(
+        np.tile(ranges, 2),
+        np.tile(centres, (2, 1)),
+        np.tile(axis, 2),
+        centres[idx],
+        axis[idx],
+        half_width=half_width,
+        critical_angle=critical_angle,
+        tilts=tilts,
+    )
+    value = ranges[idx]
+    gap = np.maximum(np.maximum(lower - value, value - upper), 0.0)
+    refuted = (reading_likelihood(gap, sigma) < threshold) & np.tile(echo, 2)
+    return _combine(refuted[:n], refuted[n:], left, right)
 
 
 def agreeability(echo: BoolArray, left: IntArray, right: IntArray) -> Verdict:

@@ -28,6 +28,7 @@ from bayesmap.sonar.verification import (
     certainty,
     equivalent,
     extend_segments,
+    head_on,
     reconcile,
 )
 
@@ -285,7 +286,7 @@ class SpecularFilter:
             flagged |= verdict.flag
         reasons = {int(k): _STAGE_REASONS[Stage(int(stage[k]))] for k in np.flatnonzero(stage)}
         if self.stages[Stage.TRAIT_VERIFICATION]:
-            self._clean_l(p, r, echo & ~flagged & (stage == Stage.ACCEPTED), centres, axis)
+            self._clean_l(p, r, echo, ~flagged & (stage == Stage.ACCEPTED), centres, axis)
             tv = self._trait_verification(
                 p, r, echo, centres, axis, flagged, stage == Stage.ACCEPTED
             )
@@ -339,9 +340,17 @@ class SpecularFilter:
             residual, r, sigma=self.geometry.sigma, half_width=self.geometry.beam_width / 2
         )
         l_view = self.l_segments_
-        if not self.enough_state and len(l_view):
-            near = point_segment_distance(pose[:2], l_view)[0] <= self.geometry.max_range
-            l_view = l_view[near]
+        if len(l_view):
+            distance = point_segment_distance(pose[:2], l_view)[0]
+            if self.enough_state:
+                # Only traits that some beam, echo point or trait of V can reach matter; the
+                # rest are left out of the (per-trait) tests, which gives the same verdicts.
+                spread = float(np.hypot(*(points - pose[:2]).T).max()) if len(points) else 0.0
+                limit = max(spread, self.geometry.max_range + self.geometry.reach)
+                limit += self.extension + self.match_offset + self.margin
+            else:
+                limit = self.geometry.max_range
+            l_view = l_view[distance <= limit]
         reason = reconcile(
             candidate=candidate,
             echo=echo,
@@ -360,6 +369,7 @@ class SpecularFilter:
             match_offset=self.match_offset,
             margin=self.margin,
             no_echo_spread=self.no_echo_spread,
+            critical_angle=self.critical_angle,
         )
         kept = candidate & (reason == TVReason.KEPT)
         rejected_traits = set(labels[candidate & ~kept & (labels >= 0)].tolist())
@@ -375,19 +385,34 @@ class SpecularFilter:
         self,
         pose: FloatArray,
         r: FloatArray,
+        echo: BoolArray,
         trusted: BoolArray,
         centres: FloatArray,
         axis: FloatArray,
     ) -> None:
-        """Trait hygiene: drop traits of ``L`` the robot stands on or echoes see through."""
+        """Trait hygiene: drop traits of ``L`` the robot stands on or readings see through.
+
+        A trusted reading (not flagged by the bottom-up stages) sees through a trait when its
+        echo lies more than ``margin`` beyond the trait on its axis, or, with no echo, when
+        its axis meets the trait head-on (within the critical angle of its normal) inside
+        the max range: a wall there would have echoed.
+        """
         if len(self.l_segments_) == 0:
             return
-        keep = point_segment_distance(pose[:2], self.l_segments_)[0] > self.footprint
-        if np.any(trusted):
+        distance = point_segment_distance(pose[:2], self.l_segments_)[0]
+        keep = distance > self.footprint
+        # Beams cross only traits within their range of the robot (plus the ring's size).
+        near = np.flatnonzero(distance <= self.geometry.max_range + self.geometry.reach)
+        if np.any(trusted) and len(near):
             k = np.flatnonzero(trusted)
-            crossings = axis_segment_hits(centres[k], axis[k], self.l_segments_)
-            through = np.any(crossings < (r[k] - self.margin)[:, None], axis=0)
-            self.l_passes_ = self.l_passes_ + through
+            segments = self.l_segments_[near]
+            crossings = axis_segment_hits(centres[k], axis[k], segments)
+            reach = np.where(echo[k], r[k], self.geometry.max_range) - self.margin
+            seen = crossings < reach[:, None]
+            silent = ~echo[k]
+            if np.any(silent):
+                seen[silent] &= head_on(axis[k][silent], segments, self.critical_angle)
+            self.l_passes_[near] += np.any(seen, axis=0)
             keep &= self.l_passes_ < self.pass_limit
         self.l_segments_ = self.l_segments_[keep]
         self.l_seen_ = self.l_seen_[keep]

@@ -204,7 +204,11 @@ def _parse(
         progress(total, total)
     values = np.vstack(blocks) if blocks else np.zeros((0, columns))
     lines = np.concatenate(line_blocks) if line_blocks else np.zeros(0, dtype=np.int64)
+    blocks.clear()  # the blocks are copied: free them before anything else is allocated
+    line_blocks.clear()
     keep = _in_order(values[:, 0])
+    if keep.all():
+        return _Table(lines, values, rows)
     for index in np.flatnonzero(~keep):
         kept_before = np.flatnonzero(keep[:index])
         after = f" (line {int(lines[kept_before[-1]])})" if len(kept_before) else ""

@@ -90,6 +90,7 @@ class _LogOddsMapper(_ConeMapper):
         prior = min(max(grid.prior, 1e-9), 1 - 1e-9)
         self.prior_log_odds = float(log_odds(prior))
         self.log_odds_: Grid = np.full(grid.shape, self.prior_log_odds)
+        self.swept_: np.ndarray = np.zeros(grid.shape, dtype=bool)
 
     def _add(self, cells: ConeCells, increment: FloatArray) -> None:
         index = (cells.rows, cells.cols)
@@ -101,10 +102,17 @@ class _LogOddsMapper(_ConeMapper):
                 old - self.prior_log_odds
             )
         np.add.at(self.log_odds_, index, increment)
-        self.log_odds_[index] = np.clip(self.log_odds_[index], -self.clamp, self.clamp)
+        updated = np.clip(self.log_odds_[index], -self.clamp, self.clamp)
+        # Where the robot's body has been, no static obstacle stands: an echo there later
+        # came from something passing by (a person), so swept cells stay free.
+        self.log_odds_[index] = np.where(self.swept_[index], -self.clamp, updated)
 
     def _clear_footprint(self, pose: npt.ArrayLike) -> None:
-        """The robot stands here: cells within ``footprint`` [m] of its centre are free."""
+        """The robot stands here: cells within ``footprint`` [m] of its centre are free.
+
+        They join ``swept_`` and stay free for good: the map is of the static world, and no
+        static obstacle can stand where the robot has stood.
+        """
         if self.footprint <= 0:
             return
         x, y = np.asarray(pose, dtype=np.float64)[:2]
@@ -120,6 +128,7 @@ class _LogOddsMapper(_ConeMapper):
             self.footprint**2
         )
         self.log_odds_[rows[inside], cols[inside]] = -self.clamp
+        self.swept_[rows[inside], cols[inside]] = True
 
     def probability(self) -> Grid:
         """``(ny, nx)`` occupancy probability of each cell."""
@@ -162,12 +171,15 @@ class ElfesMapper(_LogOddsMapper):
         before the ring's own evidence is added; 0 keeps everything.
     footprint
         Radius [m] round the robot's centre marked free at every ring (the robot is there),
-        as the ROS costmap's footprint clearing does; 0: off.
+        as the ROS costmap's footprint clearing does, and kept free afterwards (the cells
+        join ``swept_``: a later echo there is a passer-by); 0: off.
 
     Attributes
     ----------
     log_odds_
         ``(ny, nx)`` accumulated log-odds.
+    swept_
+        ``(ny, nx)`` cells within ``footprint`` of a pose the robot stood at.
     rings_
         Rings integrated so far.
     """

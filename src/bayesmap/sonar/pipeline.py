@@ -213,6 +213,8 @@ class Pipeline:
     clamp, decay, footprint
         Log-odds saturation, decay and footprint clearing radius [m] of the eq. 1 model
         (saturation and decay also of Thrun's).
+    p_free
+        Probability deep in the free part of an eq. 1 cone (its occupied peak stays 0.7).
     merge_repeats
         Count identical stationary rings once.
     filter_options
@@ -228,6 +230,7 @@ class Pipeline:
     clamp: float = 10.0
     decay: float = 0.0
     footprint: float = 0.0
+    p_free: float = 0.35
     merge_repeats: bool = False
     filter_options: tuple[tuple[str, float], ...] = ()
 
@@ -263,6 +266,7 @@ class Pipeline:
             clamp=self.clamp,
             decay=self.decay,
             footprint=self.footprint,
+            p_free=self.p_free,
         )
 
 
@@ -274,6 +278,7 @@ PIPELINES: dict[str, Pipeline] = {
         no_echo="clear",
         clear_distance=1.0,
         footprint=0.2,
+        p_free=0.4,
         merge_repeats=True,
         filter_options=(("no_echo_spread", 0.2), ("certainty_threshold", 0.3)),
     ),
@@ -291,7 +296,8 @@ PIPELINES: dict[str, Pipeline] = {
 ``default``: all three stages with the settings learnt on simulated logs with known truth
 (``benchmarks/sonar_tuning.py``, docs/sonar.md): no-echo readings tested across their cone
 (±0.2 rad) against ``L``, certainty threshold 0.3; no-echo readings clear 1 m; the robot's
-footprint (0.2 m) cleared; identical stationary rings merged. ``paper``: all three stages
+footprint (0.2 m) cleared and kept free; free strength ``p_free`` 0.4; identical stationary
+rings merged. ``paper``: all three stages
 with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single
 stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
 ``ros``: unfiltered baselines (the ROS layer exactly as ``range_sensor_layer`` does it)."""

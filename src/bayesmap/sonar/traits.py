@@ -16,6 +16,7 @@ line) and be at least ``min_length`` long; anything less is not a line.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -46,8 +47,15 @@ class Traits(NamedTuple):
 def fit_line(points: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Total-least-squares line through ``points`` ``(n, 2)``: its centroid and unit direction."""
     centroid = points.mean(axis=0)
-    _, _, vt = np.linalg.svd(points - centroid, full_matrices=False)
-    return centroid, vt[0]
+    rel = points - centroid
+    sxx, syy, sxy = (
+        float(rel[:, 0] @ rel[:, 0]),
+        float(rel[:, 1] @ rel[:, 1]),
+        float(rel[:, 0] @ rel[:, 1]),
+    )
+    # The major axis of the 2x2 scatter matrix (its leading eigenvector), in closed form.
+    angle = 0.5 * math.atan2(2.0 * sxy, sxx - syy)
+    return centroid, np.array([math.cos(angle), math.sin(angle)])
 
 
 def _residuals(points: FloatArray, centroid: FloatArray, direction: FloatArray) -> FloatArray:

@@ -40,6 +40,7 @@ __all__ = [
     "axis_crossings",
     "axis_segment_hits",
     "certainty",
+    "head_on",
     "equivalent",
     "extend_segments",
     "reconcile",
@@ -144,6 +145,16 @@ def axis_segment_hits(centres: FloatArray, axis: FloatArray, segments: FloatArra
     return np.asarray(np.where(ok, t, np.inf))
 
 
+def head_on(axis: FloatArray, segments: FloatArray, critical_angle: float) -> BoolArray:
+    """``(n, m)``: beam axis ``axis[i]`` [rad] meets segment ``j`` within ``critical_angle``
+    [rad] of its normal, so a wall there would certainly echo (the axis ray itself returns)."""
+    e = segments[:, 2:] - segments[:, :2]
+    length = np.maximum(np.hypot(e[:, 0], e[:, 1]), 1e-12)
+    # |cos| of the angle between the axis and the wall's normal = |sin| of the angle to the wall.
+    cross = np.cos(axis)[:, None] * e[None, :, 1] - np.sin(axis)[:, None] * e[None, :, 0]
+    return np.asarray(np.abs(cross) / length[None, :] >= math.cos(critical_angle))
+
+
 def reconcile(
     *,
     candidate: BoolArray,
@@ -163,6 +174,7 @@ def reconcile(
     match_offset: float,
     margin: float,
     no_echo_spread: float = 0.0,
+    critical_angle: float | None = None,
 ) -> IntArray:
     """Reconcile the current readings' traits ``V`` with the local view ``L``.
 
@@ -185,6 +197,10 @@ def reconcile(
     no_echo_spread
         A no-echo reading is also tested along the rays ``±no_echo_spread`` [rad] off its
         axis: a known wall anywhere across its cone within range means its echo was lost.
+    critical_angle
+        If given [rad], a trait whose normal the axis of a no-echo reading meets within this
+        angle does not contradict it: a wall there would have echoed, so the silence speaks
+        against the trait (a person who walked on), not against the reading.
 
     Returns
     -------
@@ -200,12 +216,23 @@ def reconcile(
     )
     supported = np.zeros(n, dtype=bool)
     supported[on_trait] = trait_supported[labels[on_trait]]
-    crossing = axis_crossings(centres, axis, l_segments)
-    if no_echo_spread > 0.0 and np.any(~echo) and len(l_segments):
-        quiet = ~echo
-        for side in (-no_echo_spread, no_echo_spread):
-            edge = axis_crossings(centres[quiet], axis[quiet] + side, l_segments)
-            crossing[quiet] = np.minimum(crossing[quiet], edge)
+    crossing = np.full(n, np.inf)
+    if len(l_segments):
+        quiet = np.flatnonzero(~echo)
+        spread = (-no_echo_spread, no_echo_spread) if no_echo_spread > 0.0 and len(quiet) else ()
+        # Every axis, then each spread ray of the no-echo readings, in one pass.
+        rays = np.concatenate([axis, *(axis[quiet] + side for side in spread)])
+        starts = np.concatenate([centres, *(centres[quiet] for _ in spread)])
+        hits = axis_segment_hits(starts, rays, l_segments)
+        quiet_hits = hits[quiet]
+        for j in range(len(spread)):
+            quiet_hits = np.minimum(quiet_hits, hits[n + j * len(quiet) : n + (j + 1) * len(quiet)])
+        if critical_angle is not None and len(quiet):
+            quiet_hits = np.where(
+                head_on(axis[quiet], l_segments, critical_angle), np.inf, quiet_hits
+            )
+        hits[quiet] = quiet_hits
+        crossing = hits[:n].min(axis=1)
     reach = np.where(echo, ranges, max_range)
     contradicted = crossing < reach - margin
     loose = echo & ~on_trait
