@@ -36,7 +36,7 @@ from bayesmap.bn.fixed_point import (
     normalise,
     ratio,
 )
-from bayesmap.bn.plans import BATCH, Factor, Plan, symbol
+from bayesmap.bn.plans import BATCH, BatchOrder, Factor, Plan, QueryKind, symbol
 from bayesmap.bn.propositions import Proposition, parse
 from bayesmap.bn.soft import check_weights
 from bayesmap.errors import InputError
@@ -98,23 +98,20 @@ class Engine:
             self._tables.clear()
         return compiled
 
-    def plan(self, kind: str, targets: tuple[int, ...], evidence: frozenset[int]) -> Plan:
-        """The cached plan of a question (``kind``: "sum", "evidence", "mpe")."""
+    def plan(self, kind: QueryKind, targets: tuple[int, ...], evidence: frozenset[int]) -> Plan:
+        """The cached plan of a question of ``kind`` about ``targets`` (none for
+        :attr:`QueryKind.EVIDENCE`) given which variables are observed."""
         key = (kind, targets, evidence)
         plan = self._plans.get(key)
         if plan is None:
             compiled = self.compiled
             ev = tuple(sorted(evidence))
-            if kind == "sum":
+            if kind is QueryKind.MARGINAL:
                 self._compute_priors()
-                plan = plans.build(compiled, targets, ev, prior=self.prior)
-                plan.cache["ancestral"] = ancestral.is_exact(compiled, targets, evidence)
-            elif kind == "evidence":
-                plan = plans.build(compiled, (), ev, keep_all_components=True)
+                plan = plans.build(compiled, kind, targets, ev, prior=self.prior)
+                plan.cache.ancestral = ancestral.is_exact(compiled, targets, evidence)
             else:
-                plan = plans.build(
-                    compiled, targets, ev, prune_barren=False, keep_all_components=True
-                )
+                plan = plans.build(compiled, kind, targets, ev)
             self._plans[key] = plan
         return plan
 
@@ -125,7 +122,7 @@ class Engine:
         if cached is None:
             if var in compiled.sources:
                 raise AssertionError("data nodes have no evidence-independent prior")
-            plan = plans.build(compiled, (var,), (), prior=self.prior)
+            plan = plans.build(compiled, QueryKind.MARGINAL, (var,), (), prior=self.prior)
             table, _ = _single_program(plan, compiled)
             cached = self._priors[var] = np.asarray(table / table.sum())
         return cached
@@ -158,9 +155,9 @@ class Engine:
         that are each possible.
         """
         compiled = self.compiled
-        checkable = plan.cache.get("dropped")
+        checkable = plan.cache.checkable
         if checkable is None:
-            checkable = plan.cache["dropped"] = tuple(
+            checkable = plan.cache.checkable = tuple(
                 v
                 for v in plan.dropped
                 if not compiled.source_mask & (compiled.ancestor_masks[v] | 1 << v)
@@ -206,10 +203,10 @@ class Engine:
         if t in ev:
             self.probability_of_evidence(evidence)  # raises on impossible evidence
             return _one_hot(compiled.card[t], ev[t])
-        plan = self.plan("sum", (t,), frozenset(ev))
+        plan = self.plan(QueryKind.MARGINAL, (t,), frozenset(ev))
         if plan.dropped:
             self._check_dropped(plan, ev.__getitem__, lambda: _impossible(evidence))
-        order = plan.cache["ancestral"]
+        order = plan.cache.ancestral
         if order is not None:
             names = self._source_evidence(ev)
             return ancestral.marginal(compiled, t, ev, self._priors, names, order)
@@ -220,7 +217,7 @@ class Engine:
         compiled = self.compiled
         ev, ids, free = self._joint_query(targets, evidence)
         if free:
-            plan = self.plan("sum", free, frozenset(ev))
+            plan = self.plan(QueryKind.MARGINAL, free, frozenset(ev))
             if plan.dropped:
                 self._check_dropped(plan, ev.__getitem__, lambda: _impossible(evidence))
             table = _normalised(self._contract(plan, ev), evidence)
@@ -238,7 +235,7 @@ class Engine:
         if not free:
             self.probability_of_evidence(evidence)
             return {}
-        plan = self.plan("mpe", free, frozenset(ev))  # every variable, nothing pruned
+        plan = self.plan(QueryKind.WHOLE, free, frozenset(ev))  # every variable, nothing pruned
         if not self._two_pass_pays(plan, free):
             return {v: self.posterior(compiled.names[v], evidence) for v in free}
         ev_idx = [ev[v] for v in plan.evidence]
@@ -281,14 +278,14 @@ class Engine:
             ev_vars = [cols[j] for j in pattern]
             values = table[np.ix_(rows, pattern)]
             self._batch_contract(
-                self.plan("evidence", (), frozenset(ev_vars)), ev_vars, values, rows
+                self.plan(QueryKind.EVIDENCE, (), frozenset(ev_vars)), ev_vars, values, rows
             )
             for k, v in enumerate(ev_vars):
                 out[v][rows, values[:, k]] = 1.0
             free = tuple(v for v in range(len(compiled.names)) if v not in set(ev_vars))
             if not free:
                 continue
-            plan = self.plan("mpe", free, frozenset(ev_vars))
+            plan = self.plan(QueryKind.WHOLE, free, frozenset(ev_vars))
             if not self._two_pass_pays(plan, free):
                 names = [compiled.names[v] for v in ev_vars]
                 for v in free:
@@ -327,10 +324,10 @@ class Engine:
         used = [j for j in range(table.shape[1]) if np.any(table[:, j] >= 0)]
         observed = tuple(cols[j] for j in used)
         keep = tuple(dict.fromkeys((*targets, *observed)))
-        plan = self.plan("sum", keep, frozenset())
+        plan = self.plan(QueryKind.MARGINAL, keep, frozenset())
         size_class = 1 << max(n, _BATCH_CLASS).bit_length()
-        key = ("indicators", observed, targets, size_class)
-        entry = plan.cache.get(key)
+        key = (observed, targets, size_class)
+        entry = plan.cache.indicators.get(key)
         if entry is None:
             scopes = [f.free for f in plan.factors] + [(_CASE, v) for v in observed]
             constants: list[FloatArray | None] = [f.array for f in plan.factors]
@@ -340,7 +337,7 @@ class Engine:
             path, _, _ = plans.order_steps(compiled, scopes, (_CASE,), {_CASE: size_class})
             own = {f.var: k for k, f in enumerate(plan.factors) if f.var in targets}
             pairs = [(own[t], t) for t in targets]
-            entry = plan.cache[key] = marginals.TwoPass(
+            entry = plan.cache.indicators[key] = marginals.TwoPass(
                 scopes, constants, path, (_CASE,), sizes, pairs
             )
         indicators = []
@@ -371,7 +368,7 @@ class Engine:
         contraction per variable (decided once per pattern, by multiply-adds plus a fixed
         cost per call: the per-variable plans prune barren nodes and reuse priors, which on
         some networks — munin1 — beats three contractions of everything)."""
-        decision = plan.cache.get("two_pass_pays")
+        decision = plan.cache.two_pass_pays
         if decision is None:
             compiled = self.compiled
             ev = frozenset(plan.evidence)
@@ -379,27 +376,26 @@ class Engine:
             budget = 3 * forward + 3 * len(plan.factors) * _CALL_COST
             loop = 0
             for v in free:
-                single = self.plan("sum", (v,), ev)
+                single = self.plan(QueryKind.MARGINAL, (v,), ev)
                 loop += _CALL_COST * _CALLS_PER_QUESTION
-                if single.cache["ancestral"] is None and single.factors:
+                if single.cache.ancestral is None and single.factors:
                     scopes = [f.free for f in single.factors]
                     loop += plans.order(compiled, scopes, single.targets)[1]
                 if loop > budget:
                     break
-            decision = plan.cache["two_pass_pays"] = budget <= loop
-        return bool(decision)
+            decision = plan.cache.two_pass_pays = budget <= loop
+        return decision
 
     def _two_pass_order(
         self, plan: Plan, output: tuple[int, ...], cases: int = 1
     ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]], int]:
         """Scopes, contraction order and multiply-adds of a plan's two-pass contraction."""
-        key = ("two_pass_order", output, cases)
-        entry = plan.cache.get(key)
+        entry = plan.cache.two_pass_order.get((output, cases))
         if entry is None:
             batched = bool(output)
             scopes = [(_CASE, *f.free) if batched and f.observed else f.free for f in plan.factors]
             path, _, cost = plans.order_steps(self.compiled, scopes, output, {_CASE: cases})
-            entry = plan.cache[key] = (scopes, path, cost)
+            entry = plan.cache.two_pass_order[output, cases] = (scopes, path, cost)
         return entry
 
     def _two_pass(
@@ -407,8 +403,7 @@ class Engine:
     ) -> tuple[marginals.TwoPass, list[tuple[int, int]]]:
         """The compiled two-pass contraction of a plan and its wanted ``(factor, variable)``
         pairs (cached in the plan; a batch's per size class of ``cases``)."""
-        key = ("two_pass", output, cases)
-        entry = plan.cache.get(key)
+        entry = plan.cache.two_pass.get((output, cases))
         if entry is None:
             compiled = self.compiled
             scopes, path, _ = self._two_pass_order(plan, output, cases)
@@ -418,13 +413,13 @@ class Engine:
             wanted = [(own[v], v) for v in free]
             constants = [None if f.observed else f.array for f in plan.factors]
             program = marginals.TwoPass(scopes, constants, path, output, sizes, wanted)
-            entry = plan.cache[key] = (program, wanted)
+            entry = plan.cache.two_pass[output, cases] = (program, wanted)
         return entry
 
     def probability_of_evidence(self, evidence: Evidence) -> float:
         """``P(evidence)``, the normalising constant Σ of eq. 24 (1 for no evidence)."""
         ev = self._evidence_ids(evidence)
-        plan = self.plan("evidence", (), frozenset(ev))
+        plan = self.plan(QueryKind.EVIDENCE, (), frozenset(ev))
         value = float(self._contract(plan, ev, check=False))
         if value <= 0.0:
             raise InputError(_impossible(evidence))
@@ -444,9 +439,9 @@ class Engine:
             scale *= float(_slice(compiled, factor, ev_idx, names))
         if check and scale == 0.0:
             raise InputError(_impossible(compiled.evidence_names(ev)))
-        entry = plan.cache.get("single")
+        entry = plan.cache.single
         if entry is None:
-            entry = plan.cache["single"] = _single_program(plan, compiled)
+            entry = plan.cache.single = _single_program(plan, compiled)
         expression, observed = entry
         if not observed:
             result: FloatArray = expression
@@ -499,7 +494,7 @@ class Engine:
             if t in ev_vars:
                 col = ev_vars.index(t)
                 self._batch_contract(
-                    self.plan("evidence", (), frozenset(ev_vars)), ev_vars, values, rows
+                    self.plan(QueryKind.EVIDENCE, (), frozenset(ev_vars)), ev_vars, values, rows
                 )
                 out[rows] = np.eye(compiled.card[t])[values[:, col]]
                 continue
@@ -540,7 +535,7 @@ class Engine:
                 )
                 continue
             targets = (t, *(v for v in weights if v != t))
-            plan = self.plan("sum", targets, frozenset(ev_vars))
+            plan = self.plan(QueryKind.MARGINAL, targets, frozenset(ev_vars))
             joint = self._batch_contract(plan, ev_vars, values, rows)
             for axis, v in enumerate(targets, start=1):
                 if v in weights:
@@ -570,7 +565,7 @@ class Engine:
         node's table may change between calls).
         """
         compiled = self.compiled
-        plan = self.plan("sum", (t,), frozenset(ev_vars))
+        plan = self.plan(QueryKind.MARGINAL, (t,), frozenset(ev_vars))
         cards = [compiled.card[v] for v in ev_vars]
         combos = math.prod(cards)
         if compiled.sources or not ev_vars or combos >= 1 << 62:
@@ -631,7 +626,7 @@ class Engine:
         per_case = cost * n_new / (1 << max(n_new, _BATCH_CLASS).bit_length())
         if per_case <= _JOINT_ABOVE:
             return False
-        joint_plan = self.plan("sum", (*ev_vars, t), frozenset())
+        joint_plan = self.plan(QueryKind.MARGINAL, (*ev_vars, t), frozenset())
         _, joint_cost = plans.order(
             compiled, [f.free for f in joint_plan.factors], joint_plan.targets
         )
@@ -703,7 +698,7 @@ class Engine:
             w = weights[rows]
             observed = frozenset(ev_vars)
             if ev_vars:
-                plan = self.plan("evidence", (), observed)
+                plan = self.plan(QueryKind.EVIDENCE, (), observed)
                 p_case = self._batch_contract(plan, ev_vars, values, rows).reshape(-1)
                 log_likelihood += float(w @ np.log(p_case))
             where = {v: values[:, k] for k, v in enumerate(ev_vars)}
@@ -715,7 +710,7 @@ class Engine:
                 fixed = [m for m in family if m in observed]
                 if free:
                     joint = self._batch_contract(
-                        self.plan("sum", free, observed), ev_vars, values, rows
+                        self.plan(QueryKind.MARGINAL, free, observed), ev_vars, values, rows
                     )
                     totals = joint.reshape(len(rows), -1).sum(axis=1)
                     shape = (-1, *[1] * len(free))
@@ -743,7 +738,7 @@ class Engine:
 
             def first_bad() -> str:
                 ok = np.logical_and.reduce(
-                    [self.prior(v)[where[v]] > 0.0 for v in plan.cache["dropped"]]
+                    [self.prior(v)[where[v]] > 0.0 for v in plan.cache.checkable or ()]
                 )
                 i = int(np.flatnonzero(~ok)[0])
                 return f"batched evidence case {int(rows[i])}: " + _impossible(case_names(i))
@@ -757,7 +752,7 @@ class Engine:
             expression = _batch_expression(plan, compiled, n)
             result = expression(*[_slice_batch(compiled, f, cols, case_names) for f in observed])
         else:
-            single, _ = plan.cache.get("single") or _single_program(plan, compiled)
+            single, _ = plan.cache.single or _single_program(plan, compiled)
             result = np.broadcast_to(single, (n, *np.shape(single)))
         totals = scale * result.reshape(n, -1).sum(axis=1)
         bad = np.flatnonzero(totals <= 0.0)
@@ -778,14 +773,14 @@ class Engine:
         compiled = self.compiled
         ev = self._evidence_ids(evidence)
         free = tuple(v for v in range(len(compiled.names)) if v not in ev)
-        plan = self.plan("mpe", free, frozenset(ev))
+        plan = self.plan(QueryKind.WHOLE, free, frozenset(ev))
         ev_idx = [ev[v] for v in plan.evidence]
         names = self._source_evidence(ev)
         log_scale = sum(_log(_slice(compiled, f, ev_idx, names)) for f in plan.checks)
         operands = [_log(_slice(compiled, f, ev_idx, names)) for f in plan.factors]
-        path = plan.cache.get("path")
+        path = plan.cache.scalar_path
         if path is None:
-            path = plan.cache["path"] = elimination.find_path(
+            path = plan.cache.scalar_path = elimination.find_path(
                 [f.term for f in plan.factors], "", [np.shape(op) for op in operands]
             )
         best: FloatArray = np.zeros(())
@@ -813,14 +808,14 @@ class Engine:
         ev, query, fixed = self._map_query(variables, evidence)
         if not query:
             return fixed, 1.0 if self.probability_of_evidence(evidence) > 0 else 0.0
-        plan = self.plan("sum", query, frozenset(ev))
+        plan = self.plan(QueryKind.MARGINAL, query, frozenset(ev))
         ev_idx = [ev[v] for v in plan.evidence]
         names = self._source_evidence(ev)
         log_scale = sum(_log(_slice(compiled, f, ev_idx, names)) for f in plan.checks)
         sliced = [_slice(compiled, f, ev_idx, names) for f in plan.factors]
-        groups = plan.cache.get("mmap")
+        groups = plan.cache.groups
         if groups is None:
-            groups = plan.cache["mmap"] = _sum_groups(plan, set(query))
+            groups = plan.cache.groups = _sum_groups(plan, set(query))
         operands: list[FloatArray] = []
         terms: list[str] = []
         for members, boundary in groups:
@@ -914,7 +909,9 @@ class Engine:
             self.probability_of_evidence(evidence)
             answer = constant(q, np.ones(()))
         else:
-            joint = self._fixed_sum(self.plan("sum", free, frozenset(ev)), ev, evidence, q)
+            joint = self._fixed_sum(
+                self.plan(QueryKind.MARGINAL, free, frozenset(ev)), ev, evidence, q
+            )
             what = f"posterior of {list(targets)}"
             answer = normalise(q, joint, tuple(range(len(free))), what)
         raw = _embed(answer.raw.astype(np.float64), ids, free, ev, compiled.card).astype(np.int64)
@@ -940,7 +937,11 @@ class Engine:
         for rows, pattern in _patterns(table):
             ev_vars = [cols[j] for j in pattern]
             values = table[np.ix_(rows, pattern)]
-            plan = self.plan("sum", (t,), frozenset(ev_vars)) if t not in ev_vars else None
+            plan = (
+                self.plan(QueryKind.MARGINAL, (t,), frozenset(ev_vars))
+                if t not in ev_vars
+                else None
+            )
             if plan is None or not any(f.observed for f in plan.factors):
                 for i, row in zip(rows, values, strict=True):
                     case = {compiled.names[v]: int(s) for v, s in zip(ev_vars, row, strict=True)}
@@ -956,9 +957,9 @@ class Engine:
                 sliced = _slice_batch(compiled, f, cols_k, case_names)
                 operands.append(q.quantise(sliced, case_axis=f.observed))
                 terms.append(BATCH + f.term if f.observed else f.term)
-            path = plan.cache.get("fixed_batch_path")
+            path = plan.cache.fixed_batch_path
             if path is None:
-                path = plan.cache["fixed_batch_path"] = elimination.find_path(
+                path = plan.cache.fixed_batch_path = elimination.find_path(
                     terms, BATCH + plan.output, [o.raw.shape for o in operands]
                 )
             result, term, _ = elimination.run(path, operands, FixedAlgebra(q))
@@ -979,8 +980,12 @@ class Engine:
         ev = self._evidence_ids(evidence)
         free = tuple(v for v in range(len(compiled.names)) if v not in ev)
         algebra = FixedAlgebra(q, "max")
-        best, records = self._fixed_scalar(self.plan("mpe", free, frozenset(ev)), ev, algebra)
-        total, _ = self._fixed_scalar(self.plan("evidence", (), frozenset(ev)), ev, FixedAlgebra(q))
+        best, records = self._fixed_scalar(
+            self.plan(QueryKind.WHOLE, free, frozenset(ev)), ev, algebra
+        )
+        total, _ = self._fixed_scalar(
+            self.plan(QueryKind.EVIDENCE, (), frozenset(ev)), ev, FixedAlgebra(q)
+        )
         choice = elimination.traceback(records)
         assignment = {compiled.names[v]: compiled.states[v][choice[symbol(v)]] for v in free}
         return assignment, ratio(q, best, total, "MAP")
@@ -995,11 +1000,11 @@ class Engine:
         if not query:
             self.probability_of_evidence(evidence)
             return fixed, constant(q, np.ones(()))
-        plan = self.plan("sum", query, frozenset(ev))
+        plan = self.plan(QueryKind.MARGINAL, query, frozenset(ev))
         operands = self._fixed_operands(plan, ev, evidence, q)
-        groups = plan.cache.get("mmap")
+        groups = plan.cache.groups
         if groups is None:
-            groups = plan.cache["mmap"] = _sum_groups(plan, set(query))
+            groups = plan.cache.groups = _sum_groups(plan, set(query))
         sums = FixedAlgebra(q)
         parts: list[Fixed] = []
         terms: list[str] = []
@@ -1009,9 +1014,9 @@ class Engine:
                 terms.append(plan.factors[members[0]].term)
                 continue
             group = [operands[m] for m in members]
-            path = plan.cache.get(("fixed_mmap", k))
+            path = plan.cache.group_paths.get(k)
             if path is None:
-                path = plan.cache[("fixed_mmap", k)] = elimination.find_path(
+                path = plan.cache.group_paths[k] = elimination.find_path(
                     [plan.factors[m].term for m in members], boundary, [o.raw.shape for o in group]
                 )
             part, term, _ = elimination.run(path, group, sums)
@@ -1052,7 +1057,7 @@ class Engine:
             if inside is not None and not inside:
                 raise InputError(f"the condition {given} is false for the evidence")
             return constant(q, np.asarray(float(mask)))
-        joint = self._fixed_sum(self.plan("sum", free, frozenset(ev)), ev, evidence, q)
+        joint = self._fixed_sum(self.plan(QueryKind.MARGINAL, free, frozenset(ev)), ev, evidence, q)
         if inside is None:
             yes, no = mask, ~mask
         else:
@@ -1095,10 +1100,10 @@ class Engine:
 
         The generated C code (:mod:`bayesmap.bn.codegen`) replays this same order.
         """
-        path = plan.cache.get("fixed_path")
+        path = plan.cache.fixed_path
         if path is None:
             card = self.compiled.card
-            path = plan.cache["fixed_path"] = elimination.find_path(
+            path = plan.cache.fixed_path = elimination.find_path(
                 [f.term for f in plan.factors],
                 plan.output,
                 [tuple(card[v] for v in f.free) for f in plan.factors],
@@ -1112,10 +1117,9 @@ class Engine:
         ev_idx = [ev[v] for v in plan.evidence]
         names = self._source_evidence(ev)
         operands = [q.quantise(_slice(compiled, f, ev_idx, names)) for f in plan.factors]
-        key = ("fixed_scalar", algebra.reduce)
-        path = plan.cache.get(key)
+        path = plan.cache.scalar_path
         if path is None:
-            path = plan.cache[key] = elimination.find_path(
+            path = plan.cache.scalar_path = elimination.find_path(
                 [f.term for f in plan.factors], "", [op.raw.shape for op in operands]
             )
         value = Fixed(np.ones((), dtype=np.int64), np.zeros((), dtype=np.int64), np.zeros(()))
@@ -1190,7 +1194,7 @@ def _single_program(plan: Plan, compiled: Compiled) -> tuple[Any, list[Factor]]:
 
 def _batch_expression(plan: Plan, compiled: Compiled, n: int) -> Any:
     """The compiled contraction of a batch (case axis first), cached per size class."""
-    cache: dict[int, Any] = plan.cache.setdefault("batch", {})
+    cache = plan.cache.batch
     size_class = max(n, _BATCH_CLASS).bit_length()
     program = cache.get(size_class)
     if program is None:
@@ -1201,7 +1205,7 @@ def _batch_expression(plan: Plan, compiled: Compiled, n: int) -> Any:
     return program
 
 
-def _batch_order(plan: Plan, compiled: Compiled, n: int) -> tuple[Any, ...]:
+def _batch_order(plan: Plan, compiled: Compiled, n: int) -> BatchOrder:
     """Scopes, output, operand specs, order and cost of a batch contraction (cached).
 
     The order depends on the number of cases (a large case axis favours other orders), so
@@ -1209,7 +1213,7 @@ def _batch_order(plan: Plan, compiled: Compiled, n: int) -> tuple[Any, ...]:
     largest size of its class (the cost returned is for that size). Ordering for many cases
     keeps the case axis out of large intermediates, which also suits small batches.
     """
-    cache: dict[int, Any] = plan.cache.setdefault("batch_order", {})
+    cache = plan.cache.batch_order
     size_class = max(n, _BATCH_CLASS).bit_length()
     entry = cache.get(size_class)
     if entry is None:

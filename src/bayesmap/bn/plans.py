@@ -29,13 +29,18 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from enum import Enum
 from operator import itemgetter
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import opt_einsum
 
 from bayesmap._typing import FloatArray
 from bayesmap.bn.compiled import Compiled, bits
+
+if TYPE_CHECKING:
+    from bayesmap.bn.elimination import Path, SumProgram
+    from bayesmap.bn.marginals import TwoPass
 
 BATCH = opt_einsum.get_symbol(0)
 """The einsum index of the case axis of batched queries."""
@@ -86,6 +91,85 @@ class Factor:
         return bool(self.ev_pos) or self.array is None
 
 
+class QueryKind(Enum):
+    """Which factors a question's plan keeps (:func:`build`)."""
+
+    MARGINAL = "marginal"
+    """Sum over the non-targets: barren variables and target-free components dropped,
+    evidence-free ancestral sub-networks replaced by priors (posteriors, marginal MAP,
+    propositions)."""
+    EVIDENCE = "evidence"
+    """No targets, every component kept: the probability of the evidence (eq. 24's Σ)."""
+    WHOLE = "whole"
+    """Nothing pruned: MAP over all variables (eq. 13) and every posterior at once."""
+
+
+BatchOrder = tuple[
+    list[tuple[int, ...]], tuple[int, ...], list[Any], list[tuple[int, ...]], Any, int
+]
+"""A batch contraction: scopes, output, operand specs, SSA path, kept labels and cost."""
+
+
+@dataclass
+class PlanCache:
+    """What a plan's questions compute once and reuse (all empty until first asked).
+
+    Attributes
+    ----------
+    ancestral
+        For :attr:`QueryKind.MARGINAL` plans: the order of the paper's recursion (eq. 27)
+        where it is exact for this question, else ``None``.
+    checkable
+        The plan's dropped observed variables that have a cached prior to check.
+    single
+        The one-case sum-product program and its per-call factors (or a constant result).
+    batch
+        Batch sum-product programs, by size class of the number of cases.
+    batch_order
+        Batch contraction orders, by size class.
+    two_pass_pays
+        Whether one two-pass contraction beats one question per variable.
+    two_pass_order
+        Two-pass scopes, path and cost, by ``(output labels, cases)``.
+    two_pass
+        Compiled two-pass programs and their wanted ``(factor, variable)`` pairs, by
+        ``(output labels, cases)``.
+    indicators
+        Indicator-batch two-pass programs, by ``(observed, targets, size class)``.
+    scalar_path
+        Order of contracting every factor to a scalar (MAP's max-product, fixed-point P(e)).
+    groups
+        Marginal MAP's sum groups: factor indices and the query labels each group keeps.
+    group_paths
+        Fixed-point sum order of each marginal-MAP group, by group number.
+    fixed_path
+        Order of the one-case fixed-point sum-product (the generated C code replays it).
+    fixed_batch_path
+        Order of the batched fixed-point sum-product.
+    """
+
+    ancestral: list[int] | None = None
+    checkable: tuple[int, ...] | None = None
+    single: tuple[Any, list[Factor]] | None = None
+    batch: dict[int, SumProgram] = field(default_factory=dict)
+    batch_order: dict[int, BatchOrder] = field(default_factory=dict)
+    two_pass_pays: bool | None = None
+    two_pass_order: dict[
+        tuple[tuple[int, ...], int], tuple[list[tuple[int, ...]], list[tuple[int, ...]], int]
+    ] = field(default_factory=dict)
+    two_pass: dict[tuple[tuple[int, ...], int], tuple[TwoPass, list[tuple[int, int]]]] = field(
+        default_factory=dict
+    )
+    indicators: dict[tuple[tuple[int, ...], tuple[int, ...], int], TwoPass] = field(
+        default_factory=dict
+    )
+    scalar_path: Path | None = None
+    groups: list[tuple[list[int], str | None]] | None = None
+    group_paths: dict[int, Path] = field(default_factory=dict)
+    fixed_path: Path | None = None
+    fixed_batch_path: Path | None = None
+
+
 @dataclass
 class Plan:
     """Pruned, sliced factors of one question for one pattern of observed variables.
@@ -112,7 +196,7 @@ class Plan:
     factors: list[Factor]
     checks: list[Factor]
     dropped: tuple[int, ...] = ()
-    cache: dict[Any, Any] = field(default_factory=dict)
+    cache: PlanCache = field(default_factory=PlanCache)
 
     @property
     def output(self) -> str:
@@ -122,11 +206,10 @@ class Plan:
 
 def build(
     compiled: Compiled,
+    kind: QueryKind,
     targets: Sequence[int],
     evidence: Sequence[int],
     *,
-    prune_barren: bool = True,
-    keep_all_components: bool = False,
     prior: Callable[[int], FloatArray] | None = None,
 ) -> Plan:
     """Build the plan of a question about ``targets`` given evidence on ``evidence``.
@@ -135,21 +218,23 @@ def build(
     ----------
     compiled
         The network.
+    kind
+        Which factors the question needs: :attr:`QueryKind.MARGINAL` drops the variables
+        that are neither targets, evidence nor their ancestors and the components without
+        a target; :attr:`QueryKind.EVIDENCE` and :attr:`QueryKind.WHOLE` keep every
+        component (the probability of the evidence), and ``WHOLE`` every variable (MAP
+        over all variables).
     targets
         Free variables the answer is over (none: probability of the evidence).
     evidence
         Observed variables (ids), disjoint from ``targets``.
-    prune_barren
-        Drop variables that are neither targets, evidence nor their ancestors (valid for
-        sum-product; MAP over all variables keeps them).
-    keep_all_components
-        Keep components without targets (needed for the probability of the evidence and
-        for MAP over all variables).
     prior
         Gives the (cached) prior marginal of a variable; with it, every evidence-free
         ancestral sub-network that meets the rest only through one variable ``Y`` is
         replaced by ``P(Y)`` (see :func:`clean_roots`).
     """
+    prune_barren = kind is not QueryKind.WHOLE
+    keep_all_components = kind is not QueryKind.MARGINAL
     ev = tuple(evidence)
     ev_mask = t_mask = 0
     for v in ev:
