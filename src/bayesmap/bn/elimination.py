@@ -21,6 +21,7 @@ import numpy as np
 import opt_einsum
 
 from bayesmap._typing import FloatArray, IntArray
+from bayesmap.bn.tuning import TUNING, Tuning
 from bayesmap.errors import ModelError
 
 T = TypeVar("T")
@@ -63,17 +64,19 @@ class Path:
 
 MAX_STEP_ENTRIES = 1 << 27
 """Largest table (entries) one step of :func:`run` may build: 1 GiB of float64."""
-_SEARCH_ABOVE = 1e8
-"""Greedy orders costing more multiply-adds than this are improved by a random-greedy search."""
-_SEARCH_REPEATS = 16
-"""Trials of that search (each seeded by its number, so the order is reproducible)."""
 
 
-def find_path(terms: Sequence[str], output: str, shapes: Sequence[Sequence[int]]) -> Path:
+def find_path(
+    terms: Sequence[str],
+    output: str,
+    shapes: Sequence[Sequence[int]],
+    *,
+    tuning: Tuning = TUNING,
+) -> Path:
     """Ask opt_einsum for a contraction order of ``terms -> output``.
 
     opt_einsum's greedy order comes first (milliseconds even on a thousand factors); only
-    where it would cost over ``_SEARCH_ABOVE`` multiply-adds is a reproducible random-greedy
+    where it would cost over ``tuning.search_above`` multiply-adds is a reproducible random-greedy
     search run too, and the cheaper order kept.
 
     Raises
@@ -86,8 +89,8 @@ def find_path(terms: Sequence[str], output: str, shapes: Sequence[Sequence[int]]
         return Path((), output, ())
     equation = ",".join(terms) + "->" + output
     steps, info = opt_einsum.contract_path(equation, *shapes, shapes=True, optimize="greedy")
-    if float(info.opt_cost) > _SEARCH_ABOVE:
-        search = opt_einsum.RandomGreedy(max_repeats=_SEARCH_REPEATS)
+    if float(info.opt_cost) > tuning.search_above:
+        search = opt_einsum.RandomGreedy(max_repeats=tuning.search_repeats)
         better, better_info = opt_einsum.contract_path(
             equation, *shapes, shapes=True, optimize=search
         )
@@ -204,13 +207,8 @@ def _align(algebra: Algebra[T], value: T, term: str, order: str, sizes: dict[str
     return algebra.rearrange(value, axes, shape)
 
 
-_SMALL = 1 << 12
-_PAIR = 1 << 16
 _MAX_OPERANDS = 24
-"""A step of three or more operands over more than ``_SMALL`` entries is split into pairwise
-contractions (``np.einsum`` loops naively over the union of all its operands' indices), and
-one of more than ``_MAX_OPERANDS`` into groups (``np.einsum`` takes at most 32 operands); a
-pairwise step over more than ``_PAIR`` entries goes to :func:`opt_einsum.contract` (BLAS)."""
+"""``np.einsum`` takes at most 32 operands: a step of more than this is contracted in groups."""
 
 
 class ConstantMemo:
@@ -266,6 +264,9 @@ class SumProgram:
         Results of evidence-independent steps, shared between programs over the same
         constant arrays: a new pattern whose plan repeats a step of an earlier one (or of
         a prior marginal's computation) reuses its result instead of contracting it again.
+    tuning
+        Where a step of many operands is split (``split_above``) and where a pairwise
+        step goes to BLAS (``blas_above``).
     """
 
     def __init__(
@@ -276,8 +277,11 @@ class SumProgram:
         path: Sequence[Sequence[int]],
         kept: Sequence[Sequence[Hashable]] | None = None,
         memo: ConstantMemo | None = None,
+        *,
+        tuning: Tuning = TUNING,
     ) -> None:
         self._memo = memo
+        self._tuning = tuning
         sizes: dict[Hashable, int] = {}
         # live operands: (constant value or None, register or -1, labels)
         live: list[tuple[Any, int, Sequence[Hashable]]] = []
@@ -305,7 +309,7 @@ class SumProgram:
                 live.append(self._emit(chosen, keep))
                 continue
             union = dict.fromkeys(label for _, _, scope in chosen for label in scope)
-            large = math.prod([sizes[label] for label in union]) > _SMALL
+            large = math.prod([sizes[label] for label in union]) > tuning.split_above
             if large or len(chosen) > _MAX_OPERANDS:
                 live.append(self._split(chosen, keep, large))
             else:
@@ -357,7 +361,7 @@ class SumProgram:
         large = False
         if len(chosen) == 2:
             sizes = self._sizes
-            large = math.prod([sizes[label] for label in index]) > _PAIR
+            large = math.prod([sizes[label] for label in index]) > self._tuning.blas_above
         if not fills:
             memo = self._memo
             if memo is None:

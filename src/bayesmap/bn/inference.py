@@ -39,6 +39,7 @@ from bayesmap.bn.fixed_point import (
 from bayesmap.bn.plans import BATCH, BatchOrder, Factor, Plan, QueryKind, symbol
 from bayesmap.bn.propositions import Proposition, parse
 from bayesmap.bn.soft import check_weights
+from bayesmap.bn.tuning import TUNING, Tuning
 from bayesmap.errors import InputError
 
 Evidence = Mapping[str, str | int]
@@ -49,23 +50,6 @@ BatchEvidence = npt.ArrayLike | Sequence[Evidence]
 
 _CASE = -1
 """Label of the case axis in batched contractions (variable ids are >= 0)."""
-_MAX_LOOKUP = 1 << 16
-_JOINT_ABOVE = 1 << 20
-_BATCH_CLASS = 256
-"""Batches up to ``2 * _BATCH_CLASS - 1`` cases share one contraction order."""
-"""Multiply-adds of a batch's per-case contraction above which the joint is considered."""
-"""Largest memo of batch answers (combinations of observed states × target states)."""
-_MANY_PATTERNS = 64
-"""Batches whose cases spread over more patterns of observed columns than this are answered
-by one contraction with evidence indicators rather than one per pattern."""
-_CALL_COST = 4000
-"""Fixed cost of one contraction call, in multiply-adds (a few µs of Python and numpy)."""
-_CALLS_PER_QUESTION = 8
-"""Calls of one single-variable question (evidence, slicing, contraction, normalising)."""
-_ONE_STEP = 1 << 10
-_ONE_STEP_OPERANDS = 16
-"""A one-case contraction over at most ``_ONE_STEP`` joint entries and ``_ONE_STEP_OPERANDS``
-factors is one ``np.einsum`` call (its fixed cost, a few µs, outweighs the arithmetic)."""
 
 
 class Engine:
@@ -75,10 +59,13 @@ class Engine:
     ----------
     net
         The network; its ``version`` counter invalidates every cache on change.
+    tuning
+        Where the engine switches between equally exact ways to answer.
     """
 
-    def __init__(self, net: NetworkLike) -> None:
+    def __init__(self, net: NetworkLike, tuning: Tuning = TUNING) -> None:
         self._net = net
+        self.tuning = tuning
         self._compiled: Compiled | None = None
         self._plans: dict[Any, Plan] = {}
         self._priors: dict[int, FloatArray] = {}
@@ -123,7 +110,7 @@ class Engine:
             if var in compiled.sources:
                 raise AssertionError("data nodes have no evidence-independent prior")
             plan = plans.build(compiled, QueryKind.MARGINAL, (var,), (), prior=self.prior)
-            table, _ = _single_program(plan, compiled)
+            table, _ = _single_program(plan, compiled, self.tuning)
             cached = self._priors[var] = np.asarray(table / table.sum())
         return cached
 
@@ -260,7 +247,7 @@ class Engine:
         variable, or of ``targets`` (observed: one-hot).
 
         Cases are grouped by their pattern of observed columns, one two-pass contraction
-        per pattern; when the cases spread over more than ``_MANY_PATTERNS`` patterns, all
+        per pattern; when the cases spread over more than ``tuning.many_patterns`` patterns, all
         are answered by one contraction with evidence indicators instead
         (:meth:`_indicator_batch`).
         """
@@ -271,7 +258,7 @@ class Engine:
             range(len(compiled.names)) if targets is None else [compiled.id(t) for t in targets]
         )
         groups = _patterns(table) if n else []
-        if len(groups) > _MANY_PATTERNS and not compiled.sources:
+        if len(groups) > self.tuning.many_patterns and not compiled.sources:
             return self._indicator_batch(tuple(dict.fromkeys(wanted)), table, cols)
         out = {v: np.zeros((n, compiled.card[v])) for v in range(len(compiled.names))}
         for rows, pattern in groups:
@@ -302,7 +289,7 @@ class Engine:
             operands = [
                 _slice_batch(compiled, f, cols_k, case_names) for f in plan.factors if f.observed
             ]
-            size_class = 1 << max(len(rows), _BATCH_CLASS).bit_length()
+            size_class = 1 << max(len(rows), self.tuning.batch_class).bit_length()
             program, pairs = self._two_pass(plan, free, (_CASE,), size_class)
             _, joints = program(operands)
             for (_, v), joint in zip(pairs, joints, strict=True):
@@ -325,7 +312,7 @@ class Engine:
         observed = tuple(cols[j] for j in used)
         keep = tuple(dict.fromkeys((*targets, *observed)))
         plan = self.plan(QueryKind.MARGINAL, keep, frozenset())
-        size_class = 1 << max(n, _BATCH_CLASS).bit_length()
+        size_class = 1 << max(n, self.tuning.batch_class).bit_length()
         key = (observed, targets, size_class)
         entry = plan.cache.indicators.get(key)
         if entry is None:
@@ -334,11 +321,13 @@ class Engine:
             constants += [None] * len(observed)
             sizes: dict[Any, int] = dict(enumerate(compiled.card))
             sizes[_CASE] = size_class
-            path, _, _ = plans.order_steps(compiled, scopes, (_CASE,), {_CASE: size_class})
+            path, _, _ = plans.order_steps(
+                compiled, scopes, (_CASE,), {_CASE: size_class}, tuning=self.tuning
+            )
             own = {f.var: k for k, f in enumerate(plan.factors) if f.var in targets}
             pairs = [(own[t], t) for t in targets]
             entry = plan.cache.indicators[key] = marginals.TwoPass(
-                scopes, constants, path, (_CASE,), sizes, pairs
+                scopes, constants, path, (_CASE,), sizes, pairs, tuning=self.tuning
             )
         indicators = []
         for j in used:
@@ -373,14 +362,15 @@ class Engine:
             compiled = self.compiled
             ev = frozenset(plan.evidence)
             _, _, forward = self._two_pass_order(plan, ())
-            budget = 3 * forward + 3 * len(plan.factors) * _CALL_COST
+            call_cost = self.tuning.call_cost
+            budget = 3 * forward + 3 * len(plan.factors) * call_cost
             loop = 0
             for v in free:
                 single = self.plan(QueryKind.MARGINAL, (v,), ev)
-                loop += _CALL_COST * _CALLS_PER_QUESTION
+                loop += call_cost * self.tuning.calls_per_question
                 if single.cache.ancestral is None and single.factors:
                     scopes = [f.free for f in single.factors]
-                    loop += plans.order(compiled, scopes, single.targets)[1]
+                    loop += plans.order(compiled, scopes, single.targets, tuning=self.tuning)[1]
                 if loop > budget:
                     break
             decision = plan.cache.two_pass_pays = budget <= loop
@@ -394,7 +384,9 @@ class Engine:
         if entry is None:
             batched = bool(output)
             scopes = [(_CASE, *f.free) if batched and f.observed else f.free for f in plan.factors]
-            path, _, cost = plans.order_steps(self.compiled, scopes, output, {_CASE: cases})
+            path, _, cost = plans.order_steps(
+                self.compiled, scopes, output, {_CASE: cases}, tuning=self.tuning
+            )
             entry = plan.cache.two_pass_order[output, cases] = (scopes, path, cost)
         return entry
 
@@ -412,7 +404,9 @@ class Engine:
             own = {f.var: k for k, f in enumerate(plan.factors)}
             wanted = [(own[v], v) for v in free]
             constants = [None if f.observed else f.array for f in plan.factors]
-            program = marginals.TwoPass(scopes, constants, path, output, sizes, wanted)
+            program = marginals.TwoPass(
+                scopes, constants, path, output, sizes, wanted, tuning=self.tuning
+            )
             entry = plan.cache.two_pass[output, cases] = (program, wanted)
         return entry
 
@@ -441,7 +435,7 @@ class Engine:
             raise InputError(_impossible(compiled.evidence_names(ev)))
         entry = plan.cache.single
         if entry is None:
-            entry = plan.cache.single = _single_program(plan, compiled)
+            entry = plan.cache.single = _single_program(plan, compiled, self.tuning)
         expression, observed = entry
         if not observed:
             result: FloatArray = expression
@@ -485,7 +479,7 @@ class Engine:
         if soft:
             return self._soft_batch(t, table, cols, soft)
         groups = _patterns(table)
-        if len(groups) > _MANY_PATTERNS and not compiled.sources:
+        if len(groups) > self.tuning.many_patterns and not compiled.sources:
             return self._indicator_batch((t,), table, cols)[t]
         out = np.empty((table.shape[0], compiled.card[t]))
         for rows, pattern in groups:
@@ -560,7 +554,7 @@ class Engine:
 
         Cases are deduplicated (a robot's observations repeat), and the answers of each
         combination of observed states are memoised per network version (up to
-        ``_MAX_LOOKUP`` entries per target and pattern), so a later batch contracts only
+        ``tuning.max_lookup`` entries per target and pattern), so a later batch contracts only
         the combinations it has not met before. Networks with data nodes skip both (a data
         node's table may change between calls).
         """
@@ -574,7 +568,7 @@ class Engine:
         codes = np.ravel_multi_index(tuple(values.T), cards)
         n_states = compiled.card[t]
         memo: FloatArray | None = None
-        if combos * n_states <= _MAX_LOOKUP:
+        if combos * n_states <= self.tuning.max_lookup:
             key = ("answers", t, tuple(ev_vars))
             memo = self._tables.get(key)
             if memo is None:
@@ -622,13 +616,13 @@ class Engine:
         compiled = self.compiled
         if not any(f.observed for f in plan.factors):
             return False
-        cost = _batch_order(plan, compiled, n_new)[-1]
-        per_case = cost * n_new / (1 << max(n_new, _BATCH_CLASS).bit_length())
-        if per_case <= _JOINT_ABOVE:
+        cost = _batch_order(plan, compiled, n_new, self.tuning)[-1]
+        per_case = cost * n_new / (1 << max(n_new, self.tuning.batch_class).bit_length())
+        if per_case <= self.tuning.joint_above:
             return False
         joint_plan = self.plan(QueryKind.MARGINAL, (*ev_vars, t), frozenset())
         _, joint_cost = plans.order(
-            compiled, [f.free for f in joint_plan.factors], joint_plan.targets
+            compiled, [f.free for f in joint_plan.factors], joint_plan.targets, tuning=self.tuning
         )
         if joint_cost >= per_case:
             return False
@@ -749,10 +743,10 @@ class Engine:
             scale *= _slice_batch(compiled, factor, cols, case_names)
         observed = [f for f in plan.factors if f.observed]
         if observed:
-            expression = _batch_expression(plan, compiled, n)
+            expression = _batch_expression(plan, compiled, n, self.tuning)
             result = expression(*[_slice_batch(compiled, f, cols, case_names) for f in observed])
         else:
-            single, _ = plan.cache.single or _single_program(plan, compiled)
+            single, _ = plan.cache.single or _single_program(plan, compiled, self.tuning)
             result = np.broadcast_to(single, (n, *np.shape(single)))
         totals = scale * result.reshape(n, -1).sum(axis=1)
         bad = np.flatnonzero(totals <= 0.0)
@@ -781,7 +775,10 @@ class Engine:
         path = plan.cache.scalar_path
         if path is None:
             path = plan.cache.scalar_path = elimination.find_path(
-                [f.term for f in plan.factors], "", [np.shape(op) for op in operands]
+                [f.term for f in plan.factors],
+                "",
+                [np.shape(op) for op in operands],
+                tuning=self.tuning,
             )
         best: FloatArray = np.zeros(())
         records: list[elimination.Record] = []
@@ -827,7 +824,9 @@ class Engine:
             equation = ",".join(plan.factors[k].term for k in members) + "->" + boundary
             operands.append(_log(opt_einsum.contract(equation, *part)))
             terms.append(boundary)
-        path = elimination.find_path(terms, "", [np.shape(op) for op in operands])
+        path = elimination.find_path(
+            terms, "", [np.shape(op) for op in operands], tuning=self.tuning
+        )
         best, _, records = elimination.run(path, operands, elimination.LogMax())
         if not (math.isfinite(log_scale) and math.isfinite(float(best))):
             raise InputError(_impossible(evidence))
@@ -960,7 +959,7 @@ class Engine:
             path = plan.cache.fixed_batch_path
             if path is None:
                 path = plan.cache.fixed_batch_path = elimination.find_path(
-                    terms, BATCH + plan.output, [o.raw.shape for o in operands]
+                    terms, BATCH + plan.output, [o.raw.shape for o in operands], tuning=self.tuning
                 )
             result, term, _ = elimination.run(path, operands, FixedAlgebra(q))
             if term != BATCH + plan.output:
@@ -1017,16 +1016,23 @@ class Engine:
             path = plan.cache.group_paths.get(k)
             if path is None:
                 path = plan.cache.group_paths[k] = elimination.find_path(
-                    [plan.factors[m].term for m in members], boundary, [o.raw.shape for o in group]
+                    [plan.factors[m].term for m in members],
+                    boundary,
+                    [o.raw.shape for o in group],
+                    tuning=self.tuning,
                 )
             part, term, _ = elimination.run(path, group, sums)
             parts.append(part)
             terms.append(term)
         shapes = [p.raw.shape for p in parts]
         best, _, records = elimination.run(
-            elimination.find_path(terms, "", shapes), parts, FixedAlgebra(q, "max")
+            elimination.find_path(terms, "", shapes, tuning=self.tuning),
+            parts,
+            FixedAlgebra(q, "max"),
         )
-        total, _, _ = elimination.run(elimination.find_path(terms, "", shapes), parts, sums)
+        total, _, _ = elimination.run(
+            elimination.find_path(terms, "", shapes, tuning=self.tuning), parts, sums
+        )
         choice = elimination.traceback(records)
         assignment = dict(fixed)
         for v in query:
@@ -1107,6 +1113,7 @@ class Engine:
                 [f.term for f in plan.factors],
                 plan.output,
                 [tuple(card[v] for v in f.free) for f in plan.factors],
+                tuning=self.tuning,
             )
         return path
 
@@ -1120,7 +1127,10 @@ class Engine:
         path = plan.cache.scalar_path
         if path is None:
             path = plan.cache.scalar_path = elimination.find_path(
-                [f.term for f in plan.factors], "", [op.raw.shape for op in operands]
+                [f.term for f in plan.factors],
+                "",
+                [op.raw.shape for op in operands],
+                tuning=self.tuning,
             )
         value = Fixed(np.ones((), dtype=np.int64), np.zeros((), dtype=np.int64), np.zeros(()))
         records: list[elimination.Record] = []
@@ -1167,7 +1177,7 @@ def _case_names(
     }
 
 
-def _single_program(plan: Plan, compiled: Compiled) -> tuple[Any, list[Factor]]:
+def _single_program(plan: Plan, compiled: Compiled, tuning: Tuning) -> tuple[Any, list[Factor]]:
     """The compiled contraction of one case, or the constant result if nothing is observed."""
     if not plan.factors:
         return np.ones(()), []
@@ -1178,34 +1188,35 @@ def _single_program(plan: Plan, compiled: Compiled) -> tuple[Any, list[Factor]]:
     ]
     card = compiled.card
     labels = dict.fromkeys(v for scope in scopes for v in scope)
-    if len(scopes) <= _ONE_STEP_OPERANDS and math.prod([card[v] for v in labels]) <= _ONE_STEP:
+    few = len(scopes) <= tuning.one_step_operands
+    if few and math.prod([card[v] for v in labels]) <= tuning.one_step:
         # small enough for one np.einsum call over all variables: no order to compute
         path: list[tuple[int, ...]] = [tuple(range(len(scopes)))]
         kept: list[tuple[int, ...]] | None = [plan.targets]
     else:
-        path, kept, _ = plans.order_steps(compiled, scopes, plan.targets)
+        path, kept, _ = plans.order_steps(compiled, scopes, plan.targets, tuning=tuning)
     program = elimination.SumProgram(
-        scopes, plan.targets, specs, path, kept, memo=compiled.constants
+        scopes, plan.targets, specs, path, kept, memo=compiled.constants, tuning=tuning
     )
     if not observed:
         return program(), []
     return program, observed
 
 
-def _batch_expression(plan: Plan, compiled: Compiled, n: int) -> Any:
+def _batch_expression(plan: Plan, compiled: Compiled, n: int, tuning: Tuning) -> Any:
     """The compiled contraction of a batch (case axis first), cached per size class."""
     cache = plan.cache.batch
-    size_class = max(n, _BATCH_CLASS).bit_length()
+    size_class = max(n, tuning.batch_class).bit_length()
     program = cache.get(size_class)
     if program is None:
-        scopes, output, specs, path, kept, _ = _batch_order(plan, compiled, n)
+        scopes, output, specs, path, kept, _ = _batch_order(plan, compiled, n, tuning)
         program = cache[size_class] = elimination.SumProgram(
-            scopes, output, specs, path, kept, memo=compiled.constants
+            scopes, output, specs, path, kept, memo=compiled.constants, tuning=tuning
         )
     return program
 
 
-def _batch_order(plan: Plan, compiled: Compiled, n: int) -> BatchOrder:
+def _batch_order(plan: Plan, compiled: Compiled, n: int, tuning: Tuning) -> BatchOrder:
     """Scopes, output, operand specs, order and cost of a batch contraction (cached).
 
     The order depends on the number of cases (a large case axis favours other orders), so
@@ -1214,7 +1225,7 @@ def _batch_order(plan: Plan, compiled: Compiled, n: int) -> BatchOrder:
     keeps the case axis out of large intermediates, which also suits small batches.
     """
     cache = plan.cache.batch_order
-    size_class = max(n, _BATCH_CLASS).bit_length()
+    size_class = max(n, tuning.batch_class).bit_length()
     entry = cache.get(size_class)
     if entry is None:
         n = 1 << size_class
@@ -1228,7 +1239,7 @@ def _batch_order(plan: Plan, compiled: Compiled, n: int) -> BatchOrder:
                 scopes.append(f.free)
                 specs.append(f.array)
         output = (_CASE, *plan.targets)
-        path, kept, cost = plans.order_steps(compiled, scopes, output, {_CASE: n})
+        path, kept, cost = plans.order_steps(compiled, scopes, output, {_CASE: n}, tuning=tuning)
         entry = cache[size_class] = (scopes, output, specs, path, kept, cost)
     return entry
 

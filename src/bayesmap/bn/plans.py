@@ -37,6 +37,7 @@ import opt_einsum
 
 from bayesmap._typing import FloatArray
 from bayesmap.bn.compiled import Compiled, bits
+from bayesmap.bn.tuning import TUNING, Tuning
 
 if TYPE_CHECKING:
     from bayesmap.bn.elimination import Path, SumProgram
@@ -370,12 +371,14 @@ def order(
     scopes: Sequence[Sequence[int]],
     output: Sequence[int],
     sizes: Mapping[int, int] | None = None,
+    *,
+    tuning: Tuning = TUNING,
 ) -> tuple[list[tuple[int, ...]], int]:
     """A contraction order (opt_einsum SSA path) for ``scopes`` -> ``output``, and its cost.
 
     See :func:`order_steps`, which also gives the labels each step keeps.
     """
-    path, _, total = order_steps(compiled, scopes, output, sizes)
+    path, _, total = order_steps(compiled, scopes, output, sizes, tuning=tuning)
     return path, total
 
 
@@ -384,6 +387,8 @@ def order_steps(
     scopes: Sequence[Sequence[int]],
     output: Sequence[int],
     sizes: Mapping[int, int] | None = None,
+    *,
+    tuning: Tuning = TUNING,
 ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int]:
     """A contraction order (opt_einsum SSA path), the labels each step keeps, and its cost.
 
@@ -391,7 +396,8 @@ def order_steps(
     variable, by rank, has the factors holding it multiplied and summed over it (a variable
     no other factor holds is summed at once); a last step multiplies what is left into
     ``output``. The cost is the number of multiply-adds (the sizes of the steps' index
-    unions). If that costs more than ``_LARGE`` multiply-adds (and ``_PER_FACTOR`` per factor),
+    unions). If that costs more than ``tuning.greedy_above`` multiply-adds (and
+    ``tuning.greedy_per_factor`` per factor),
     :func:`opt_einsum.paths.ssa_greedy_optimize` is run on these factors as well and the
     order with the fewer multiply-adds is kept (its kept labels are then ``None``: they are
     not computed here). ``sizes`` gives the size of labels that are not variables (the case
@@ -452,7 +458,7 @@ def order_steps(
         kept_steps.append(tuple(output))
         labels = {w for k in rest for w in live[k]}
         total += math.prod([card[w] if w >= 0 else extra[w] for w in labels])
-    if total > _LARGE and total > _PER_FACTOR * n:
+    if total > tuning.greedy_above and total > tuning.greedy_per_factor * n:
         sets = [frozenset(scope) for scope in scopes]
         table = {u: card[u] if u >= 0 else extra[u] for u in holders}
         greedy = _greedy(sets, frozenset(output), table)
@@ -512,13 +518,6 @@ def _greedy(
     for step in greedy:
         path.append(tuple(ids[i] if i < len(rest) else first + i - len(rest) for i in step))
     return path
-
-
-_LARGE = 1 << 20
-_PER_FACTOR = 1 << 15
-""":func:`order` also asks opt_einsum's greedy search only above ``_LARGE`` multiply-adds
-and ``_PER_FACTOR`` per factor: below, even a much better order saves less time than the
-search costs (~30–40 µs per factor)."""
 
 
 def _cost(
