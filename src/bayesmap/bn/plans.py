@@ -188,7 +188,7 @@ class Plan:
     dropped
         Observed variables whose own CPT was left out (it lies in a component without a
         target, d-separated from the targets): the contraction does not see whether their
-        values are possible; :meth:`~bayesmap.bn.inference.Engine.posterior` checks their
+        values are possible; :meth:`~bayesmap.bn.inference.Engine.check_dropped` checks their
         prior marginals instead.
     """
 
