@@ -20,7 +20,7 @@ from bayesmap.bn.fixed_point import (
     QFormat,
     normalise,
 )
-from bayesmap.bn.plans import BATCH, Plan, QueryKind
+from bayesmap.bn.plans import BATCH, Plan, QueryKind, symbol
 from bayesmap.bn.soft import check_weights
 from bayesmap.errors import InputError
 
@@ -212,23 +212,7 @@ def soft_batch(
     case's likelihoods of the softly observed variables ``S`` and summed over ``S``."""
     compiled = engine.compiled
     n = table.shape[0]
-    weights: dict[int, FloatArray] = {}
-    for name, value in soft.items():
-        v = compiled.id(name)
-        w = np.asarray(value, dtype=np.float64)
-        if w.shape != (n, compiled.card[v]):
-            raise InputError(
-                f"soft evidence on {name!r}: need shape ({n}, {compiled.card[v]}) "
-                f"(cases, states), got {w.shape}"
-            )
-        check_weights(name, w)
-        if v in cols and np.any(table[:, cols.index(v)] >= 0):
-            case = int(np.flatnonzero(table[:, cols.index(v)] >= 0)[0])
-            raise InputError(
-                f"batched evidence case {case}: {name!r} has both an observed state "
-                "and soft evidence"
-            )
-        weights[v] = w
+    weights = soft_weights(engine, table, cols, soft)
     out = np.empty((n, compiled.card[t]))
     for rows, pattern in contraction.patterns(table):
         ev_vars = [cols[j] for j in pattern]
@@ -256,6 +240,39 @@ def soft_batch(
             )
         out[rows] = answer / totals[:, np.newaxis]
     return out
+
+
+def soft_weights(
+    engine: Engine, table: IntArray, cols: list[int], soft: Mapping[str, npt.ArrayLike]
+) -> dict[int, FloatArray]:
+    """Checked per-case likelihoods ``{variable id: (n_cases, n_states)}`` of a batch.
+
+    Raises
+    ------
+    InputError
+        A wrong shape; a negative, NaN or infinite weight, or all of a case's zero; or a
+        variable observed in some case that also has soft evidence.
+    """
+    compiled = engine.compiled
+    n = table.shape[0]
+    weights: dict[int, FloatArray] = {}
+    for name, value in soft.items():
+        v = compiled.id(name)
+        w = np.asarray(value, dtype=np.float64)
+        if w.shape != (n, compiled.card[v]):
+            raise InputError(
+                f"soft evidence on {name!r}: need shape ({n}, {compiled.card[v]}) "
+                f"(cases, states), got {w.shape}"
+            )
+        check_weights(name, w)
+        if v in cols and np.any(table[:, cols.index(v)] >= 0):
+            case = int(np.flatnonzero(table[:, cols.index(v)] >= 0)[0])
+            raise InputError(
+                f"batched evidence case {case}: {name!r} has both an observed state "
+                "and soft evidence"
+            )
+        weights[v] = w
+    return weights
 
 
 def batch_answers(
@@ -441,30 +458,40 @@ def fixed_posterior_batch(
     q: QFormat,
     *,
     columns: Sequence[str] | None = None,
+    soft: Mapping[str, npt.ArrayLike] | None = None,
 ) -> FixedResult:
     """:func:`posterior_batch` in Q-format integers: one contraction per evidence pattern,
-    one block exponent per case."""
+    one block exponent per case.
+
+    Soft evidence (``{variable: (n_cases, n_states) weights}``) enters as one more factor
+    per softly observed variable ``X``, over the case axis and ``X``: each case's
+    likelihood scaled to a largest weight of 1 and quantised like a CPT (the virtual
+    child's table of a single question, :mod:`bayesmap.bn.soft`), then summed out with
+    the other non-targets, so its rounding is inside the guaranteed bound.
+    """
     compiled = engine.compiled
     t = compiled.id(target)
     table, cols = batch_array(engine, evidence, columns)
+    weights = soft_weights(engine, table, cols, soft) if soft else {}
     n_states = compiled.card[t]
     raw = np.empty((table.shape[0], n_states), dtype=np.int64)
     bound = np.empty((table.shape[0], n_states))
+    targets = (t, *(v for v in weights if v != t))
     for rows, pattern in contraction.patterns(table):
         ev_vars = [cols[j] for j in pattern]
         values = table[np.ix_(rows, pattern)]
         plan = (
-            engine.plan(QueryKind.MARGINAL, (t,), frozenset(ev_vars)) if t not in ev_vars else None
+            engine.plan(QueryKind.MARGINAL, targets, frozenset(ev_vars))
+            if t not in ev_vars
+            else None
         )
-        if plan is None or not any(f.observed for f in plan.factors):
+        if plan is None or not (weights or any(f.observed for f in plan.factors)):
             for i, row in zip(rows, values, strict=True):
                 case = {compiled.names[v]: int(s) for v, s in zip(ev_vars, row, strict=True)}
                 one = posteriors.fixed_posterior(engine, target, case, q)
                 raw[i], bound[i] = one.raw, one.bound
             continue
-        contraction.batch_contract(
-            engine, plan, ev_vars, values, rows
-        )  # float check of the evidence
+        contraction.batch_contract(engine, plan, ev_vars, values, rows)  # float evidence check
         order = [ev_vars.index(v) for v in plan.evidence]
         cols_k = [values[:, j] for j in order]
         case_names = contraction.case_namer(compiled, plan.evidence, cols_k)
@@ -473,14 +500,21 @@ def fixed_posterior_batch(
             sliced = contraction.slice_batch(compiled, f, cols_k, case_names)
             operands.append(q.quantise(sliced, case_axis=f.observed))
             terms.append(BATCH + f.term if f.observed else f.term)
-        path = plan.cache.fixed_batch_path
+        for v, w in weights.items():
+            mine = w[rows]
+            operands.append(q.quantise(mine / mine.max(axis=1, keepdims=True), case_axis=True))
+            terms.append(BATCH + symbol(v))
+        output = BATCH + symbol(t)
+        path = plan.cache.fixed_batch_path if not weights else None
         if path is None:
-            path = plan.cache.fixed_batch_path = elimination.find_path(
-                terms, BATCH + plan.output, [o.raw.shape for o in operands], tuning=engine.tuning
+            path = elimination.find_path(
+                terms, output, [o.raw.shape for o in operands], tuning=engine.tuning
             )
+            if not weights:  # a soft question's terms depend on which variables are soft
+                plan.cache.fixed_batch_path = path
         result, term, _ = elimination.run(path, operands, FixedAlgebra(q))
-        if term != BATCH + plan.output:
-            result = result.transpose([term.index(ch) for ch in BATCH + plan.output])
+        if term != output:
+            result = result.transpose([term.index(ch) for ch in output])
         answer = normalise(q, result, (1,), f"posterior of {target!r}")
         raw[rows], bound[rows] = answer.raw, answer.bound
     return FixedResult(q, raw, q.to_float(raw), bound)

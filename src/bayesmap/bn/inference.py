@@ -255,9 +255,10 @@ class Engine:
         q: QFormat,
         *,
         columns: Sequence[str] | None = None,
+        soft: Mapping[str, npt.ArrayLike] | None = None,
     ) -> FixedResult:
-        """:meth:`posterior_batch` in Q-format integers."""
-        return batches.fixed_posterior_batch(self, target, evidence, q, columns=columns)
+        """:meth:`posterior_batch` in Q-format integers (soft evidence per case too)."""
+        return batches.fixed_posterior_batch(self, target, evidence, q, columns=columns, soft=soft)
 
     def fixed_mpe(self, evidence: Evidence, q: QFormat) -> tuple[dict[str, str], FixedResult]:
         """:meth:`mpe` in Q-format integers."""

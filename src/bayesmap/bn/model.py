@@ -644,10 +644,16 @@ class BayesNet:
         fixed_point: QFormat | str = "Q16.16",
         *,
         columns: Sequence[str] | None = None,
+        soft: Mapping[str, npt.ArrayLike] | None = None,
     ) -> FixedResult:
-        """:meth:`posterior_batch` in Q-format integer arithmetic, with error bounds."""
+        """:meth:`posterior_batch` in Q-format integer arithmetic, with error bounds.
+
+        ``soft`` gives soft evidence per case, ``{variable: (n_cases, n_states) weights}``,
+        as in :meth:`posterior_batch`; each case's weights are scaled to a largest weight of
+        1 and quantised like a CPT, so the bound covers their rounding too.
+        """
         q = QFormat.parse(fixed_point)
-        return self._engine.fixed_posterior_batch(target, evidence, q, columns=columns)
+        return self._engine.fixed_posterior_batch(target, evidence, q, columns=columns, soft=soft)
 
     def map(
         self,
