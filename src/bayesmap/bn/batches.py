@@ -20,6 +20,7 @@ from bayesmap.bn.fixed_point import (
     QFormat,
     normalise,
 )
+from bayesmap.bn.numbers import FixedPoint
 from bayesmap.bn.plans import BATCH, Plan, QueryKind, symbol
 from bayesmap.bn.soft import check_weights
 from bayesmap.errors import InputError
@@ -488,7 +489,7 @@ def fixed_posterior_batch(
         if plan is None or not (weights or any(f.observed for f in plan.factors)):
             for i, row in zip(rows, values, strict=True):
                 case = {compiled.names[v]: int(s) for v, s in zip(ev_vars, row, strict=True)}
-                one = posteriors.fixed_posterior(engine, target, case, q)
+                one = posteriors.joint_posterior(engine, [target], case, FixedPoint(q))
                 raw[i], bound[i] = one.raw, one.bound
             continue
         contraction.batch_contract(engine, plan, ev_vars, values, rows)  # float evidence check

@@ -19,17 +19,12 @@ import numpy as np
 from bayesmap._typing import FloatArray, IntArray
 from bayesmap.bn import elimination, plans
 from bayesmap.bn.compiled import Compiled
-from bayesmap.bn.fixed_point import (
-    Fixed,
-    FixedAlgebra,
-    QFormat,
-)
 from bayesmap.bn.plans import BatchOrder, Factor, Plan
 from bayesmap.bn.tuning import Tuning
 from bayesmap.errors import InputError
 
 if TYPE_CHECKING:
-    from bayesmap.bn.inference import Engine, Evidence
+    from bayesmap.bn.inference import Engine
 
 CASE = -1
 """Label of the case axis in batched contractions (variable ids are >= 0)."""
@@ -99,31 +94,6 @@ def batch_contract(
     return np.asarray(result)
 
 
-def fixed_operands(
-    engine: Engine, plan: Plan, ev: Mapping[int, int], evidence: Evidence, q: QFormat
-) -> list[Fixed]:
-    """The plan's factors sliced by one case and quantised; raises on impossible evidence."""
-    compiled = engine.compiled
-    if plan.dropped:
-        engine.check_dropped(plan, ev.__getitem__, lambda: impossible(evidence))
-    ev_idx = [ev[v] for v in plan.evidence]
-    names = engine.source_evidence(ev)
-    if any(not float(slice_case(compiled, f, ev_idx, names)) > 0.0 for f in plan.checks):
-        raise InputError(impossible(evidence))
-    return [q.quantise(slice_case(compiled, f, ev_idx, names)) for f in plan.factors]
-
-
-def fixed_sum(
-    engine: Engine, plan: Plan, ev: Mapping[int, int], evidence: Evidence, q: QFormat
-) -> Fixed:
-    """Unnormalised sum-product of one case, axes in ``plan.output`` order."""
-    operands = fixed_operands(engine, plan, ev, evidence, q)
-    result, term, _ = elimination.run(fixed_path(engine, plan), operands, FixedAlgebra(q))
-    if term != plan.output:
-        result = result.transpose([term.index(ch) for ch in plan.output])
-    return result
-
-
 def fixed_path(engine: Engine, plan: Plan) -> elimination.Path:
     """The order of a plan's one-case fixed-point sum-product (cached on the plan).
 
@@ -139,30 +109,6 @@ def fixed_path(engine: Engine, plan: Plan) -> elimination.Path:
             tuning=engine.tuning,
         )
     return path
-
-
-def fixed_scalar(
-    engine: Engine, plan: Plan, ev: Mapping[int, int], algebra: FixedAlgebra
-) -> tuple[Fixed, list[elimination.Record]]:
-    compiled, q = engine.compiled, algebra.q
-    ev_idx = [ev[v] for v in plan.evidence]
-    names = engine.source_evidence(ev)
-    operands = [q.quantise(slice_case(compiled, f, ev_idx, names)) for f in plan.factors]
-    path = plan.cache.scalar_path
-    if path is None:
-        path = plan.cache.scalar_path = elimination.find_path(
-            [f.term for f in plan.factors],
-            "",
-            [op.raw.shape for op in operands],
-            tuning=engine.tuning,
-        )
-    value = Fixed(np.ones((), dtype=np.int64), np.zeros((), dtype=np.int64), np.zeros(()))
-    records: list[elimination.Record] = []
-    if operands:
-        value, _, records = elimination.run(path, operands, algebra)
-    for f in plan.checks:
-        value = algebra.multiply(value, q.quantise(slice_case(compiled, f, ev_idx, names)))
-    return value, records
 
 
 def slice_case(

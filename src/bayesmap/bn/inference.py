@@ -39,6 +39,7 @@ from bayesmap.bn import (
 )
 from bayesmap.bn.compiled import Compiled, NetworkLike
 from bayesmap.bn.fixed_point import FixedResult, QFormat
+from bayesmap.bn.numbers import FLOATS, FixedPoint
 from bayesmap.bn.plans import Plan, QueryKind
 from bayesmap.bn.propositions import Proposition
 from bayesmap.bn.tuning import TUNING, Tuning
@@ -168,7 +169,7 @@ class Engine:
 
     def joint_posterior(self, targets: Sequence[str], evidence: Evidence) -> FloatArray:
         """``P(targets | evidence)``, one axis per target in the given order."""
-        return posteriors.joint_posterior(self, targets, evidence)
+        return posteriors.joint_posterior(self, targets, evidence, FLOATS)
 
     def posteriors(self, evidence: Evidence) -> dict[int, FloatArray]:
         """Every unobserved variable's posterior, by variable id."""
@@ -220,13 +221,13 @@ class Engine:
 
     def mpe(self, evidence: Evidence) -> tuple[dict[str, str], float]:
         """Most probable joint state of the unobserved variables (eq. 13)."""
-        return maps.mpe(self, evidence)
+        return maps.mpe(self, evidence, FLOATS)
 
     def marginal_map(
         self, variables: Sequence[str], evidence: Evidence
     ) -> tuple[dict[str, str], float]:
         """Marginal MAP over ``variables`` (eq. 14)."""
-        return maps.marginal_map(self, variables, evidence)
+        return maps.marginal_map(self, variables, evidence, FLOATS)
 
     def probability(
         self,
@@ -235,18 +236,18 @@ class Engine:
         given: Proposition | str | None = None,
     ) -> float:
         """``P(proposition | given, evidence)`` (§2.4, eqs. 15–21)."""
-        return probabilities.probability(self, proposition, evidence, given)
+        return probabilities.probability(self, proposition, evidence, given, FLOATS)
 
-    # --------------------------------------------------------------- fixed point
+    # ------------------------------------- the same questions in fixed point (numbers.py)
     def fixed_posterior(self, target: str, evidence: Evidence, q: QFormat) -> FixedResult:
         """:meth:`posterior` in Q-format integers, with its error bound."""
-        return posteriors.fixed_posterior(self, target, evidence, q)
+        return posteriors.joint_posterior(self, [target], evidence, FixedPoint(q))
 
     def fixed_joint_posterior(
         self, targets: Sequence[str], evidence: Evidence, q: QFormat
     ) -> FixedResult:
         """:meth:`joint_posterior` in Q-format integers."""
-        return posteriors.fixed_joint_posterior(self, targets, evidence, q)
+        return posteriors.joint_posterior(self, targets, evidence, FixedPoint(q))
 
     def fixed_posterior_batch(
         self,
@@ -262,13 +263,13 @@ class Engine:
 
     def fixed_mpe(self, evidence: Evidence, q: QFormat) -> tuple[dict[str, str], FixedResult]:
         """:meth:`mpe` in Q-format integers."""
-        return maps.fixed_mpe(self, evidence, q)
+        return maps.mpe(self, evidence, FixedPoint(q))
 
     def fixed_marginal_map(
         self, variables: Sequence[str], evidence: Evidence, q: QFormat
     ) -> tuple[dict[str, str], FixedResult]:
         """:meth:`marginal_map` in Q-format integers."""
-        return maps.fixed_marginal_map(self, variables, evidence, q)
+        return maps.marginal_map(self, variables, evidence, FixedPoint(q))
 
     def fixed_probability(
         self,
@@ -278,7 +279,7 @@ class Engine:
         given: Proposition | str | None = None,
     ) -> FixedResult:
         """:meth:`probability` in Q-format integers."""
-        return probabilities.fixed_probability(self, proposition, evidence, q, given)
+        return probabilities.probability(self, proposition, evidence, given, FixedPoint(q))
 
     def fixed_path(self, plan: Plan) -> elimination.Path:
         """The order of a plan's one-case fixed-point sum (the generated C code replays it)."""

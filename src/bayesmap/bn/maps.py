@@ -4,28 +4,15 @@ al. 2016 eq. 13) and marginal MAP over a subset (eq. 14), in float64 or fixed po
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-import opt_einsum
-
-from bayesmap._typing import FloatArray
-from bayesmap.bn import contraction, elimination, posteriors
-from bayesmap.bn.fixed_point import (
-    Fixed,
-    FixedAlgebra,
-    FixedResult,
-    QFormat,
-    constant,
-    ratio,
-)
+from bayesmap.bn import elimination, posteriors
 from bayesmap.bn.plans import Plan, QueryKind, symbol
-from bayesmap.errors import InputError
 
 if TYPE_CHECKING:
     from bayesmap.bn.inference import Engine, Evidence
+    from bayesmap.bn.numbers import Numbers, S
 
 
 def map_query(
@@ -40,159 +27,50 @@ def map_query(
     return ev, query, fixed
 
 
-def mpe(engine: Engine, evidence: Evidence) -> tuple[dict[str, str], float]:
-    """Most probable joint state of all unobserved variables (eq. 13), by max-product.
+def mpe(
+    engine: Engine, evidence: Evidence, numbers: Numbers[Any, Any, S]
+) -> tuple[dict[str, str], S]:
+    """Most probable joint state of all unobserved variables (eq. 13), by max-product in
+    ``numbers``.
 
-    Returns the assignment and its posterior probability ``P(x | evidence)``.
+    Returns the assignment and its posterior probability ``P(x | evidence)`` (in fixed
+    point, its bound covers both the exact probability of the returned assignment and the
+    exact maximum; ties are broken by the lowest state index).
     """
     compiled = engine.compiled
     ev = engine.evidence_ids(evidence)
     free = tuple(v for v in range(len(compiled.names)) if v not in ev)
     plan = engine.plan(QueryKind.WHOLE, free, frozenset(ev))
-    ev_idx = [ev[v] for v in plan.evidence]
-    names = engine.source_evidence(ev)
-    log_scale = sum(log(contraction.slice_case(compiled, f, ev_idx, names)) for f in plan.checks)
-    operands = [log(contraction.slice_case(compiled, f, ev_idx, names)) for f in plan.factors]
-    path = plan.cache.scalar_path
-    if path is None:
-        path = plan.cache.scalar_path = elimination.find_path(
-            [f.term for f in plan.factors],
-            "",
-            [np.shape(op) for op in operands],
-            tuning=engine.tuning,
-        )
-    best: FloatArray = np.zeros(())
-    records: list[elimination.Record] = []
-    if operands:
-        best, _, records = elimination.run(path, operands, elimination.LogMax())
-    log_best = float(best) + log_scale
-    if not math.isfinite(log_best):
-        raise InputError(contraction.impossible(evidence))
+    best, records = numbers.max_product(engine, plan, ev, evidence)
     choice = elimination.traceback(records)
     assignment = {compiled.names[v]: compiled.states[v][choice[symbol(v)]] for v in free}
-    probability = math.exp(
-        log_best - math.log(posteriors.probability_of_evidence(engine, evidence))
-    )
-    return assignment, min(probability, 1.0)
+    return assignment, numbers.map_probability(engine, best, ev, evidence)
 
 
 def marginal_map(
-    engine: Engine, variables: Sequence[str], evidence: Evidence
-) -> tuple[dict[str, str], float]:
+    engine: Engine, variables: Sequence[str], evidence: Evidence, numbers: Numbers[Any, Any, S]
+) -> tuple[dict[str, str], S]:
     """Marginal MAP (eq. 14): ``argmax_x Σ_Z P(x, Z | evidence)`` over ``variables``.
 
-    Exact: the other variables are summed out first (one opt_einsum contraction per
-    connected group of them), then the resulting factors are maximised jointly.
+    Exact: the other variables are summed out first (one contraction per connected group
+    of them, :func:`sum_groups`), then the resulting factors are maximised jointly.
     Returns the assignment and ``P(x | evidence)``.
     """
     compiled = engine.compiled
     ev, query, fixed = map_query(engine, variables, evidence)
     if not query:
-        return fixed, 1.0 if posteriors.probability_of_evidence(engine, evidence) > 0 else 0.0
+        posteriors.probability_of_evidence(engine, evidence)  # raises on impossible evidence
+        return fixed, numbers.sure()
     plan = engine.plan(QueryKind.MARGINAL, query, frozenset(ev))
-    ev_idx = [ev[v] for v in plan.evidence]
-    names = engine.source_evidence(ev)
-    log_scale = sum(log(contraction.slice_case(compiled, f, ev_idx, names)) for f in plan.checks)
-    sliced = [contraction.slice_case(compiled, f, ev_idx, names) for f in plan.factors]
     groups = plan.cache.groups
     if groups is None:
         groups = plan.cache.groups = sum_groups(plan, set(query))
-    operands: list[FloatArray] = []
-    terms: list[str] = []
-    for members, boundary in groups:
-        part = [sliced[k] for k in members]
-        if boundary is None:  # a factor over query variables only
-            operands.append(log(part[0]))
-            terms.append(plan.factors[members[0]].term)
-            continue
-        equation = ",".join(plan.factors[k].term for k in members) + "->" + boundary
-        operands.append(log(opt_einsum.contract(equation, *part)))
-        terms.append(boundary)
-    path = elimination.find_path(terms, "", [np.shape(op) for op in operands], tuning=engine.tuning)
-    best, _, records = elimination.run(path, operands, elimination.LogMax())
-    if not (math.isfinite(log_scale) and math.isfinite(float(best))):
-        raise InputError(contraction.impossible(evidence))
+    answer, records = numbers.marginal_map(engine, plan, groups, ev, evidence)
     choice = elimination.traceback(records)
     assignment = dict(fixed)
     for v in query:
         assignment[compiled.names[v]] = compiled.states[v][choice[symbol(v)]]
-    equation = ",".join(f.term for f in plan.factors) + "->"
-    total = float(opt_einsum.contract(equation, *sliced))
-    probability = math.exp(float(best) - math.log(total))
-    return assignment, min(probability, 1.0)
-
-
-def fixed_mpe(engine: Engine, evidence: Evidence, q: QFormat) -> tuple[dict[str, str], FixedResult]:
-    """:func:`mpe` by max-product in Q-format integers.
-
-    The probability returned is ``P(x | evidence)`` as a 0-d :class:`FixedResult`; its
-    bound covers both the exact probability of the returned assignment and the exact
-    maximum.
-    """
-    compiled = engine.compiled
-    ev = engine.evidence_ids(evidence)
-    free = tuple(v for v in range(len(compiled.names)) if v not in ev)
-    algebra = FixedAlgebra(q, "max")
-    best, records = contraction.fixed_scalar(
-        engine, engine.plan(QueryKind.WHOLE, free, frozenset(ev)), ev, algebra
-    )
-    total, _ = contraction.fixed_scalar(
-        engine, engine.plan(QueryKind.EVIDENCE, (), frozenset(ev)), ev, FixedAlgebra(q)
-    )
-    choice = elimination.traceback(records)
-    assignment = {compiled.names[v]: compiled.states[v][choice[symbol(v)]] for v in free}
-    return assignment, ratio(q, best, total, "MAP")
-
-
-def fixed_marginal_map(
-    engine: Engine, variables: Sequence[str], evidence: Evidence, q: QFormat
-) -> tuple[dict[str, str], FixedResult]:
-    """:func:`marginal_map` in Q-format integers: the same sum groups, summed then
-    maximised in block floating point; ``P(x | evidence)`` as a 0-d :class:`FixedResult`."""
-    compiled = engine.compiled
-    ev, query, fixed = map_query(engine, variables, evidence)
-    if not query:
-        posteriors.probability_of_evidence(engine, evidence)
-        return fixed, constant(q, np.ones(()))
-    plan = engine.plan(QueryKind.MARGINAL, query, frozenset(ev))
-    operands = contraction.fixed_operands(engine, plan, ev, evidence, q)
-    groups = plan.cache.groups
-    if groups is None:
-        groups = plan.cache.groups = sum_groups(plan, set(query))
-    sums = FixedAlgebra(q)
-    parts: list[Fixed] = []
-    terms: list[str] = []
-    for k, (members, boundary) in enumerate(groups):
-        if boundary is None:  # a factor over query variables only
-            parts.append(operands[members[0]])
-            terms.append(plan.factors[members[0]].term)
-            continue
-        group = [operands[m] for m in members]
-        path = plan.cache.group_paths.get(k)
-        if path is None:
-            path = plan.cache.group_paths[k] = elimination.find_path(
-                [plan.factors[m].term for m in members],
-                boundary,
-                [o.raw.shape for o in group],
-                tuning=engine.tuning,
-            )
-        part, term, _ = elimination.run(path, group, sums)
-        parts.append(part)
-        terms.append(term)
-    shapes = [p.raw.shape for p in parts]
-    best, _, records = elimination.run(
-        elimination.find_path(terms, "", shapes, tuning=engine.tuning),
-        parts,
-        FixedAlgebra(q, "max"),
-    )
-    total, _, _ = elimination.run(
-        elimination.find_path(terms, "", shapes, tuning=engine.tuning), parts, sums
-    )
-    choice = elimination.traceback(records)
-    assignment = dict(fixed)
-    for v in query:
-        assignment[compiled.names[v]] = compiled.states[v][choice[symbol(v)]]
-    return assignment, ratio(q, best, total, "marginal MAP")
+    return assignment, answer
 
 
 def sum_groups(plan: Plan, query: set[int]) -> list[tuple[list[int], str | None]]:
@@ -230,8 +108,3 @@ def sum_groups(plan: Plan, query: set[int]) -> list[tuple[list[int], str | None]
         touched = dict.fromkeys(v for k in group for v in plan.factors[k].free if v in query)
         groups.append((group, "".join(symbol(v) for v in touched)))
     return groups
-
-
-def log(values: FloatArray | float) -> Any:
-    with np.errstate(divide="ignore"):
-        return np.log(values)

@@ -14,17 +14,12 @@ import numpy as np
 
 from bayesmap._typing import FloatArray
 from bayesmap.bn import ancestral, contraction, marginals, plans
-from bayesmap.bn.fixed_point import (
-    FixedResult,
-    QFormat,
-    constant,
-    normalise,
-)
 from bayesmap.bn.plans import Plan, QueryKind
 from bayesmap.errors import InputError
 
 if TYPE_CHECKING:
     from bayesmap.bn.inference import Engine, Evidence
+    from bayesmap.bn.numbers import A, Numbers
 
 
 def joint_query(
@@ -57,19 +52,21 @@ def posterior(engine: Engine, target: str, evidence: Evidence) -> FloatArray:
     return contraction.normalised(contraction.contract(engine, plan, ev), evidence)
 
 
-def joint_posterior(engine: Engine, targets: Sequence[str], evidence: Evidence) -> FloatArray:
-    """``P(targets | evidence)`` as an array with one axis per target, in the given order."""
+def joint_posterior(
+    engine: Engine, targets: Sequence[str], evidence: Evidence, numbers: Numbers[Any, A, Any]
+) -> A:
+    """``P(targets | evidence)`` with one axis per target, in the given order (observed
+    targets one-hot), in ``numbers``: float64 or fixed point (:mod:`bayesmap.bn.numbers`)."""
     compiled = engine.compiled
     ev, ids, free = joint_query(engine, targets, evidence)
     if free:
         plan = engine.plan(QueryKind.MARGINAL, free, frozenset(ev))
-        if plan.dropped:
-            engine.check_dropped(plan, ev.__getitem__, lambda: contraction.impossible(evidence))
-        table = contraction.normalised(contraction.contract(engine, plan, ev), evidence)
+        table = numbers.sum_product(engine, plan, ev, evidence)
+        answer = numbers.posterior(table, evidence, f"posterior of {list(targets)}")
     else:
         probability_of_evidence(engine, evidence)
-        table = np.ones(())
-    return contraction.embed(table, ids, free, ev, compiled.card)
+        answer = numbers.certain()
+    return numbers.place(answer, lambda a: contraction.embed(a, ids, free, ev, compiled.card))
 
 
 def posteriors(engine: Engine, evidence: Evidence) -> dict[int, FloatArray]:
@@ -187,30 +184,3 @@ def ancestral_is_exact(engine: Engine, target: str, evidence: Evidence) -> bool:
     compiled = engine.compiled
     ev = engine.evidence_ids(evidence)
     return ancestral.is_exact(compiled, (compiled.id(target),), ev) is not None
-
-
-def fixed_posterior(engine: Engine, target: str, evidence: Evidence, q: QFormat) -> FixedResult:
-    """``P(target | evidence)`` computed in Q-format integers, with its error bound."""
-    return fixed_joint_posterior(engine, [target], evidence, q)
-
-
-def fixed_joint_posterior(
-    engine: Engine, targets: Sequence[str], evidence: Evidence, q: QFormat
-) -> FixedResult:
-    """:func:`joint_posterior` in Q-format integers: same plan, block floating point."""
-    compiled = engine.compiled
-    ev, ids, free = joint_query(engine, targets, evidence)
-    if not free:
-        probability_of_evidence(engine, evidence)
-        answer = constant(q, np.ones(()))
-    else:
-        joint = contraction.fixed_sum(
-            engine, engine.plan(QueryKind.MARGINAL, free, frozenset(ev)), ev, evidence, q
-        )
-        what = f"posterior of {list(targets)}"
-        answer = normalise(q, joint, tuple(range(len(free))), what)
-    raw = contraction.embed(answer.raw.astype(np.float64), ids, free, ev, compiled.card).astype(
-        np.int64
-    )
-    bound = contraction.embed(answer.bound, ids, free, ev, compiled.card)
-    return FixedResult(q, raw, q.to_float(raw), bound)
