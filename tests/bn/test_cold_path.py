@@ -80,7 +80,7 @@ def test_kept_labels_and_constant_memo_contract_exactly(seed: int) -> None:
     assert used == list(range(len(scopes) + len(path) - 1))  # each operand used once
     if kept is not None:
         assert [set(k) for k in kept[:-1]] == [
-            set(k) for k in elimination.kept_labels(scopes, output, path)[:-1]
+            set(step.kept) for step in elimination.walk(scopes, output, path)[:-1]
         ]
     specs = [a if c else a.shape for a, c in zip(arrays, constant, strict=True)]
     inputs = [a for a, c in zip(arrays, constant, strict=True) if not c]

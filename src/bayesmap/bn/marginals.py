@@ -28,7 +28,7 @@ import numpy as np
 import opt_einsum
 
 from bayesmap._typing import FloatArray
-from bayesmap.bn.elimination import kept_labels
+from bayesmap.bn.elimination import walk
 from bayesmap.bn.tuning import TUNING, Tuning
 
 
@@ -113,7 +113,7 @@ class TwoPass:
         self.n_inputs = len(scopes)
         self.output = output
         nodes = [_Node(tuple(s), op, ()) for s, op in zip(scopes, operands, strict=True)]
-        kept = kept_labels(scopes, output, path)
+        kept = [step.kept for step in walk(scopes, output, path)]
         ssa = list(range(len(nodes)))  # SSA number -> node number
         last = len(path) - 1
         for k, step in enumerate(path):

@@ -37,6 +37,7 @@ import opt_einsum
 
 from bayesmap._typing import FloatArray
 from bayesmap.bn.compiled import Compiled, bits
+from bayesmap.bn.elimination import walk
 from bayesmap.bn.tuning import TUNING, Tuning
 
 if TYPE_CHECKING:
@@ -527,22 +528,9 @@ def _cost(
     size: Mapping[int, int],
 ) -> int:
     """Multiply-adds of an SSA path: the sum of the sizes of each step's index union."""
-    live = list(sets)
-    count: dict[int, int] = {}
-    for scope in sets:
-        for u in scope:
-            count[u] = count.get(u, 0) + 1
     total = 0
-    for step in path:
-        union = frozenset().union(*(live[k] for k in step))
-        for k in step:
-            for u in live[k]:
-                count[u] -= 1
-        kept = frozenset(u for u in union if u in output or count[u] > 0)
-        for u in kept:
-            count[u] += 1
-        live.append(kept)
-        total += math.prod(size[u] for u in union)
+    for step in walk(sets, output, path):
+        total += math.prod([size[u] for u in step.union])
     return total
 
 
