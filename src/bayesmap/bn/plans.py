@@ -105,6 +105,10 @@ class QueryKind(Enum):
     WHOLE = "whole"
     """Nothing pruned: MAP over all variables (eq. 13) and every posterior at once."""
 
+    # members are singletons compared by identity: hash them by identity too (a C call;
+    # Enum's own hash is Python code, paid on every plan lookup of a warm question)
+    __hash__ = object.__hash__
+
 
 BatchOrder = tuple[
     list[tuple[int, ...]], tuple[int, ...], list[Any], list[tuple[int, ...]], Any, int
