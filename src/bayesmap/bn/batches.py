@@ -298,7 +298,7 @@ def batch_answers(
     n_states = compiled.card[t]
     memo: FloatArray | None = None
     if combos * n_states <= engine.tuning.max_lookup:
-        key = ("answers", t, tuple(ev_vars))
+        key = (t, tuple(ev_vars))
         memo = engine.answers.get(key)
         if memo is None:
             memo = engine.answers[key] = np.full((combos, n_states), np.nan)
@@ -522,6 +522,7 @@ def fixed_posterior_batch(
 
 
 def is_mapping_list(evidence: object) -> bool:
+    """Whether batched evidence is a non-empty sequence of ``{variable: state}`` mappings."""
     return (
         isinstance(evidence, Sequence)
         and not isinstance(evidence, (str, bytes))

@@ -140,6 +140,7 @@ def slice_batch(
 def case_namer(
     compiled: Compiled, evidence: Sequence[int], cols: Sequence[IntArray]
 ) -> Callable[[int], dict[str, str]]:
+    """Case ``i``'s evidence by name (what a data node's table is asked with)."""
     return lambda i: {
         compiled.names[v]: compiled.states[v][int(c[i])]
         for v, c in zip(evidence, cols, strict=True)
@@ -232,6 +233,7 @@ def patterns(table: IntArray) -> list[tuple[IntArray, IntArray]]:
 
 
 def normalised(table: FloatArray, evidence: Mapping[str, object]) -> FloatArray:
+    """``table / Σ table``; raises on impossible evidence (a zero sum)."""
     total = table.sum()
     if not total > 0.0:
         raise InputError(impossible(evidence))
@@ -239,6 +241,7 @@ def normalised(table: FloatArray, evidence: Mapping[str, object]) -> FloatArray:
 
 
 def one_hot(size: int, index: int) -> FloatArray:
+    """The posterior of an observed variable: 1 at its state."""
     out = np.zeros(size)
     out[index] = 1.0
     return out
@@ -261,6 +264,7 @@ def embed(
 
 
 def impossible(evidence: Mapping[str, object]) -> str:
+    """The message of evidence of probability zero."""
     shown = ", ".join(f"{k}={v}" for k, v in evidence.items())
     return (
         f"the evidence {{{shown}}} has probability zero under the network; "

@@ -67,10 +67,12 @@ class Engine:
         self._net = net
         self.tuning = tuning
         self._compiled: Compiled | None = None
-        self._plans: dict[Any, Plan] = {}
+        self._plans: dict[tuple[QueryKind, tuple[int, ...], frozenset[int]], Plan] = {}
         self.priors: dict[int, FloatArray] = {}
+        """Prior marginals by variable id (no evidence), for this network version."""
         self._all_priors = False
-        self.answers: dict[Any, FloatArray] = {}
+        self.answers: dict[tuple[int, tuple[int, ...]], FloatArray] = {}
+        """Memo of batch answers by (target, observed variables), for this network version."""
 
     @property
     def compiled(self) -> Compiled:
@@ -153,12 +155,14 @@ class Engine:
                 raise InputError(case())
 
     def evidence_ids(self, evidence: Evidence) -> dict[int, int]:
+        """``{variable id: state index}`` of named evidence (unknown names raise)."""
         compiled = self.compiled
         return {
             compiled.id(name): compiled.state(compiled.id(name), s) for name, s in evidence.items()
         }
 
     def source_evidence(self, ev: Mapping[int, int]) -> Callable[[], dict[str, str]]:
+        """The evidence by name, computed when a data node's table first asks for it."""
         compiled = self.compiled
         return lambda: compiled.evidence_names(ev)
 

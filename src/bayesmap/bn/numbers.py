@@ -400,5 +400,6 @@ FLOATS = Floats()
 
 
 def _log(values: FloatArray | float) -> Any:
+    """Natural log with log 0 = −inf, silently."""
     with np.errstate(divide="ignore"):
         return np.log(values)
