@@ -36,6 +36,7 @@ from benchmarks._report import machine, update_section  # noqa: E402
 from benchmarks.bn_inference import load_pyagrum  # noqa: E402
 
 import bayesmap.bn as bn  # noqa: E402
+from bayesmap.bn.plans import QueryKind  # noqa: E402
 
 MODELS = Path(pgmpy.__file__).parent / "utils" / "example_models"
 NETWORKS = [
@@ -88,11 +89,11 @@ def measure(name: str, rng: np.random.Generator) -> dict[str, Any]:
         answers = net.posteriors(two)
         warm.append(time.perf_counter() - start)
         plan = net._engine.plan(  # the method chosen for this pattern (benchmark peeks)
-            "mpe",
+            QueryKind.WHOLE,
             tuple(v for v in range(len(net)) if net.variables[v] not in two),
             frozenset(net.variables.index(v) for v in two),
         )
-        methods.add("two-pass" if plan.cache.get("two_pass_pays") else "per variable")
+        methods.add("two-pass" if plan.cache.two_pass_pays else "per variable")
         start = time.perf_counter()
         singles = {v: net.posterior(v, two) for v in net.variables if v not in two}
         loop.append(time.perf_counter() - start)

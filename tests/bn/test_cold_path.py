@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from tests.bn.helpers import brute_posterior, random_net, sample_evidence
 
-from bayesmap.bn import BayesNet, elimination, inference, plans
+from bayesmap.bn import BayesNet, elimination, plans
+from bayesmap.bn.tuning import Tuning
 from bayesmap.errors import InputError
 
 SEEDS = st.integers(0, 2**31 - 1)
@@ -43,22 +46,19 @@ def test_order_and_program_contract_exactly(
     rng = np.random.default_rng(seed)
     scopes, arrays, output = _sliced_factors(net, rng)
     compiled = net._engine.compiled
-    old = plans._LARGE, plans._PER_FACTOR, elimination._SMALL, elimination._PAIR
+    tuning = Tuning()
     if force_greedy:
-        plans._LARGE, plans._PER_FACTOR = -1, -1
+        tuning = replace(tuning, greedy_above=-1, greedy_per_factor=-1)
     if force_pairwise:
-        elimination._SMALL, elimination._PAIR = -1, -1
-    try:
-        path, cost = plans.order(compiled, scopes, output)
-        assert cost > 0
-        used = sorted(k for step in path for k in step)
-        assert used == list(range(len(scopes) + len(path) - 1))  # each operand used once
-        n_inputs = int(rng.integers(0, len(scopes) + 1))  # the first few supplied per call
-        specs = [a.shape if k < n_inputs else a for k, a in enumerate(arrays)]
-        program = elimination.SumProgram(scopes, output, specs, path)
-        got = program(*arrays[:n_inputs])
-    finally:
-        plans._LARGE, plans._PER_FACTOR, elimination._SMALL, elimination._PAIR = old
+        tuning = replace(tuning, split_above=-1, blas_above=-1)
+    path, cost = plans.order(compiled, scopes, output, tuning=tuning)
+    assert cost > 0
+    used = sorted(k for step in path for k in step)
+    assert used == list(range(len(scopes) + len(path) - 1))  # each operand used once
+    n_inputs = int(rng.integers(0, len(scopes) + 1))  # the first few supplied per call
+    specs = [a.shape if k < n_inputs else a for k, a in enumerate(arrays)]
+    program = elimination.SumProgram(scopes, output, specs, path, tuning=tuning)
+    got = program(*arrays[:n_inputs])
     args: list[object] = []
     for array, scope in zip(arrays, scopes, strict=True):
         args += [array, list(scope)]
@@ -80,7 +80,7 @@ def test_kept_labels_and_constant_memo_contract_exactly(seed: int) -> None:
     assert used == list(range(len(scopes) + len(path) - 1))  # each operand used once
     if kept is not None:
         assert [set(k) for k in kept[:-1]] == [
-            set(k) for k in elimination.kept_labels(scopes, output, path)[:-1]
+            set(step.kept) for step in elimination.walk(scopes, output, path)[:-1]
         ]
     specs = [a if c else a.shape for a, c in zip(arrays, constant, strict=True)]
     inputs = [a for a, c in zip(arrays, constant, strict=True) if not c]
@@ -144,29 +144,23 @@ def test_batches_of_any_size_equal_looped_queries(
     rng = np.random.default_rng(seed)
     names = list(net.variables)
     target, *columns = (str(v) for v in rng.choice(names, size=3, replace=False))
-    old = inference._JOINT_ABOVE
     if force_joint:
-        inference._JOINT_ABOVE = -1
-    try:
-        for n in [*sizes, 5]:
-            cases = [sample_evidence(net, rng, len(net)) for _ in range(n)]
-            table = np.array([[net.states(c).index(case[c]) for c in columns] for case in cases])
-            got = net.posterior_batch(target, table, columns=columns)
-            for row, case in zip(got, cases, strict=True):
-                evidence = {c: case[c] for c in columns}
-                want = brute_posterior(net, [target], evidence)
-                np.testing.assert_allclose(row, want, atol=1e-12)
-    finally:
-        inference._JOINT_ABOVE = old
+        net.tuning = Tuning(joint_above=-1)
+    for n in [*sizes, 5]:
+        cases = [sample_evidence(net, rng, len(net)) for _ in range(n)]
+        table = np.array([[net.states(c).index(case[c]) for c in columns] for case in cases])
+        got = net.posterior_batch(target, table, columns=columns)
+        for row, case in zip(got, cases, strict=True):
+            evidence = {c: case[c] for c in columns}
+            want = brute_posterior(net, [target], evidence)
+            np.testing.assert_allclose(row, want, atol=1e-12)
 
 
 @pytest.mark.parametrize("force_joint", [False, True])
 def test_batch_memo_reports_impossible_cases_and_follows_network_changes(
-    force_joint: bool, monkeypatch: pytest.MonkeyPatch
+    force_joint: bool,
 ) -> None:
-    if force_joint:
-        monkeypatch.setattr(inference, "_JOINT_ABOVE", -1)
-    net = BayesNet("memo")
+    net = BayesNet("memo", tuning=Tuning(joint_above=-1) if force_joint else Tuning())
     net.add_variable("R", ["no", "yes"], cpt=[0.8, 0.2])
     net.add_variable("S", ["off", "on"], parents=["R"], cpt=[[0.6, 0.99], [0.4, 0.01]])
     wet = np.array([[[1.0, 0.1], [0.2, 0.01]], [[0.0, 0.9], [0.8, 0.99]]])
@@ -238,7 +232,7 @@ def test_every_prior_equals_brute_force(seed: int) -> None:
 def test_a_first_question_computes_only_the_priors_it_uses() -> None:
     net = _two_parts()
     net.posterior("B", {"D": "1"})  # D's part is d-separated: only its prior check is needed
-    computed = {net._engine.compiled.names[v] for v in net._engine._priors}
+    computed = {net._engine.compiled.names[v] for v in net._engine.priors}
     assert computed <= {"C", "D"}
     assert "A" not in computed and "B" not in computed
 

@@ -129,6 +129,52 @@ def test_batch_soft_evidence_matches_one_case_at_a_time() -> None:
             np.testing.assert_allclose(got[i], list(one.values()), atol=1e-12)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_fixed_point_batch_soft_evidence_is_within_its_bound_of_float(seed: int) -> None:
+    """Each case's Q16.16 answer lies within its guaranteed bound of the float64 answer,
+    whichever variables are observed (cases with nothing observed included)."""
+    net = random_net(seed, n_vars=7, max_card=3)
+    rng = np.random.default_rng(seed)
+    cases = net.sample(30, rng=rng)
+    cases[rng.random(cases.shape) < 0.6] = -1
+    cases[:3] = -1
+    soft_vars = [str(v) for v in rng.choice(net.variables, size=2, replace=False)]
+    soft = {}
+    for v in soft_vars:
+        cases[:, net.variables.index(v)] = -1
+        soft[v] = rng.random((30, net.cardinality(v))) + 0.05
+    for target in (net.variables[0], soft_vars[0], net.variables[-1]):
+        exact = net.posterior_batch(target, cases, soft=soft)
+        fixed = net.posterior_batch_fixed(target, cases, "Q16.16", soft=soft)
+        assert fixed.values.shape == exact.shape
+        assert np.all(np.abs(fixed.values - exact) <= fixed.bound)
+        assert np.all(fixed.bound < 0.05)  # a bound that says something
+
+
+@pytest.mark.parametrize("name", ["asia", "alarm", "child"])
+def test_fixed_point_batch_soft_evidence_matches_pyagrum(name: str) -> None:
+    net = bn.read(Path(pgmpy.__file__).parent / "utils" / "example_models" / f"{name}.bif.gz")
+    g = to_pyagrum(net)
+    rng = np.random.default_rng(len(name))
+    names = list(net.variables)
+    columns, (soft_var, target) = np.split(rng.choice(names, size=4, replace=False), [2])
+    columns = [str(c) for c in columns]
+    soft_var, target = str(soft_var), str(target)
+    cases = net.sample(12, rng=rng)[:, [names.index(c) for c in columns]]
+    cases[rng.random(cases.shape) < 0.3] = -1
+    weights = rng.random((12, net.cardinality(soft_var))) + 0.05
+    fixed = net.posterior_batch_fixed(
+        target, cases, "Q16.16", columns=columns, soft={soft_var: weights}
+    )
+    for i in range(12):
+        engine = gum.LazyPropagation(g)
+        hard = {c: net.states(c)[s] for c, s in zip(columns, cases[i], strict=True) if s >= 0}
+        engine.setEvidence({**hard, soft_var: weights[i].tolist()})
+        engine.makeInference()
+        theirs = engine.posterior(target).toarray()
+        assert np.all(np.abs(fixed.values[i] - theirs) <= fixed.bound[i] + 1e-9)
+
+
 def test_bad_soft_evidence_is_a_one_line_input_error() -> None:
     net = random_net(3, n_vars=3, max_card=2)
     x = net.variables[0]
@@ -140,6 +186,14 @@ def test_bad_soft_evidence_is_a_one_line_input_error() -> None:
     with pytest.raises(InputError, match="case 1"):
         net.posterior_batch(
             net.variables[1], np.full((2, 1), -1), columns=[x], soft={x: [[1, 1], [0, 0]]}
+        )
+    with pytest.raises(InputError, match="case 1"):
+        net.posterior_batch_fixed(
+            net.variables[1], np.full((2, 1), -1), columns=[x], soft={x: [[1, 1], [0, 0]]}
+        )
+    with pytest.raises(InputError, match="both an observed state and soft evidence"):
+        net.posterior_batch_fixed(
+            net.variables[1], np.array([[-1], [0]]), columns=[x], soft={x: [[1, 1], [1, 2]]}
         )
 
 

@@ -13,14 +13,15 @@ a true joint maximisation, never per-variable arg-maxes of marginals.
 from __future__ import annotations
 
 import math
-from collections.abc import Hashable, Sequence
+from collections.abc import Hashable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol, TypeVar
+from typing import Any, Generic, Protocol, TypeVar
 
 import numpy as np
 import opt_einsum
 
 from bayesmap._typing import FloatArray, IntArray
+from bayesmap.bn.tuning import TUNING, Tuning
 from bayesmap.errors import ModelError
 
 T = TypeVar("T")
@@ -54,7 +55,8 @@ class Record:
 
 @dataclass(frozen=True)
 class Path:
-    """A contraction order for fixed index strings, from :func:`opt_einsum.contract_path`."""
+    """A contraction order for fixed index strings: an SSA path (as :func:`walk` reads it)
+    converted from :func:`opt_einsum.contract_path`'s."""
 
     terms: tuple[str, ...]
     output: str
@@ -63,17 +65,19 @@ class Path:
 
 MAX_STEP_ENTRIES = 1 << 27
 """Largest table (entries) one step of :func:`run` may build: 1 GiB of float64."""
-_SEARCH_ABOVE = 1e8
-"""Greedy orders costing more multiply-adds than this are improved by a random-greedy search."""
-_SEARCH_REPEATS = 16
-"""Trials of that search (each seeded by its number, so the order is reproducible)."""
 
 
-def find_path(terms: Sequence[str], output: str, shapes: Sequence[Sequence[int]]) -> Path:
+def find_path(
+    terms: Sequence[str],
+    output: str,
+    shapes: Sequence[Sequence[int]],
+    *,
+    tuning: Tuning = TUNING,
+) -> Path:
     """Ask opt_einsum for a contraction order of ``terms -> output``.
 
     opt_einsum's greedy order comes first (milliseconds even on a thousand factors); only
-    where it would cost over ``_SEARCH_ABOVE`` multiply-adds is a reproducible random-greedy
+    where it would cost over ``tuning.search_above`` multiply-adds is a reproducible random-greedy
     search run too, and the cheaper order kept.
 
     Raises
@@ -86,14 +90,15 @@ def find_path(terms: Sequence[str], output: str, shapes: Sequence[Sequence[int]]
         return Path((), output, ())
     equation = ",".join(terms) + "->" + output
     steps, info = opt_einsum.contract_path(equation, *shapes, shapes=True, optimize="greedy")
-    if float(info.opt_cost) > _SEARCH_ABOVE:
-        search = opt_einsum.RandomGreedy(max_repeats=_SEARCH_REPEATS)
+    if float(info.opt_cost) > tuning.search_above:
+        search = opt_einsum.RandomGreedy(max_repeats=tuning.search_repeats)
         better, better_info = opt_einsum.contract_path(
             equation, *shapes, shapes=True, optimize=search
         )
         if better_info.opt_cost < info.opt_cost:
             steps = better
-    path = Path(tuple(terms), output, tuple(tuple(s) for s in steps))
+    ssa = opt_einsum.paths.linear_to_ssa(steps)
+    path = Path(tuple(terms), output, tuple(tuple(s) for s in ssa))
     widest = _widest_step(path, shapes)
     if widest > MAX_STEP_ENTRIES:
         raise ModelError(
@@ -112,17 +117,8 @@ def _widest_step(path: Path, shapes: Sequence[Sequence[int]]) -> int:
         for term, shape in zip(path.terms, shapes, strict=True)
         for ch, n in zip(term, shape, strict=True)
     }
-    live = list(path.terms)
-    widest = 0
-    for step in path.steps:
-        chosen = [live[i] for i in step]
-        for i in sorted(step, reverse=True):
-            del live[i]
-        union = "".join(dict.fromkeys("".join(chosen)))
-        widest = max(widest, math.prod(sizes[ch] for ch in union))
-        needed = set(path.output).union(*live)
-        live.append("".join(ch for ch in union if ch in needed))
-    return widest
+    steps = walk(path.terms, path.output, path.steps)
+    return max((math.prod(sizes[ch] for ch in step.union) for step in steps), default=0)
 
 
 def run(path: Path, operands: Sequence[T], algebra: Algebra[T]) -> tuple[T, str, list[Record]]:
@@ -133,14 +129,10 @@ def run(path: Path, operands: Sequence[T], algebra: Algebra[T]) -> tuple[T, str,
     """
     live: list[tuple[T, str]] = list(zip(operands, path.terms, strict=True))
     records: list[Record] = []
-    for step in path.steps:
-        chosen = [live[i] for i in step]
-        for i in sorted(step, reverse=True):
-            del live[i]
-        needed = set(path.output).union(*(term for _, term in live))
-        union = "".join(dict.fromkeys("".join(term for _, term in chosen)))
-        kept = "".join(ch for ch in union if ch in needed)
-        dropped = "".join(ch for ch in union if ch not in needed)
+    for step in walk(path.terms, path.output, path.steps):
+        chosen = [live[i] for i in step.inputs]
+        kept = "".join(step.kept)
+        dropped = "".join(ch for ch in step.union if ch not in step.kept)
         order = kept + dropped
         sizes = dict[str, int]()
         for value, term in chosen:
@@ -157,9 +149,9 @@ def run(path: Path, operands: Sequence[T], algebra: Algebra[T]) -> tuple[T, str,
                     Record(tuple(kept), tuple(dropped), tuple(sizes[ch] for ch in dropped), argmax)
                 )
         live.append((product, kept))
-    if len(live) != 1:
+    if len(live) != len(operands) + len(path.steps) or (not path.steps and len(live) != 1):
         raise AssertionError("contraction path did not reduce to one operand")
-    result, term = live[0]
+    result, term = live[-1]
     return result, term, records
 
 
@@ -204,13 +196,8 @@ def _align(algebra: Algebra[T], value: T, term: str, order: str, sizes: dict[str
     return algebra.rearrange(value, axes, shape)
 
 
-_SMALL = 1 << 12
-_PAIR = 1 << 16
 _MAX_OPERANDS = 24
-"""A step of three or more operands over more than ``_SMALL`` entries is split into pairwise
-contractions (``np.einsum`` loops naively over the union of all its operands' indices), and
-one of more than ``_MAX_OPERANDS`` into groups (``np.einsum`` takes at most 32 operands); a
-pairwise step over more than ``_PAIR`` entries goes to :func:`opt_einsum.contract` (BLAS)."""
+"""``np.einsum`` takes at most 32 operands: a step of more than this is contracted in groups."""
 
 
 class ConstantMemo:
@@ -261,11 +248,14 @@ class SumProgram:
         numbered first, each step's result takes the next number); the last step gives
         ``output``.
     kept
-        Labels each step's result keeps (as :func:`kept_labels` gives them), if known.
+        Labels each step's result keeps (as :func:`walk` gives them), if known.
     memo
         Results of evidence-independent steps, shared between programs over the same
         constant arrays: a new pattern whose plan repeats a step of an earlier one (or of
         a prior marginal's computation) reuses its result instead of contracting it again.
+    tuning
+        Where a step of many operands is split (``split_above``) and where a pairwise
+        step goes to BLAS (``blas_above``).
     """
 
     def __init__(
@@ -276,8 +266,11 @@ class SumProgram:
         path: Sequence[Sequence[int]],
         kept: Sequence[Sequence[Hashable]] | None = None,
         memo: ConstantMemo | None = None,
+        *,
+        tuning: Tuning = TUNING,
     ) -> None:
         self._memo = memo
+        self._tuning = tuning
         sizes: dict[Hashable, int] = {}
         # live operands: (constant value or None, register or -1, labels)
         live: list[tuple[Any, int, Sequence[Hashable]]] = []
@@ -291,7 +284,7 @@ class SumProgram:
                 sizes.update(zip(scope, op.shape, strict=True))
                 live.append((op, -1, scope))
         if kept is None:
-            kept = kept_labels(scopes, output, path)
+            kept = [step.kept for step in walk(scopes, output, path)]
         self.n_inputs = n_inputs
         self._sizes = sizes
         # each step: (argument template, [(argument slot, register)], result register, large)
@@ -305,7 +298,7 @@ class SumProgram:
                 live.append(self._emit(chosen, keep))
                 continue
             union = dict.fromkeys(label for _, _, scope in chosen for label in scope)
-            large = math.prod([sizes[label] for label in union]) > _SMALL
+            large = math.prod([sizes[label] for label in union]) > tuning.split_above
             if large or len(chosen) > _MAX_OPERANDS:
                 live.append(self._split(chosen, keep, large))
             else:
@@ -357,7 +350,7 @@ class SumProgram:
         large = False
         if len(chosen) == 2:
             sizes = self._sizes
-            large = math.prod([sizes[label] for label in index]) > _PAIR
+            large = math.prod([sizes[label] for label in index]) > self._tuning.blas_above
         if not fills:
             memo = self._memo
             if memo is None:
@@ -384,30 +377,59 @@ class SumProgram:
         return np.asarray(value if source < 0 else registers[source])
 
 
-def kept_labels(
-    scopes: Sequence[Sequence[Hashable]],
-    output: Sequence[Hashable],
+L = TypeVar("L", bound=Hashable)
+"""A label of an operand's axis (a variable id, an einsum character, the case axis)."""
+
+
+@dataclass(frozen=True)
+class Step(Generic[L]):
+    """One step of an SSA contraction path, as :func:`walk` reads it.
+
+    Attributes
+    ----------
+    inputs
+        SSA numbers of the operands it multiplies (inputs first, then each step's result).
+    union
+        Labels of their product, in order of first appearance among the operands.
+    kept
+        The labels its result keeps — held by a later operand or in the output — in
+        ``union`` order; the others are summed (or maximised) out.
+    """
+
+    inputs: tuple[int, ...]
+    union: tuple[L, ...]
+    kept: tuple[L, ...]
+
+
+def walk(
+    scopes: Sequence[Iterable[L]],
+    output: Iterable[L],
     path: Sequence[Sequence[int]],
-) -> list[list[Hashable]]:
-    """For each step of an SSA ``path``: the labels its result keeps (held later or output)."""
-    count: dict[Hashable, int] = dict.fromkeys(output, 1)
+) -> list[Step[L]]:
+    """Read an SSA ``path`` over operands with labels ``scopes``: each step's operands, the
+    labels of their product and the labels its result keeps.
+
+    Every contraction here — compiled sum-product, two-pass, pluggable-arithmetic
+    :func:`run`, and the costs of orders — walks its path through this one function.
+    """
+    count: dict[L, int] = dict.fromkeys(output, 1)
     for scope in scopes:
         for label in scope:
             count[label] = count.get(label, 0) + 1
     live = list(scopes)
-    out: list[list[Hashable]] = []
+    steps: list[Step[L]] = []
     for position in path:
-        union: dict[Hashable, None] = {}
+        union: dict[L, None] = {}
         for i in position:
             for label in live[i]:
                 union[label] = None
                 count[label] -= 1
-        kept = [label for label in union if count[label] > 0]
+        kept = tuple([label for label in union if count[label] > 0])
         for label in kept:
             count[label] += 1
         live.append(kept)
-        out.append(kept)
-    return out
+        steps.append(Step(tuple(position), tuple(union), kept))
+    return steps
 
 
 def _call(args: list[Any], large: bool) -> FloatArray:

@@ -28,10 +28,8 @@ import numpy as np
 import opt_einsum
 
 from bayesmap._typing import FloatArray
-from bayesmap.bn.elimination import kept_labels
-
-_LARGE = 1 << 14
-"""Steps over more joint entries than this use opt_einsum (BLAS) rather than np.einsum."""
+from bayesmap.bn.elimination import walk
+from bayesmap.bn.tuning import TUNING, Tuning
 
 
 class _Node:
@@ -53,15 +51,17 @@ def _sublist(
     operands: Sequence[tuple[int, tuple[Hashable, ...]]],
     output: Sequence[Hashable],
     sizes: dict[Hashable, int],
+    large_above: int,
 ) -> tuple[list[Any], bool]:
-    """An ``np.einsum`` sub-list template (array slots hold node numbers) and whether large."""
+    """An ``np.einsum`` sub-list template (array slots hold node numbers) and whether it is
+    over more than ``large_above`` joint entries (then opt_einsum, BLAS, runs it)."""
     index: dict[Hashable, int] = {}
     args: list[Any] = []
     for node, labels in operands:
         args.append(node)
         args.append([index.setdefault(label, len(index)) for label in labels])
     args.append([index[label] for label in output])
-    return args, math.prod([sizes[label] for label in index]) > _LARGE
+    return args, math.prod([sizes[label] for label in index]) > large_above
 
 
 def _run(args: list[Any], store: Sequence[Any], large: bool) -> Any:
@@ -93,6 +93,9 @@ class TwoPass:
     wanted
         ``(factor k, label X)`` pairs: the call returns ``Σ φ_k · ∂Z/∂φ_k`` over
         ``output + (X,)`` for each.
+    tuning
+        Steps over more joint entries than ``tuning.two_pass_blas_above`` run on opt_einsum
+        (BLAS) rather than ``np.einsum``.
     """
 
     def __init__(
@@ -103,11 +106,14 @@ class TwoPass:
         output: tuple[Hashable, ...],
         sizes: dict[Hashable, int],
         wanted: Sequence[tuple[int, Hashable]],
+        *,
+        tuning: Tuning = TUNING,
     ) -> None:
+        large = tuning.two_pass_blas_above
         self.n_inputs = len(scopes)
         self.output = output
         nodes = [_Node(tuple(s), op, ()) for s, op in zip(scopes, operands, strict=True)]
-        kept = kept_labels(scopes, output, path)
+        kept = [step.kept for step in walk(scopes, output, path)]
         ssa = list(range(len(nodes)))  # SSA number -> node number
         last = len(path) - 1
         for k, step in enumerate(path):
@@ -115,12 +121,12 @@ class TwoPass:
             members = sorted((ssa[i] for i in step), key=lambda n: len(nodes[n].labels))
             acc = members[0]
             if len(members) == 1:
-                acc = self._add(nodes, (acc,), keep, sizes)
+                acc = self._add(nodes, (acc,), keep, sizes, large)
             for j, other in enumerate(members[1:], start=2):
                 later = {lab for n in members[j:] for lab in nodes[n].labels} | set(keep)
                 union = dict.fromkeys((*nodes[acc].labels, *nodes[other].labels))
                 labels = keep if j == len(members) else tuple(x for x in union if x in later)
-                acc = self._add(nodes, (acc, other), labels, sizes)
+                acc = self._add(nodes, (acc, other), labels, sizes, large)
             ssa.append(acc)
         self.root = ssa[-1]
         self.nodes = nodes
@@ -149,13 +155,15 @@ class TwoPass:
                 present = {lab for _, labels in others for lab in labels}
                 full = adjoint_labels(i)
                 target = tuple(lab for lab in full if lab in present)
-                args, large = _sublist(others, target, sizes)
+                args, big = _sublist(others, target, sizes, large)
                 spread = None
                 if len(target) < len(full):  # labels only φ_i holds: constant along them
                     spread = [(a, sizes[lab]) for a, lab in enumerate(full) if lab not in present]
-                self.backward.append((i, n, args, large, spread))
+                self.backward.append((i, n, args, big, spread))
         self.marginals = [
-            _sublist([(k, nodes[k].labels), (-1 - k, adjoint_labels(k))], (*output, label), sizes)
+            _sublist(
+                [(k, nodes[k].labels), (-1 - k, adjoint_labels(k))], (*output, label), sizes, large
+            )
             for k, label in wanted
         ]
         self.forward = [n for n in range(self.n_inputs, len(nodes)) if not nodes[n].constant]
@@ -175,9 +183,12 @@ class TwoPass:
         inputs: tuple[int, ...],
         labels: tuple[Hashable, ...],
         sizes: dict[Hashable, int],
+        large_above: int,
     ) -> int:
         node = _Node(labels, None, inputs)
-        node.args, node.large = _sublist([(i, nodes[i].labels) for i in inputs], labels, sizes)
+        node.args, node.large = _sublist(
+            [(i, nodes[i].labels) for i in inputs], labels, sizes, large_above
+        )
         if all(nodes[i].constant for i in inputs):
             node.value = _run(node.args, [nodes[i].value for i in range(len(nodes))], node.large)
             node.constant = True

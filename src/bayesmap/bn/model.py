@@ -62,6 +62,7 @@ from bayesmap.bn.tables import WARN_TOLERANCE as WARN_TOLERANCE
 from bayesmap.bn.tables import CPTNormalisationWarning as CPTNormalisationWarning
 from bayesmap.bn.tables import DataSource as DataSource
 from bayesmap.bn.tables import checked_cpt
+from bayesmap.bn.tuning import TUNING, Tuning
 from bayesmap.errors import ConfigError, InputError, ModelError
 
 if TYPE_CHECKING:
@@ -150,6 +151,9 @@ class BayesNet:
     ----------
     name
         The network's name (written to files).
+    tuning
+        Where the inference engine switches between equally exact ways to answer
+        (:class:`~bayesmap.bn.tuning.Tuning`; the measured defaults if not given).
 
     Examples
     --------
@@ -160,15 +164,25 @@ class BayesNet:
     (2, 2)
     """
 
-    def __init__(self, name: str = "network") -> None:
+    def __init__(self, name: str = "network", *, tuning: Tuning = TUNING) -> None:
         self.name = name
         self._variables: dict[str, Variable] = {}
         self.properties: dict[str, str] = {}
         self._version = 0
-        self._engine = Engine(self)
+        self._engine = Engine(self, tuning)
         self._shadows: dict[tuple[str, ...], Shadow] = {}
         self._counts: list[FloatArray] | None = None
         self._counts_version = -1
+
+    @property
+    def tuning(self) -> Tuning:
+        """The inference engine's tuning; setting it drops the engine's caches."""
+        return self._engine.tuning
+
+    @tuning.setter
+    def tuning(self, tuning: Tuning) -> None:
+        self._engine = Engine(self, tuning)
+        self._shadows.clear()
 
     # ------------------------------------------------------------------ structure
     @property
@@ -626,10 +640,16 @@ class BayesNet:
         fixed_point: QFormat | str = "Q16.16",
         *,
         columns: Sequence[str] | None = None,
+        soft: Mapping[str, npt.ArrayLike] | None = None,
     ) -> FixedResult:
-        """:meth:`posterior_batch` in Q-format integer arithmetic, with error bounds."""
+        """:meth:`posterior_batch` in Q-format integer arithmetic, with error bounds.
+
+        ``soft`` gives soft evidence per case, ``{variable: (n_cases, n_states) weights}``,
+        as in :meth:`posterior_batch`; each case's weights are scaled to a largest weight of
+        1 and quantised like a CPT, so the bound covers their rounding too.
+        """
         q = QFormat.parse(fixed_point)
-        return self._engine.fixed_posterior_batch(target, evidence, q, columns=columns)
+        return self._engine.fixed_posterior_batch(target, evidence, q, columns=columns, soft=soft)
 
     def map(
         self,
@@ -979,7 +999,7 @@ class BayesNet:
 
     def copy(self) -> BayesNet:
         """A copy sharing no mutable state (CPT arrays are read-only and shared)."""
-        other = BayesNet(self.name)
+        other = BayesNet(self.name, tuning=self.tuning)
         other.properties = dict(self.properties)
         for v in self._variables.values():
             other._variables[v.name] = Variable(

@@ -30,13 +30,20 @@ import heapq
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from enum import Enum
 from operator import itemgetter
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import opt_einsum
 
 from bayesmap._typing import FloatArray
 from bayesmap.bn.compiled import Compiled, bits
+from bayesmap.bn.elimination import walk
+from bayesmap.bn.tuning import TUNING, Tuning
+
+if TYPE_CHECKING:
+    from bayesmap.bn.elimination import Path, SumProgram
+    from bayesmap.bn.marginals import TwoPass
 
 BATCH = opt_einsum.get_symbol(0)
 """The einsum index of the case axis of batched queries."""
@@ -87,6 +94,89 @@ class Factor:
         return bool(self.ev_pos) or self.array is None
 
 
+class QueryKind(Enum):
+    """Which factors a question's plan keeps (:func:`build`)."""
+
+    MARGINAL = "marginal"
+    """Sum over the non-targets: barren variables and target-free components dropped,
+    evidence-free ancestral sub-networks replaced by priors (posteriors, marginal MAP,
+    propositions)."""
+    EVIDENCE = "evidence"
+    """No targets, every component kept: the probability of the evidence (eq. 24's Σ)."""
+    WHOLE = "whole"
+    """Nothing pruned: MAP over all variables (eq. 13) and every posterior at once."""
+
+    # members are singletons compared by identity: hash them by identity too (a C call;
+    # Enum's own hash is Python code, paid on every plan lookup of a warm question)
+    __hash__ = object.__hash__
+
+
+BatchOrder = tuple[
+    list[tuple[int, ...]], tuple[int, ...], list[Any], list[tuple[int, ...]], Any, int
+]
+"""A batch contraction: scopes, output, operand specs, SSA path, kept labels and cost."""
+
+
+@dataclass
+class PlanCache:
+    """What a plan's questions compute once and reuse (all empty until first asked).
+
+    Attributes
+    ----------
+    ancestral
+        For :attr:`QueryKind.MARGINAL` plans: the order of the paper's recursion (eq. 27)
+        where it is exact for this question, else ``None``.
+    checkable
+        The plan's dropped observed variables that have a cached prior to check.
+    single
+        The one-case sum-product program and its per-call factors (or a constant result).
+    batch
+        Batch sum-product programs, by size class of the number of cases.
+    batch_order
+        Batch contraction orders, by size class.
+    two_pass_pays
+        Whether one two-pass contraction beats one question per variable.
+    two_pass_order
+        Two-pass scopes, path and cost, by ``(output labels, cases)``.
+    two_pass
+        Compiled two-pass programs and their wanted ``(factor, variable)`` pairs, by
+        ``(output labels, cases)``.
+    indicators
+        Indicator-batch two-pass programs, by ``(observed, targets, size class)``.
+    scalar_path
+        Order of contracting every factor to a scalar (MAP's max-product, fixed-point P(e)).
+    groups
+        Marginal MAP's sum groups: factor indices and the query labels each group keeps.
+    group_paths
+        Fixed-point sum order of each marginal-MAP group, by group number.
+    fixed_path
+        Order of the one-case fixed-point sum-product (the generated C code replays it).
+    fixed_batch_path
+        Order of the batched fixed-point sum-product.
+    """
+
+    ancestral: list[int] | None = None
+    checkable: tuple[int, ...] | None = None
+    single: tuple[Any, list[Factor]] | None = None
+    batch: dict[int, SumProgram] = field(default_factory=dict)
+    batch_order: dict[int, BatchOrder] = field(default_factory=dict)
+    two_pass_pays: bool | None = None
+    two_pass_order: dict[
+        tuple[tuple[int, ...], int], tuple[list[tuple[int, ...]], list[tuple[int, ...]], int]
+    ] = field(default_factory=dict)
+    two_pass: dict[tuple[tuple[int, ...], int], tuple[TwoPass, list[tuple[int, int]]]] = field(
+        default_factory=dict
+    )
+    indicators: dict[tuple[tuple[int, ...], tuple[int, ...], int], TwoPass] = field(
+        default_factory=dict
+    )
+    scalar_path: Path | None = None
+    groups: list[tuple[list[int], str | None]] | None = None
+    group_paths: dict[int, Path] = field(default_factory=dict)
+    fixed_path: Path | None = None
+    fixed_batch_path: Path | None = None
+
+
 @dataclass
 class Plan:
     """Pruned, sliced factors of one question for one pattern of observed variables.
@@ -104,7 +194,7 @@ class Plan:
     dropped
         Observed variables whose own CPT was left out (it lies in a component without a
         target, d-separated from the targets): the contraction does not see whether their
-        values are possible; :meth:`~bayesmap.bn.inference.Engine.posterior` checks their
+        values are possible; :meth:`~bayesmap.bn.inference.Engine.check_dropped` checks their
         prior marginals instead.
     """
 
@@ -113,7 +203,7 @@ class Plan:
     factors: list[Factor]
     checks: list[Factor]
     dropped: tuple[int, ...] = ()
-    cache: dict[Any, Any] = field(default_factory=dict)
+    cache: PlanCache = field(default_factory=PlanCache)
 
     @property
     def output(self) -> str:
@@ -123,11 +213,10 @@ class Plan:
 
 def build(
     compiled: Compiled,
+    kind: QueryKind,
     targets: Sequence[int],
     evidence: Sequence[int],
     *,
-    prune_barren: bool = True,
-    keep_all_components: bool = False,
     prior: Callable[[int], FloatArray] | None = None,
 ) -> Plan:
     """Build the plan of a question about ``targets`` given evidence on ``evidence``.
@@ -136,21 +225,23 @@ def build(
     ----------
     compiled
         The network.
+    kind
+        Which factors the question needs: :attr:`QueryKind.MARGINAL` drops the variables
+        that are neither targets, evidence nor their ancestors and the components without
+        a target; :attr:`QueryKind.EVIDENCE` and :attr:`QueryKind.WHOLE` keep every
+        component (the probability of the evidence), and ``WHOLE`` every variable (MAP
+        over all variables).
     targets
         Free variables the answer is over (none: probability of the evidence).
     evidence
         Observed variables (ids), disjoint from ``targets``.
-    prune_barren
-        Drop variables that are neither targets, evidence nor their ancestors (valid for
-        sum-product; MAP over all variables keeps them).
-    keep_all_components
-        Keep components without targets (needed for the probability of the evidence and
-        for MAP over all variables).
     prior
         Gives the (cached) prior marginal of a variable; with it, every evidence-free
         ancestral sub-network that meets the rest only through one variable ``Y`` is
         replaced by ``P(Y)`` (see :func:`clean_roots`).
     """
+    prune_barren = kind is not QueryKind.WHOLE
+    keep_all_components = kind is not QueryKind.MARGINAL
     ev = tuple(evidence)
     ev_mask = t_mask = 0
     for v in ev:
@@ -286,12 +377,14 @@ def order(
     scopes: Sequence[Sequence[int]],
     output: Sequence[int],
     sizes: Mapping[int, int] | None = None,
+    *,
+    tuning: Tuning = TUNING,
 ) -> tuple[list[tuple[int, ...]], int]:
     """A contraction order (opt_einsum SSA path) for ``scopes`` -> ``output``, and its cost.
 
     See :func:`order_steps`, which also gives the labels each step keeps.
     """
-    path, _, total = order_steps(compiled, scopes, output, sizes)
+    path, _, total = order_steps(compiled, scopes, output, sizes, tuning=tuning)
     return path, total
 
 
@@ -302,6 +395,7 @@ def order_steps(
     sizes: Mapping[int, int] | None = None,
     *,
     search: bool = False,
+    tuning: Tuning = TUNING,
 ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int]:
     """A contraction order (opt_einsum SSA path), the labels each step keeps, and its cost.
 
@@ -309,7 +403,8 @@ def order_steps(
     variable, in that order, has the factors holding it multiplied and summed over it (a variable
     no other factor holds is summed at once); a last step multiplies what is left into
     ``output``. The cost is the number of multiply-adds (the sizes of the steps' index
-    unions). If that costs more than ``_LARGE`` multiply-adds (and ``_PER_FACTOR`` per factor),
+    unions). If that costs more than ``tuning.greedy_above`` multiply-adds (and
+    ``tuning.greedy_per_factor`` per factor),
     :func:`opt_einsum.paths.ssa_greedy_optimize` is run on these factors as well and the
     order with the fewer multiply-adds is kept (its kept labels are then ``None``: they are
     not computed here). ``sizes`` gives the size of labels that are not variables (the case
@@ -372,7 +467,7 @@ def order_steps(
         kept_steps.append(tuple(output))
         labels = {w for k in rest for w in live[k]}
         total += math.prod([card[w] if w >= 0 else extra[w] for w in labels])
-    if search or (total > _LARGE and total > _PER_FACTOR * n):
+    if search or (total > tuning.greedy_above and total > tuning.greedy_per_factor * n):
         sets = [frozenset(scope) for scope in scopes]
         table = {u: card[u] if u >= 0 else extra[u] for u in holders}
         greedy = _greedy(sets, frozenset(output), table)
@@ -489,13 +584,6 @@ def _greedy(
     return path
 
 
-_LARGE = 1 << 20
-_PER_FACTOR = 1 << 15
-""":func:`order` also asks opt_einsum's greedy search only above ``_LARGE`` multiply-adds
-and ``_PER_FACTOR`` per factor: below, even a much better order saves less time than the
-search costs (~30–40 µs per factor)."""
-
-
 def _cost(
     sets: Sequence[frozenset[int]],
     output: set[int],
@@ -503,22 +591,9 @@ def _cost(
     size: Mapping[int, int],
 ) -> int:
     """Multiply-adds of an SSA path: the sum of the sizes of each step's index union."""
-    live = list(sets)
-    count: dict[int, int] = {}
-    for scope in sets:
-        for u in scope:
-            count[u] = count.get(u, 0) + 1
     total = 0
-    for step in path:
-        union = frozenset().union(*(live[k] for k in step))
-        for k in step:
-            for u in live[k]:
-                count[u] -= 1
-        kept = frozenset(u for u in union if u in output or count[u] > 0)
-        for u in kept:
-            count[u] += 1
-        live.append(kept)
-        total += math.prod(size[u] for u in union)
+    for step in walk(sets, output, path):
+        total += math.prod([size[u] for u in step.union])
     return total
 
 

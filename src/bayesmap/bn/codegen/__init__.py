@@ -45,6 +45,7 @@ from bayesmap.bn.codegen.program import (
     trace,
 )
 from bayesmap.bn.model import BayesNet
+from bayesmap.bn.plans import QueryKind
 from bayesmap.errors import ConfigError
 
 __all__ = ["SOFT_SUFFIX", "Arith", "CSources", "SoftNetwork", "generate"]
@@ -154,7 +155,7 @@ def generate(
         programs[t] = []
         for mask in range(1 << len(ids)):
             observed = {v for k, v in enumerate(ids) if mask >> k & 1} | set(virtual)
-            plan = engine.plan("sum", (t,), frozenset(observed))
+            plan = engine.plan(QueryKind.MARGINAL, (t,), frozenset(observed))
             programs[t].append(trace(compiled, plan, engine.fixed_path(plan), virtual))
     priors = {v: engine.prior(v) for v in _prior_vars(programs)}
     data = tuple(

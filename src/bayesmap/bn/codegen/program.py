@@ -354,7 +354,7 @@ def trace(
     if term != plan.output:  # one target: the only other order is none at all
         raise AssertionError("a one-target plan ended with a different output")
     checks = [Check(_leaf(compiled, f, soft)) for f in plan.checks]
-    checks.extend(  # as Engine._check_dropped: not at or below a data node
+    checks.extend(  # as Engine.check_dropped: not at or below a data node
         Check(View(Table("prior", v), 0, ((v, 1),), ()))
         for v in plan.dropped
         if not compiled.source_mask & (compiled.ancestor_masks[v] | 1 << v)
