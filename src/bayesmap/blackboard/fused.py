@@ -33,10 +33,20 @@ import numpy as np
 
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray
-from bayesmap.blackboard.data_driven import BirthProposal, LegVotes, table_candidates
+from bayesmap.blackboard.data_driven import (
+    BirthProposal,
+    LegVotes,
+    polish_table,
+    table_candidates,
+)
 from bayesmap.blackboard.evidence import EvidenceStore, check_sweeps
 from bayesmap.blackboard.rjmcmc import ChainState, Context, MoveRates, run
-from bayesmap.blackboard.sweep_model import ObjectType, SweepModel, check_catalogue
+from bayesmap.blackboard.sweep_model import (
+    ObjectType,
+    SweepModel,
+    arena_contains,
+    check_catalogue,
+)
 from bayesmap.errors import ConfigError
 
 __all__ = ["FusedMap", "FusedMapper", "FusedParams", "FusedStep"]
@@ -230,6 +240,45 @@ class FusedMapper:
         self.state_ = ChainState()
         self._ctx = Context(self.catalogue, self.model, self.store_)
         self._votes = LegVotes(self.arena, params.sigma_r, 0.5 * min(t.leg for t in self.catalogue))
+        self._polish_cache: dict[tuple[int, ...], tuple[int, FloatArray]] = {}
+
+    def _polished(self, tables: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Candidates merged where they coincide (2 cm, 0.03 rad; weights summed), each moved
+        by :func:`~bayesmap.blackboard.data_driven.polish_table` against its stored contacts.
+
+        A polished candidate is kept until the contacts around it change, so the cache
+        depends on the data alone (never on the chain), as a proposal must.
+        """
+        if not len(tables):
+            return tables, weights
+        keys = np.column_stack(
+            [np.round(tables[:, :2] / 0.02), np.round(tables[:, 2] / 0.03), tables[:, 3]]
+        ).astype(np.int64)
+        unique, inverse = np.unique(keys, axis=0, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        summed = np.bincount(inverse, weights=weights, minlength=len(unique)).astype(np.float64)
+        first = np.zeros(len(unique), dtype=np.int64)
+        first[inverse[::-1]] = np.arange(len(inverse))[::-1]
+        ctx, store = self._ctx, self.store_
+        out = np.empty((len(unique), 4))
+        for row, (key, index) in enumerate(zip(map(tuple, unique.tolist()), first, strict=True)):
+            table = tables[index]
+            ids = store.contacts_near(table[0], table[1], ctx.contact_radius + 0.1)
+            cached = self._polish_cache.get(key)
+            if cached is not None and cached[0] == len(ids):
+                out[row] = cached[1]
+                continue
+            rows = store.rows_[ids]
+            out[row] = polish_table(
+                table,
+                rows[:, [0, 1, 3, 5, 6]],
+                store.counts_[ids],
+                ctx.floor[ids],
+                self.catalogue,
+                self.model,
+            )
+            self._polish_cache[key] = (len(ids), out[row])
+        return out, summed
 
     def _proposal(self, box: tuple[float, float, float, float]) -> BirthProposal:
         grow = self._ctx.half_diagonal + self.params.spacing_tol
@@ -239,11 +288,13 @@ class FusedMapper:
         tables, weights = table_candidates(
             legs, self.catalogue, self.arena, self.params.spacing_tol
         )
+        tables, weights = self._polished(tables, weights)
         keep = (
             (tables[:, 0] >= box[0])
             & (tables[:, 0] <= box[2])
             & (tables[:, 1] >= box[1])
             & (tables[:, 1] <= box[3])
+            & arena_contains(tables, self.catalogue, self.arena)
         )
         p = self.params
         return BirthProposal(
