@@ -295,7 +295,7 @@ def polish_table(
     model: SweepModel,
     *,
     widen: tuple[float, ...] = (4.0, 1.0),
-    max_evals: int = 45,
+    max_evals: int = 24,
 ) -> FloatArray:
     """Move a candidate table ``(4,)`` to a local maximum of its contacts' likelihood.
 
