@@ -239,6 +239,9 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel processes")
     parser.add_argument("--no-paper", action="store_true", help="skip the paper-faithful check")
     parser.add_argument("--fresh", action="store_true", help="measure again runs already kept")
+    parser.add_argument(
+        "--report-only", action="store_true", help="measure nothing; tabulate the kept runs"
+    )
     args = parser.parse_args()
     limits = {k: int(v) for k, v in (item.split("=") for item in args.limit)}
     RUNS.mkdir(parents=True, exist_ok=True)
@@ -248,7 +251,13 @@ def main() -> None:
         for index in range(limits.get(name, args.worlds))
         for seed in range(args.seeds)
     ]
-    todo = [t for t in tasks if args.fresh or not run_file(t[0], t[2], t[3]).exists()]
+    if args.report_only:
+        tasks = [t for t in tasks if run_file(t[0], t[2], t[3]).exists()]
+    todo = [
+        t
+        for t in tasks
+        if not args.report_only and (args.fresh or not run_file(t[0], t[2], t[3]).exists())
+    ]
     print(f"{len(tasks)} runs, {len(tasks) - len(todo)} kept from earlier", flush=True)
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         for row in pool.map(measure, todo):
