@@ -298,7 +298,12 @@ def main() -> None:
                     *paper,
                 ]
                 if paper
-                else []
+                else [
+                    "",
+                    "The paper-faithful check (`reproduce blackboard`) was not part of this "
+                    "measurement (`--no-paper`); the paper mapper's per-pose numbers are in "
+                    "docs/blackboard-results.md.",
+                ]
             ),
         ]
     )
