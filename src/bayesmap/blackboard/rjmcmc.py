@@ -516,10 +516,11 @@ def greedy_ascent(
     single moves: for each candidate table c (in the order given) not already in the map,
     *replace and refill* — remove every table c overlaps, add c, then add each other
     candidate whose centre lies within a half diagonal of a removed table's and whose
-    birth raises log π — and keep the result if log π rose in total; then remove any table whose death raises log π. This reaches, in
-    one step, the one-table-for-two exchanges (and back) that the chain reaches only through
-    much worse maps. Repeats until a pass changes nothing (at most ``passes``). Modifies
-    ``state``; returns counters ``greedy_tried``, ``greedy_kept``.
+    birth raises log π — and keep the result if log π rose in total; then remove any table
+    whose death raises log π. This reaches, in one step, the one-table-for-two exchanges
+    (and back) that the chain reaches only through much worse maps. Repeats until a pass
+    changes nothing (at most ``passes``). Modifies ``state``;
+    returns counters ``greedy_tried``, ``greedy_kept``.
     """
     info = {"greedy_tried": 0, "greedy_kept": 0}
     reach = ctx.half_diagonal
