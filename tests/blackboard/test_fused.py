@@ -12,6 +12,9 @@ from bayesmap.blackboard.data_driven import (
     LegVotes,
     birth_density,
     draw_birth,
+    draw_near,
+    near_density,
+    polish_table,
     table_candidates,
 )
 from bayesmap.blackboard.evidence import EvidenceStore
@@ -91,19 +94,15 @@ def test_every_move_ratio_matches_the_full_joint() -> None:
     rates = MoveRates(step_xy=(0.02, 0.2), step_theta=(0.05, 0.3))
     seen: dict[str, int] = {}
     state = _state(ctx, np.vstack([truth[:1], [[3.0, 0.8, 0.2, 1.0]]]))
-    for _ in range(250):
+    for _ in range(400):
         move = propose(rng, state, ctx, birth, rates)
         if move is None:
             continue
         delta, free_new = evaluate(state, ctx, move)
         before = _joint(ctx, state.tables)
-        after_tables = state.tables.copy()
-        if move.index is None:
-            after_tables = np.vstack([after_tables, move.table[None]])
-        elif move.table is None:
-            after_tables = np.delete(after_tables, move.index, axis=0)
-        else:
-            after_tables[move.index] = move.table
+        after_tables = np.vstack(
+            [np.delete(state.tables, list(move.removed), axis=0), *[t[None] for t in move.added]]
+        )
         after = _joint(ctx, after_tables)
         if math.isinf(after):
             assert delta == -math.inf
@@ -123,7 +122,7 @@ def test_dimension_keeping_moves_are_their_own_reverse() -> None:
     rng = np.random.default_rng(0)
     box = (0.0, 0.0, *ARENA)
     birth = BirthProposal(box, np.zeros((0, 4)), np.zeros(0), 2, 1.0, 0.02, 0.03)
-    only = {k: 0.0 for k in ("birth", "death", "refine", "mirror", "corner", "type", "switch")}
+    only = {kind.value: 0.0 for kind in MoveKind}
     for kind in ("mirror", "corner", "type"):
         rates = MoveRates(**{**only, kind: 1.0})
         for _ in range(8):
@@ -132,11 +131,11 @@ def test_dimension_keeping_moves_are_their_own_reverse() -> None:
             move = propose(rng, state, ctx, birth, rates)
             if move is None:
                 continue
-            reached = ChainState(move.table[None])
+            reached = ChainState(move.added[0][None])
             back = 0
             for _ in range(200):
                 reverse = propose(rng, reached, ctx, birth, rates)
-                if reverse is not None and _same(reverse.table, start):
+                if reverse is not None and _same(reverse.added[0], start):
                     back += 1
             # mirror: 1 side of 4; corner: 1 corner of 4 × 1 placement of 7 (or 2 of 7 for a
             # square); type: 1 corner of 4 → the reverse is proposed about as often
@@ -189,6 +188,58 @@ def test_birth_density_is_the_density_draw_birth_samples() -> None:
         * inside.mean()
     )
     assert observed == pytest.approx(mass, rel=0.1)
+
+
+def test_near_density_is_the_density_draw_near_samples() -> None:
+    """The split/merge proposal q_L(· | centre): draws from the candidates near a point,
+    against the density the ratio uses (histogram over cells; zero for far candidates)."""
+    candidates = np.array([[1.0, 1.0, 0.2, 0.0], [1.5, 1.2, 3.1, 1.0], [4.0, 3.0, 1.0, 0.0]])
+    proposal = BirthProposal(
+        (0.0, 0.0, 5.0, 4.0), candidates, np.array([1.0, 3.0, 5.0]), 2, 0.1, 0.05, 0.05
+    )
+    centre, radius = np.array([1.2, 1.1]), 0.7
+    rng = np.random.default_rng(1)
+    draws = np.array([draw_near(rng, proposal, centre, radius) for _ in range(8000)])
+    assert near_density(candidates[2], proposal, centre, radius) == 0.0
+    assert draw_near(rng, proposal, np.array([3.0, 0.5]), 0.3) is None
+    xs, ys = np.linspace(1.45, 1.55, 9), np.linspace(1.15, 1.25, 9)
+    thetas = np.linspace(0, math.pi, 181)
+    values = np.array(
+        [
+            [
+                [near_density(np.array([x, y, t, 1.0]), proposal, centre, radius) for t in thetas]
+                for y in ys
+            ]
+            for x in xs
+        ]
+    )
+    mass = np.trapezoid(np.trapezoid(np.trapezoid(values, thetas, axis=2), ys, axis=1), xs)
+    observed = np.mean(
+        (draws[:, 3] == 1.0)
+        & (np.abs(draws[:, 0] - 1.5) <= 0.05)
+        & (np.abs(draws[:, 1] - 1.2) <= 0.05)
+    )
+    assert observed == pytest.approx(mass, rel=0.1)
+
+
+def test_polish_moves_a_candidate_off_by_centimetres_onto_the_table() -> None:
+    """A birth candidate 6 cm and 0.05 rad off the true desk, polished against the stored
+    contacts, lands within 1.5 cm and 0.02 rad of it (the leg detector's corner offset)."""
+    store, truth = _store()
+    ctx = _context(store)
+    ctx.refresh(_state(ctx, np.zeros((0, 4))))
+    desk = truth[0]
+    ids = store.contacts_near(desk[0], desk[1], ctx.contact_radius + 0.1)
+    rows = store.rows_[ids]
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        offset = rng.normal(size=2)
+        start = desk + np.array([*(0.06 * offset / np.linalg.norm(offset)), 0.05, 0.0])
+        out = polish_table(
+            start, rows[:, [0, 1, 3, 5, 6]], store.counts_[ids], ctx.floor[ids], CATALOGUE, MODEL
+        )
+        assert math.hypot(*(out[:2] - desk[:2])) < 0.015
+        assert abs(out[2] - desk[2]) < 0.02
 
 
 @pytest.mark.slow

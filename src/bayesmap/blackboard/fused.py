@@ -9,7 +9,9 @@ types — across poses. Each :meth:`FusedMapper.step` stores a pose's sweeps and
 chain a little inside a window around the robot (data-driven births from the legs seen
 there); :meth:`FusedMapper.finish` runs the chain over the whole arena: a tempered
 burn-in, sampling at β = 1 (each object's existence probability is the fraction of samples
-holding it), then annealing only to read off the MAP map. See docs/blackboard.md.
+holding it), then annealing and a greedy ascent through the polished data-driven candidates
+(:func:`~bayesmap.blackboard.rjmcmc.greedy_ascent`) only to read off the MAP
+map. See docs/blackboard.md.
 
 Examples
 --------
@@ -33,10 +35,20 @@ import numpy as np
 
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray
-from bayesmap.blackboard.data_driven import BirthProposal, LegVotes, table_candidates
+from bayesmap.blackboard.data_driven import (
+    BirthProposal,
+    LegVotes,
+    polish_table,
+    table_candidates,
+)
 from bayesmap.blackboard.evidence import EvidenceStore, check_sweeps
-from bayesmap.blackboard.rjmcmc import ChainState, Context, MoveRates, run
-from bayesmap.blackboard.sweep_model import ObjectType, SweepModel, check_catalogue
+from bayesmap.blackboard.rjmcmc import ChainState, Context, MoveRates, greedy_ascent, run
+from bayesmap.blackboard.sweep_model import (
+    ObjectType,
+    SweepModel,
+    arena_contains,
+    check_catalogue,
+)
 from bayesmap.errors import ConfigError
 
 __all__ = ["FusedMap", "FusedMapper", "FusedParams", "FusedStep"]
@@ -231,7 +243,43 @@ class FusedMapper:
         self._ctx = Context(self.catalogue, self.model, self.store_)
         self._votes = LegVotes(self.arena, params.sigma_r, 0.5 * min(t.leg for t in self.catalogue))
 
-    def _proposal(self, box: tuple[float, float, float, float]) -> BirthProposal:
+    def _polished(self, tables: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Candidates merged where they coincide (4 cm, 0.06 rad grid; weights summed), each moved
+        by :func:`~bayesmap.blackboard.data_driven.polish_table` against its stored contacts.
+
+        Used by :meth:`finish` (polishing every window's candidates at every pose would cost
+        more than the whole run); the result depends on the stored data alone, never on the
+        chain, as a proposal must.
+        """
+        if not len(tables):
+            return tables, weights
+        keys = np.column_stack(
+            [np.round(tables[:, :2] / 0.04), np.round(tables[:, 2] / 0.06), tables[:, 3]]
+        ).astype(np.int64)
+        unique, inverse = np.unique(keys, axis=0, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        summed = np.bincount(inverse, weights=weights, minlength=len(unique)).astype(np.float64)
+        first = np.zeros(len(unique), dtype=np.int64)
+        first[inverse[::-1]] = np.arange(len(inverse))[::-1]
+        ctx, store = self._ctx, self.store_
+        out = np.empty((len(unique), 4))
+        for row, index in enumerate(first):
+            table = tables[index]
+            ids = store.contacts_near(table[0], table[1], ctx.contact_radius + 0.1)
+            rows = store.rows_[ids]
+            out[row] = polish_table(
+                table,
+                rows[:, [0, 1, 3, 5, 6]],
+                store.counts_[ids],
+                ctx.floor[ids],
+                self.catalogue,
+                self.model,
+            )
+        return out, summed
+
+    def _proposal(
+        self, box: tuple[float, float, float, float], *, polish: bool = False
+    ) -> BirthProposal:
         grow = self._ctx.half_diagonal + self.params.spacing_tol
         legs = self._votes.peaks(
             (box[0] - grow, box[1] - grow, box[2] + grow, box[3] + grow), self.params.min_votes
@@ -239,11 +287,14 @@ class FusedMapper:
         tables, weights = table_candidates(
             legs, self.catalogue, self.arena, self.params.spacing_tol
         )
+        if polish:
+            tables, weights = self._polished(tables, weights)
         keep = (
             (tables[:, 0] >= box[0])
             & (tables[:, 0] <= box[2])
             & (tables[:, 1] >= box[1])
             & (tables[:, 1] <= box[3])
+            & arena_contains(tables, self.catalogue, self.arena)
         )
         p = self.params
         return BirthProposal(
@@ -300,7 +351,7 @@ class FusedMapper:
         generator = as_generator(rng)
         p = self.params
         self._ctx.refresh(self.state_)
-        proposal = self._proposal((0.0, 0.0, *self.arena))
+        proposal = self._proposal((0.0, 0.0, *self.arena), polish=True)
         betas = np.concatenate(
             [
                 np.geomspace(p.beta_start, 1.0, p.burn_in) if p.burn_in else np.zeros(0),
@@ -317,6 +368,11 @@ class FusedMapper:
             betas,
             record_every=p.record_every,
         )
+        self.state_.tables = best
+        self._ctx.refresh(self.state_)
+        order = np.argsort(-proposal.weights, kind="stable")
+        info |= greedy_ascent(self.state_, self._ctx, proposal.candidates[order])
+        best, best_log_pi = self.state_.tables.copy(), self.state_.log_pi
         squares = [abs(t.length - t.width) < 1e-9 for t in self.catalogue]
         existence = np.array(
             [

@@ -20,6 +20,15 @@ where the chain looks). Moves, each with its proposal ratio in the acceptance:
 - **switch**: replace a table of the window by a fresh draw t' from q_W; ratio
   q_W(t) / q_W(t') (an independence proposal, dimension kept). It lets the chain trade a
   wrong table that explains many contacts for the right one in one step.
+- **split / merge** (one table ↔ two): split picks a window table t (1 of n) and draws two
+  tables t₁, t₂ independently from q_L(· | t), the birth candidates whose centre lies within
+  R of t's centre (jittered as in a birth); merge picks one of the M window pairs whose
+  centres are within 2R and draws t from q_L(· | midpoint). Ratio of a split
+  (p_merge q_L(t | mid) / M') / (p_split 2 q_L(t₁ | t) q_L(t₂ | t) / n), M' counted after
+  the split (the factor 2: two orders give the same pair); a merge the inverse. An
+  identity map of (t, t₁, t₂), Jacobian 1. It reaches the maps where one table lay across
+  two (or two stood where one is) that single-table moves can only reach through far
+  worse maps, and where a birth is blocked because the wrong table overlaps it.
 
 Acceptance: ``log α = β Δlog π + log q-ratio`` (Metropolis–Hastings; all moves are rigid
 maps of (x, y, θ), Jacobian 1). ``Δlog π`` is computed locally (the changed table's contacts,
@@ -36,7 +45,13 @@ from enum import Enum
 import numpy as np
 
 from bayesmap._typing import FloatArray, IntArray
-from bayesmap.blackboard.data_driven import BirthProposal, birth_density, draw_birth
+from bayesmap.blackboard.data_driven import (
+    BirthProposal,
+    birth_density,
+    draw_birth,
+    draw_near,
+    near_density,
+)
 from bayesmap.blackboard.evidence import EvidenceStore
 from bayesmap.blackboard.sweep_model import (
     ObjectType,
@@ -51,7 +66,17 @@ from bayesmap.blackboard.sweep_model import (
     wall_contact_density,
 )
 
-__all__ = ["ChainState", "Move", "MoveKind", "MoveRates", "evaluate", "propose", "run"]
+__all__ = [
+    "ChainState",
+    "Move",
+    "MoveKind",
+    "MoveRates",
+    "evaluate",
+    "greedy_ascent",
+    "moved_tables",
+    "propose",
+    "run",
+]
 
 
 class MoveKind(Enum):
@@ -62,6 +87,8 @@ class MoveKind(Enum):
     CORNER = "corner"
     TYPE = "type"
     SWITCH = "switch"
+    SPLIT = "split"
+    MERGE = "merge"
 
 
 @dataclass(frozen=True)
@@ -75,6 +102,8 @@ class MoveRates:
     corner: float = 0.12
     type: float = 0.08
     switch: float = 0.1
+    split: float = 0.05
+    merge: float = 0.05
     step_xy: tuple[float, float] = (0.01, 0.06)
     step_theta: tuple[float, float] = (0.01, 0.06)
 
@@ -181,17 +210,27 @@ class Context:
 
 
 class Move:
-    """A proposed change: replace table ``index`` (or none) by ``table`` (or none)."""
+    """A proposed change: remove the tables at indices ``removed``, add the tables ``added``."""
 
-    __slots__ = ("index", "kind", "log_q_ratio", "table")
+    __slots__ = ("added", "kind", "log_q_ratio", "removed")
 
     def __init__(
-        self, kind: MoveKind, index: int | None, table: FloatArray | None, log_q_ratio: float = 0.0
+        self,
+        kind: MoveKind,
+        removed: tuple[int, ...],
+        added: tuple[FloatArray, ...],
+        log_q_ratio: float = 0.0,
     ):
         self.kind = kind
-        self.index = index
-        self.table = table
+        self.removed = removed
+        self.added = added
         self.log_q_ratio = log_q_ratio
+
+
+def moved_tables(tables: FloatArray, move: Move) -> FloatArray:
+    """The tables after ``move``: the kept ones in order, then the added ones."""
+    kept = np.delete(tables, list(move.removed), axis=0)
+    return np.vstack([kept, *[t[None] for t in move.added]]) if move.added else kept
 
 
 def _in_box(table: FloatArray, box: tuple[float, float, float, float]) -> bool:
@@ -213,6 +252,32 @@ def _place(leg: FloatArray, theta: float, corner: int, kind: ObjectType, k: int)
     return np.array([centre[0], centre[1], theta % math.pi, float(k)])
 
 
+def _close_pairs(tables: FloatArray, radius: float) -> list[tuple[int, int]]:
+    """Pairs ``(i, j)``, i < j, of ``tables`` whose centres lie within ``2 radius``."""
+    if len(tables) < 2:
+        return []
+    d = np.hypot(tables[:, None, 0] - tables[None, :, 0], tables[:, None, 1] - tables[None, :, 1])
+    i, j = np.nonzero(np.triu(d <= 2.0 * radius, 1))
+    return list(zip(i.tolist(), j.tolist(), strict=True))
+
+
+def _split_density(
+    parts: tuple[FloatArray, FloatArray], whole: FloatArray, birth: BirthProposal, radius: float
+) -> float:
+    """log of 2 q_L(t₁ | t) q_L(t₂ | t): the unordered pair drawn by a split of ``whole``."""
+    q1 = near_density(parts[0], birth, whole[:2], radius)
+    q2 = near_density(parts[1], birth, whole[:2], radius)
+    return math.log(2.0) + math.log(q1) + math.log(q2) if q1 > 0 and q2 > 0 else -math.inf
+
+
+def _merge_density(
+    parts: tuple[FloatArray, FloatArray], whole: FloatArray, birth: BirthProposal, radius: float
+) -> float:
+    """log q_L(t | midpoint of the pair): the table a merge of ``parts`` draws."""
+    q = near_density(whole, birth, 0.5 * (parts[0][:2] + parts[1][:2]), radius)
+    return math.log(q) if q > 0 else -math.inf
+
+
 def propose(
     rng: np.random.Generator,
     state: ChainState,
@@ -222,30 +287,39 @@ def propose(
 ) -> Move | None:
     """Draw one move inside ``birth.box``; ``None`` when the drawn kind cannot apply."""
     kinds = list(MoveKind)
-    p = np.array(
-        [
-            rates.birth,
-            rates.death,
-            rates.refine,
-            rates.mirror,
-            rates.corner,
-            rates.type,
-            rates.switch,
-        ]
-    )
+    p = np.array([getattr(rates, kind.value) for kind in kinds])
     if len(ctx.catalogue) == 1:
-        p[5] = 0.0
+        p[kinds.index(MoveKind.TYPE)] = 0.0
     p = p / p.sum()
+    rate = dict(zip(kinds, p.tolist(), strict=True))
     kind = kinds[min(int(np.searchsorted(np.cumsum(p), rng.uniform(), side="right")), len(p) - 1)]
     box = birth.box
     inside = [i for i, t in enumerate(state.tables) if _in_box(t, box)]
     n = len(inside)
+    radius = ctx.half_diagonal
     if kind is MoveKind.BIRTH:
         table = draw_birth(rng, birth)
         q = birth_density(table, birth)
         if q <= 0.0:
             return None
-        return Move(kind, None, table, math.log(p[1] / (n + 1)) - math.log(p[0] * q))
+        log_q = math.log(rate[MoveKind.DEATH] / (n + 1)) - math.log(rate[kind] * q)
+        return Move(kind, (), (table,), log_q)
+    if kind is MoveKind.MERGE:
+        pairs = _close_pairs(state.tables[inside], radius)
+        if not pairs:
+            return None
+        i, j = pairs[int(rng.integers(len(pairs)))]
+        parts = (state.tables[inside[i]], state.tables[inside[j]])
+        whole = draw_near(rng, birth, 0.5 * (parts[0][:2] + parts[1][:2]), radius)
+        if whole is None or not _in_box(whole, box):
+            return None
+        log_q = (
+            math.log(rate[MoveKind.SPLIT] / (n - 1))
+            + _split_density(parts, whole, birth, radius)
+            - math.log(rate[kind] / len(pairs))
+            - _merge_density(parts, whole, birth, radius)
+        )
+        return Move(kind, (inside[i], inside[j]), (whole,), log_q)
     if n == 0:
         return None
     index = inside[int(rng.integers(n))]
@@ -254,13 +328,36 @@ def propose(
     kind_of = ctx.catalogue[k]
     if kind is MoveKind.DEATH:
         q = birth_density(old, birth)
-        return Move(kind, index, None, math.log(p[0] * q) - math.log(p[1] / n))
+        return Move(
+            kind, (index,), (), math.log(rate[MoveKind.BIRTH] * q) - math.log(rate[kind] / n)
+        )
     if kind is MoveKind.SWITCH:
         new = draw_birth(rng, birth)
         q_new = birth_density(new, birth)
         if q_new <= 0.0:
             return None
-        return Move(kind, index, new, math.log(birth_density(old, birth)) - math.log(q_new))
+        return Move(kind, (index,), (new,), math.log(birth_density(old, birth)) - math.log(q_new))
+    if kind is MoveKind.SPLIT:
+        first, second = (
+            draw_near(rng, birth, old[:2], radius),
+            draw_near(rng, birth, old[:2], radius),
+        )
+        if first is None or second is None or not (_in_box(first, box) and _in_box(second, box)):
+            return None
+        parts = (first, second)
+        after = np.vstack(
+            [np.delete(state.tables[inside], inside.index(index), axis=0), first, second]
+        )
+        if math.hypot(*(first[:2] - second[:2])) > 2.0 * radius:
+            return None  # no merge could undo it: q(reverse) = 0
+        n_pairs = len(_close_pairs(after, radius))
+        log_q = (
+            math.log(rate[MoveKind.MERGE] / n_pairs)
+            + _merge_density(parts, old, birth, radius)
+            - math.log(rate[kind] / n)
+            - _split_density(parts, old, birth, radius)
+        )
+        return Move(kind, (index,), parts, log_q)
     if kind is MoveKind.REFINE:
         scale = int(rng.integers(2))
         step = np.array([rates.step_xy[scale], rates.step_xy[scale], rates.step_theta[scale]])
@@ -288,28 +385,32 @@ def propose(
         new = _place(leg, float(old[2]), corner, ctx.catalogue[k_new], k_new)
     if not _in_box(new, box):
         return None
-    return Move(kind, index, new, 0.0)
+    return Move(kind, (index,), (new,), 0.0)
 
 
-def evaluate(state: ChainState, ctx: Context, move: Move) -> tuple[float, float]:
-    """``Δlog π`` of ``move`` and the moved table's new free-space term.
+def _overlaps(tables: tuple[FloatArray, ...], others: FloatArray, ctx: Context) -> int:
+    """Overlapping pairs among ``tables`` and between them and ``others``."""
+    count = 0
+    for i, table in enumerate(tables):
+        rest = np.vstack([others, *[t[None] for t in tables[i + 1 :]]])
+        if len(rest):
+            count += int(tables_overlap(table, rest, ctx.catalogue).sum())
+    return count
 
-    Local: only contacts within reach of the old or new table change, and their best cause
-    is sought among the walls, clutter and the tables near them.
+
+def evaluate(state: ChainState, ctx: Context, move: Move) -> tuple[float, FloatArray]:
+    """``Δlog π`` of ``move`` and the added tables' free-space terms.
+
+    Local: only contacts within reach of the removed or added tables change, and their best
+    cause is sought among the walls, clutter and the tables near them.
     """
-    new, old = move.table, None if move.index is None else state.tables[move.index]
-    keep = np.ones(len(state.tables), dtype=bool)
-    if move.index is not None:
-        keep[move.index] = False
-    others = state.tables[keep]
-    overlaps = 0
-    if new is not None:
-        if not arena_contains(new, ctx.catalogue, ctx.model.arena)[0]:
-            return -math.inf, 0.0
-        overlaps += int(tables_overlap(new, others, ctx.catalogue).sum()) if len(others) else 0
-    if old is not None and len(others):
-        overlaps -= int(tables_overlap(old, others, ctx.catalogue).sum())
-    changed = [t for t in (old, new) if t is not None]
+    removed = tuple(state.tables[i] for i in move.removed)
+    added = move.added
+    others = np.delete(state.tables, list(move.removed), axis=0)
+    if added and not arena_contains(np.array(added), ctx.catalogue, ctx.model.arena).all():
+        return -math.inf, np.zeros(len(added))
+    overlaps = _overlaps(added, others, ctx) - _overlaps(removed, others, ctx)
+    changed = [*removed, *added]
     radius = ctx.contact_radius
     ids = np.unique(np.concatenate([ctx.store.contacts_near(t[0], t[1], radius) for t in changed]))
     delta = 0.0
@@ -319,35 +420,28 @@ def evaluate(state: ChainState, ctx: Context, move: Move) -> tuple[float, float]
         close = np.hypot(others[:, 0] - centre[0], others[:, 1] - centre[1]) <= 2 * radius + spread
         group = np.vstack([others[close], *[t[None] for t in changed]])
         density = ctx.tables_density(group, ids)
-        n_others = int(close.sum())
+        n_others, n_removed = int(close.sum()), len(removed)
         base = ctx.floor[ids]
         if n_others:
             base = np.maximum(base, density[:, :n_others].max(axis=1))
-        before = np.maximum(base, density[:, n_others]) if old is not None else base
-        after = np.maximum(base, density[:, -1]) if new is not None else base
+        before, after = base, base
+        if n_removed:
+            before = np.maximum(base, density[:, n_others : n_others + n_removed].max(axis=1))
+        if added:
+            after = np.maximum(base, density[:, n_others + n_removed :].max(axis=1))
         delta = float((ctx.store.counts_[ids] * (np.log(after) - np.log(before))).sum())
-    free_new = ctx.table_free_space(new) if new is not None else 0.0
-    delta += free_new - (state.free_space[move.index] if move.index is not None else 0.0)
-    delta += ctx.log_intensity * ((new is not None) - (old is not None))
+    free_new = np.array([ctx.table_free_space(t) for t in added])
+    delta += float(free_new.sum() - state.free_space[list(move.removed)].sum())
+    delta += ctx.log_intensity * (len(added) - len(removed))
     if overlaps:
         delta += ctx.model.log_overlap * overlaps
     return delta, free_new
 
 
-def apply(state: ChainState, move: Move, free_new: float, delta: float) -> None:
+def apply(state: ChainState, move: Move, free_new: FloatArray, delta: float) -> None:
     """Make ``move`` the chain's state, with its cached terms."""
-    if move.index is None:
-        assert move.table is not None
-        state.tables = np.vstack([state.tables, move.table[None]])
-        state.free_space = np.append(state.free_space, free_new)
-    elif move.table is None:
-        state.tables = np.delete(state.tables, move.index, axis=0)
-        state.free_space = np.delete(state.free_space, move.index)
-    else:
-        state.tables = state.tables.copy()
-        state.tables[move.index] = move.table
-        state.free_space = state.free_space.copy()
-        state.free_space[move.index] = free_new
+    state.tables = moved_tables(state.tables, move)
+    state.free_space = np.concatenate([np.delete(state.free_space, list(move.removed)), free_new])
     state.log_pi += delta
 
 
@@ -385,3 +479,103 @@ def run(
         if record_every and beta == 1.0 and step % record_every == 0:
             samples.append(state.tables.copy())
     return best, best_log_pi, samples, info
+
+
+def _copy(state: ChainState) -> ChainState:
+    return ChainState(state.tables.copy(), state.free_space.copy(), state.log_pi)
+
+
+def _holds(tables: FloatArray, table: FloatArray, xy: float = 0.03, theta: float = 0.05) -> bool:
+    """Whether ``tables`` holds one of the same type within ``xy`` [m] and ``theta`` [rad]."""
+    if not len(tables):
+        return False
+    d = np.mod(tables[:, 2] - table[2], math.pi)
+    return bool(
+        (
+            (tables[:, 3] == table[3])
+            & (np.hypot(tables[:, 0] - table[0], tables[:, 1] - table[1]) <= xy)
+            & (np.minimum(d, math.pi - d) <= theta)
+        ).any()
+    )
+
+
+def _try(state: ChainState, ctx: Context, move: Move) -> float:
+    """Apply ``move`` to ``state`` and return its Δlog π (−∞, state unchanged, if forbidden)."""
+    delta, free_new = evaluate(state, ctx, move)
+    if math.isfinite(delta):
+        apply(state, move, free_new, delta)
+    return delta
+
+
+def greedy_ascent(
+    state: ChainState, ctx: Context, candidates: FloatArray, *, passes: int = 2
+) -> dict[str, int]:
+    """Climb log π from ``state`` through the data-driven candidates (reading off the MAP).
+
+    The zero-temperature end of the annealing, over a larger neighbourhood than the chain's
+    single moves: for each candidate table c (in the order given) not already in the map,
+    *replace and refill* — remove every table c overlaps, add c, then add each other
+    candidate whose centre lies within a half diagonal of a removed table's and whose
+    birth raises log π — and keep the result if log π rose in total; then remove any table
+    whose death raises log π. This reaches, in one step, the one-table-for-two exchanges
+    (and back) that the chain reaches only through much worse maps. Repeats until a pass
+    changes nothing (at most ``passes``). Modifies ``state``;
+    returns counters ``greedy_tried``, ``greedy_kept``.
+    """
+    info = {"greedy_tried": 0, "greedy_kept": 0}
+    reach = ctx.half_diagonal
+    for _ in range(passes):
+        changed = False
+        for c in candidates:
+            if _holds(state.tables, c):
+                continue
+            hit = (
+                np.flatnonzero(tables_overlap(c, state.tables, ctx.catalogue))
+                if len(state.tables)
+                else np.zeros(0, dtype=np.int64)
+            )
+            trial = _copy(state)
+            info["greedy_tried"] += 1
+            gain = _try(trial, ctx, Move(MoveKind.SWITCH, tuple(hit.tolist()), (c,)))
+            if not math.isfinite(gain):
+                continue
+            if len(hit):
+                centres = state.tables[hit, :2]
+                near = (
+                    np.hypot(
+                        candidates[:, None, 0] - centres[None, :, 0],
+                        candidates[:, None, 1] - centres[None, :, 1],
+                    ).min(axis=1)
+                    <= reach
+                )
+                for other in candidates[near]:
+                    if _holds(trial.tables, other):
+                        continue
+                    birth = Move(MoveKind.BIRTH, (), (other,))
+                    extra, free_new = evaluate(trial, ctx, birth)
+                    if extra > 0:
+                        apply(trial, birth, free_new, extra)
+                        gain += extra
+            if gain > 1e-9:
+                state.tables, state.free_space, state.log_pi = (
+                    trial.tables,
+                    trial.free_space,
+                    trial.log_pi,
+                )
+                info["greedy_kept"] += 1
+                changed = True
+        index = 0
+        while index < len(state.tables):
+            trial = _copy(state)
+            if _try(trial, ctx, Move(MoveKind.DEATH, (index,), ())) > 1e-9:
+                state.tables, state.free_space, state.log_pi = (
+                    trial.tables,
+                    trial.free_space,
+                    trial.log_pi,
+                )
+                changed = True
+            else:
+                index += 1
+        if not changed:
+            break
+    return info
