@@ -144,14 +144,15 @@ def test_frontier_runs_drive_alike_under_both_entropy_inits_but_end_with_other_e
 def test_a_world_file_replaces_the_field_and_names_the_runs_by_their_init(tmp_path: Path) -> None:
     from bayesmap.sim.rover_worlds import generate_world, save_world
 
-    world = save_world(tmp_path / "WORLD.json", generate_world(5, size=20.0))
+    spec = generate_world(5, size=20.0)
+    world = save_world(tmp_path / "WORLD.json", spec)
     config = rover.Config(max_steps=20, runs=("obstacles-flat", "empty-flat"), world=world)
     result = rover.run(config, tmp_path / "out")
     metrics = json.loads((result.out_dir / "metrics.json").read_text())
     assert list(metrics) == ["flat"]  # both runs are the world's flat-init run: driven once
-    assert {m["world"] for m in metrics["flat"].values()} == {"rover-generated-v1"}
+    assert {m["world"] for m in metrics["flat"].values()} == {spec.world.name}
     assert metrics["flat"]["entropy"]["steps"] <= 20  # 20 cycles per 400 m² of a 20 m world
-    assert "20 m x 20 m world rover-generated-v1" in (result.out_dir / "summary.md").read_text()
+    assert f"20 m x 20 m world {spec.world.name}" in (result.out_dir / "summary.md").read_text()
     assert [(r["unit"], r["method"]) for r in rover.metric_rows(result)] == [
         ("flat", "entropy"),
         ("flat", "frontier"),

@@ -55,7 +55,10 @@ def inspect(url: str, *, timeout: float = 60.0) -> PageReport:
     """Load ``url`` in headless Chromium and report what it rendered."""
     executable = chromium()
     assert executable, "chromium is not installed"
-    with tempfile.TemporaryDirectory(prefix="bayesmap-chromium-") as profile:
+    # chromium's helper processes may still write into the profile as the main one exits
+    with tempfile.TemporaryDirectory(
+        prefix="bayesmap-chromium-", ignore_cleanup_errors=True
+    ) as profile:
         process = subprocess.Popen(
             [executable, *FLAGS, f"--user-data-dir={profile}", "about:blank"],
             stdout=subprocess.DEVNULL,
