@@ -1,4 +1,5 @@
 from pathlib import Path
+from typing import Annotated
 
 import click
 import pytest
@@ -6,7 +7,8 @@ from rich.console import Console
 from typer.main import get_command
 from typer.testing import CliRunner
 
-from bayesmap.cli import _print_summary, app
+from bayesmap.cli import COMMANDS, app, load_command
+from bayesmap.cli.reproduce import _print_summary
 from bayesmap.experiments import ExperimentResult
 
 runner = CliRunner()
@@ -62,7 +64,7 @@ def test_the_stage_eta_follows_the_current_stage_pace():
 
     from rich.progress import Progress
 
-    from bayesmap.cli import _StageRemaining
+    from bayesmap.cli.reproduce import _StageRemaining
 
     column = _StageRemaining()
     progress = Progress(column)
@@ -73,3 +75,49 @@ def test_the_stage_eta_follows_the_current_stage_pace():
     assert seconds and 78 <= 60 * int(seconds[1]) + int(seconds[2]) <= 82
     progress.update(task_id, stage_start=(time.monotonic(), 60))
     assert column.render(progress.tasks[0]).plain == "stage ETA –:––"
+
+
+@pytest.mark.parametrize("name", list(COMMANDS))
+def test_the_root_help_line_of_each_command_is_its_own_help(name):
+    command = load_command(name)
+    own = " ".join((command.help or "").split("\n\n")[0].split())
+    assert COMMANDS[name][1] == own
+    assert name in runner.invoke(app, ["--help"]).output
+
+
+def test_plain_option_values_convert_and_refuse_as_typer_does(tmp_path):
+    import typer
+
+    from bayesmap.cli._values import plain_values
+
+    seen = {}
+    demo = typer.Typer()
+
+    @demo.command()
+    def run(
+        count: Annotated[int, typer.Option(min=1)] = 3,
+        ratio: float = 0.5,
+        names: Annotated[list[str] | None, typer.Option("--name")] = None,
+        where: Path | None = None,
+        loud: bool = False,
+    ) -> None:
+        seen.update(count=count, ratio=ratio, names=names, where=where, loud=loud)
+
+    command = plain_values(get_command(demo))
+    assert all(type(p._runtime_param).__name__ == "PlainParam" for p in command.params)
+    args = ["--count", "7", "--ratio", "2.5", "--name", "a", "--name", "b"]
+    command.main([*args, "--where", str(tmp_path), "--loud"], standalone_mode=False)
+    assert seen == {
+        "count": 7,
+        "ratio": 2.5,
+        "names": ["a", "b"],
+        "where": tmp_path,
+        "loud": True,
+    }
+    for bad, message in (
+        (["--count", "x"], "valid integer"),
+        (["--count", "0"], "greater than or equal to 1"),
+        (["--ratio", "many"], "valid number"),
+    ):
+        with pytest.raises(typer.BadParameter, match=message):
+            command.main(bad, standalone_mode=False)

@@ -9,8 +9,7 @@ readers refuse them and name the field. YAML files are read with
 from __future__ import annotations
 
 import re
-
-import yaml
+from typing import Any
 
 DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 """A plain decimal number, whole (use with ``fullmatch``)."""
@@ -36,25 +35,40 @@ def is_decimal(text: str) -> bool:
     return DECIMAL.fullmatch(text) is not None
 
 
-class PlainNumberLoader(yaml.SafeLoader):  # type: ignore[misc]  # untyped PyYAML
-    """PyYAML's safe loader with YAML numbers narrowed to plain decimals.
-
-    YAML 1.1 also reads ``1_0`` as 10, ``0x10`` as 16, ``1:30`` as 90 and ``.inf`` and
-    ``.nan`` as numbers; under this loader they stay strings, which the reader then refuses
-    by name. Whole numbers without a leading zero are ints, other decimals floats.
+def _plain_number_loader() -> type:
+    """Build ``PlainNumberLoader`` (PyYAML loads only when a YAML file is read).
 
     Examples
     --------
+    >>> import yaml
+    >>> from bayesmap._numbers import PlainNumberLoader
     >>> yaml.load("{a: 1_0, b: 0.05, c: [2, -1e-3]}", Loader=PlainNumberLoader)
     {'a': '1_0', 'b': 0.05, 'c': [2, -0.001]}
     """
+    import yaml
+
+    class PlainNumberLoader(yaml.SafeLoader):  # type: ignore[misc]  # untyped PyYAML
+        """PyYAML's safe loader with YAML numbers narrowed to plain decimals.
+
+        YAML 1.1 also reads ``1_0`` as 10, ``0x10`` as 16, ``1:30`` as 90 and ``.inf`` and
+        ``.nan`` as numbers; under this loader they stay strings, which the reader then refuses
+        by name. Whole numbers without a leading zero are ints, other decimals floats.
+        """
+
+    PlainNumberLoader.yaml_implicit_resolvers = {
+        first: [(tag, rx) for tag, rx in resolvers if tag not in (_YAML_INT, _YAML_FLOAT)]
+        for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+    }
+    PlainNumberLoader.add_implicit_resolver(
+        _YAML_INT, re.compile(r"^[+-]?(?:0|[1-9][0-9]*)$"), list("+-0123456789")
+    )
+    PlainNumberLoader.add_implicit_resolver(_YAML_FLOAT, DECIMAL_LINE, list("+-.0123456789"))
+    return PlainNumberLoader
 
 
-PlainNumberLoader.yaml_implicit_resolvers = {
-    first: [(tag, rx) for tag, rx in resolvers if tag not in (_YAML_INT, _YAML_FLOAT)]
-    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
-}
-PlainNumberLoader.add_implicit_resolver(
-    _YAML_INT, re.compile(r"^[+-]?(?:0|[1-9][0-9]*)$"), list("+-0123456789")
-)
-PlainNumberLoader.add_implicit_resolver(_YAML_FLOAT, DECIMAL_LINE, list("+-.0123456789"))
+def __getattr__(name: str) -> Any:
+    """``PlainNumberLoader``, built on first use (PEP 562)."""
+    if name != "PlainNumberLoader":
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    loader = globals()[name] = _plain_number_loader()
+    return loader

@@ -1,59 +1,135 @@
 """The ``bayesmap`` command: parse, call the library, report; no logic of its own.
 
-Sub-commands live one module per group (``bn``, ``sonar``) and are mounted here.
+Sub-commands live one module per group (``bn``, ``sonar``, …) and load on first use
+(:data:`COMMANDS`): ``bayesmap bn query`` imports neither the sonar mapper nor the
+experiments, and ``bayesmap --help`` imports none of them. Help pages are click's plain
+text: Typer's Rich help pulls in a markdown parser and a syntax highlighter, which would
+double the start-up of every ``--help``.
 """
 
 from __future__ import annotations
 
+import importlib
 import logging
-import shlex
-import time
-from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from collections.abc import Iterator, MutableMapping
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    ProgressColumn,
-    Task,
-    TaskID,
-    TextColumn,
-)
-from rich.table import Table
-from rich.text import Text
+from typer.core import TyperGroup
 from typer.exceptions import TyperException
 
 from bayesmap import __version__
 from bayesmap._io import terminate_as_exit
-from bayesmap.cli import blackboard as blackboard_commands
-from bayesmap.cli import bn as bn_commands
-from bayesmap.cli import rover as rover_commands
-from bayesmap.cli import sonar as sonar_commands
-from bayesmap.cli import sweep as sweep_commands
-from bayesmap.cli._console import console as make_console
-from bayesmap.cli._console import print_error, styled
+from bayesmap.cli._console import print_error
+from bayesmap.cli._values import plain_values
 from bayesmap.errors import BayesmapError
 
 if TYPE_CHECKING:
-    from bayesmap.experiments import ExperimentResult
+    from typer.core import TyperCommand
+
+COMMANDS: dict[str, tuple[str, str]] = {
+    "sweep": (
+        "bayesmap.cli.sweep:sweep",
+        "Run an experiment over worlds × seeds × conditions; write tables and report.html.",
+    ),
+    "report": (
+        "bayesmap.cli.sweep:report",
+        "Write one self-contained HTML page of a sweep's tables and figures.",
+    ),
+    "reproduce": (
+        "bayesmap.cli.reproduce:reproduce",
+        "Run the paper experiments at their default size; write figures, maps and metrics.",
+    ),
+    "bn": (
+        "bayesmap.cli.bn:app",
+        "Inspect, query, draw and convert Bayesian-network files (XMLBIF, BIF, XBN).",
+    ),
+    "blackboard": (
+        "bayesmap.cli.blackboard:app",
+        "Map four-legged tables with a whiskered robot (Fox & Prescott 2011 and past it).",
+    ),
+    "sonar": (
+        "bayesmap.cli.sonar:app",
+        "Build occupancy maps from sonar-ring logs, with specular-reading rejection.",
+    ),
+    "rover": (
+        "bayesmap.cli.rover:app",
+        "The micro-rover (Post et al. 2016): run it on a world file, generate worlds.",
+    ),
+}
+"""Each sub-command of ``bayesmap``: ``module:attribute`` (a Typer group or a command
+function), loaded when the command runs, and the line ``bayesmap --help`` shows for it
+(a test holds it equal to the command's own help)."""
+
+
+def load_command(name: str) -> TyperCommand | TyperGroup:
+    """The click command behind ``bayesmap NAME``, imported from :data:`COMMANDS`."""
+    module_name, _, attribute = COMMANDS[name][0].partition(":")
+    target = getattr(importlib.import_module(module_name), attribute)
+    if isinstance(target, typer.Typer):
+        target.rich_markup_mode = None  # plain help throughout (see the module docstring)
+        command: Any = typer.main.get_group(target)
+    else:
+        single = typer.Typer(rich_markup_mode=None)
+        single.command(name=name)(target)
+        command = typer.main.get_command(single)
+    command.name = name
+    return plain_values(command)
+
+
+class _Commands(MutableMapping[str, Any]):
+    """A group's sub-commands by name, each imported on first access (:func:`load_command`)."""
+
+    def __init__(self, loaded: MutableMapping[str, Any]) -> None:
+        self._loaded = dict(loaded)
+
+    def __getitem__(self, name: str) -> Any:
+        if name not in self._loaded:
+            if name not in COMMANDS:
+                raise KeyError(name)
+            self._loaded[name] = load_command(name)
+        return self._loaded[name]
+
+    def __setitem__(self, name: str, command: Any) -> None:
+        self._loaded[name] = command
+
+    def __delitem__(self, name: str) -> None:
+        del self._loaded[name]
+
+    def __iter__(self) -> Iterator[str]:
+        yield from COMMANDS
+        yield from (name for name in self._loaded if name not in COMMANDS)
+
+    def __len__(self) -> int:
+        return len(set(COMMANDS) | set(self._loaded))
+
+
+class _LazyGroup(TyperGroup):
+    """The root group: sub-commands load when invoked; the help lists them unloaded."""
+
+    def __init__(self, **attrs: Any) -> None:
+        super().__init__(**attrs)
+        plain_values(self)
+        self.commands = _Commands(self.commands)
+
+    def list_commands(self, ctx: Any) -> list[str]:
+        return list(self.commands)
+
+    def format_commands(self, ctx: Any, formatter: Any) -> None:
+        rows = [(name, help_line) for name, (_, help_line) in COMMANDS.items()]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
 
 app = typer.Typer(
     name="bayesmap",
+    cls=_LazyGroup,
     help="Bayesian mapping and decision-making with sparse, noisy, local sensors.",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,
 )
-app.add_typer(bn_commands.app, name="bn")
-app.add_typer(blackboard_commands.app, name="blackboard")
-app.add_typer(sonar_commands.app, name="sonar")
-app.command()(sweep_commands.sweep)
-app.command()(sweep_commands.report)
-console = make_console(stderr=True)
-app.add_typer(rover_commands.app, name="rover")
 
 
 def _version(value: bool) -> None:
@@ -76,154 +152,6 @@ def _root(
     )
 
 
-@app.command()
-def reproduce(
-    experiments: Annotated[
-        list[str] | None,
-        typer.Argument(
-            help="Experiments to run (default: all). Known: see 'bayesmap reproduce --list'."
-        ),
-    ] = None,
-    out: Annotated[
-        Path, typer.Option("--out", help="Output folder; each experiment writes DIR/<name>/.")
-    ] = Path("results"),
-    list_: Annotated[bool, typer.Option("--list", help="List the experiments and exit.")] = False,
-) -> None:
-    """Run the paper experiments at their default size; write figures, maps and metrics.
-
-    Each experiment's folder appears only once it is complete, with a manifest.json
-    listing every file (size, SHA-256); an interrupted run leaves the previous one intact.
-    """
-    from bayesmap.experiments import EXPERIMENTS, load  # pydantic and the experiments
-
-    if list_:
-        for name in EXPERIMENTS:
-            doc = (load(name).__doc__ or "").strip()
-            typer.echo(f"{name}\t{doc.splitlines()[0] if doc else ''}")
-        return
-    names = list(experiments) if experiments else list(EXPERIMENTS)
-    unknown = [name for name in names if name not in EXPERIMENTS]
-    if unknown:
-        print_error(
-            f"unknown experiment(s) {', '.join(unknown)}; "
-            f"choose from: {', '.join(EXPERIMENTS) or 'none'}",
-            out=console,
-        )
-        raise typer.Exit(2)
-    results: list[tuple[ExperimentResult, float]] = []
-    configs: dict[str, dict[str, object]] = {}
-    with Progress(
-        TextColumn("{task.fields[experiment]}", style="bold", markup=False),
-        TextColumn("{task.description}", markup=False),
-        BarColumn(),
-        MofNCompleteColumn(),
-        _ExperimentTime(),
-        _StageRemaining(),
-        console=console,
-        transient=False,
-    ) as progress:
-        for name in names:
-            module = load(name)
-            config = module.Config()
-            task = progress.add_task("starting", total=None, experiment=name, stage_start=None)
-
-            def hook(description: str, completed: int, total: int, _task: TaskID = task) -> None:
-                current = progress.tasks[progress.task_ids.index(_task)]
-                if current.description != description or current.fields["stage_start"] is None:
-                    progress.update(_task, stage_start=(time.monotonic(), completed))
-                progress.update(_task, description=description, completed=completed, total=total)
-
-            started = time.perf_counter()
-            try:
-                result = module.run(
-                    config,
-                    out / name,
-                    progress=hook,
-                    command=shlex.join(["bayesmap", "reproduce", name, "--out", str(out)]),
-                )
-            except BayesmapError as error:
-                print_error(error, label=f"error in {name}", out=console)
-                raise typer.Exit(1) from error
-            results.append((result, time.perf_counter() - started))
-            configs[name] = config.model_dump(mode="json")
-            progress.update(task, description="done", stage_start=None)
-            progress.stop_task(task)
-    _print_summary(results)
-    from bayesmap.sweeps.report import section_from_run, write_report  # Jinja2 on demand
-
-    sections = [section_from_run(r.name, r, configs[r.name]) for r, _ in results]
-    report = write_report(sections, out / "report.html", title="bayesmap reproduce")
-    console.print(Text(f"report: {report}"))
-
-
-class _ExperimentTime(ProgressColumn):
-    """Time since the experiment started, until it is stopped.
-
-    An experiment reports several stages (runs, conditions) through one task, each counting
-    up to its own total; rich's elapsed-time column freezes at the first stage that
-    completes, this one runs until the whole experiment is done.
-    """
-
-    def render(self, task: Task) -> Text:
-        seconds = int(task.elapsed or 0)
-        return Text(f"{seconds // 60}:{seconds % 60:02d}", style="progress.elapsed")
-
-
-class _StageRemaining(ProgressColumn):
-    """Estimated time left in the current stage, from that stage's own pace.
-
-    Stages (runs, conditions) count up to their own totals, so an estimate over the whole
-    experiment's history would mix paces; this one restarts with every stage.
-    """
-
-    def render(self, task: Task) -> Text:
-        start = task.fields.get("stage_start")
-        if start is None or not task.total or task.finished:
-            return Text("")
-        since, first = start
-        done = task.completed - first
-        if done <= 0:
-            return Text("stage ETA –:––", style="progress.remaining")
-        seconds = int((time.monotonic() - since) * (task.total - task.completed) / done)
-        return Text(f"stage ETA {seconds // 60}:{seconds % 60:02d}", style="progress.remaining")
-
-
-def _print_summary(
-    results: list[tuple[ExperimentResult, float]], out: Console | None = None
-) -> None:
-    """Where each experiment wrote its figures and metrics, then its headline numbers.
-
-    The table keeps to what fits a narrow terminal (folders, counts, the summary file); the
-    headlines follow as wrapped lines, one experiment each.
-    """
-    out = out or make_console()
-    table = Table(title="bayesmap reproduce: where the results are")
-    table.add_column("experiment")
-    table.add_column("folder", overflow="fold")
-    table.add_column("figures", justify="right")
-    table.add_column("metrics", justify="right")
-    table.add_column("read first", overflow="fold")
-    table.add_column("time", justify="right")
-    for result, seconds in results:
-        summaries = [path for path in result.metrics if path.suffix == ".md"]
-        table.add_row(
-            result.name,
-            str(result.out_dir),
-            str(len(result.figures)),
-            str(len(result.metrics)),
-            summaries[0].name if summaries else "",
-            f"{seconds:.1f} s",
-        )
-    out.print(table)
-    for result, _ in results:
-        numbers = ", ".join(f"{key} {_fmt(value)}" for key, value in result.headline.items())
-        out.print(styled((result.name, "bold"), f": {numbers}"))
-
-
-def _fmt(value: float | int | str) -> str:
-    return f"{value:.3g}" if isinstance(value, float) else str(value)
-
-
 def main() -> None:
     """Entry point of the ``bayesmap`` console script.
 
@@ -234,7 +162,7 @@ def main() -> None:
         with terminate_as_exit():
             code = app(standalone_mode=False)
     except typer.Abort:
-        print_error("aborted", out=console)
+        print_error("aborted")
         raise SystemExit(130) from None
     except TyperException as error:  # click's usage errors, as Typer ships them
         context = getattr(error, "ctx", None)
@@ -242,12 +170,12 @@ def main() -> None:
         format_message = getattr(error, "format_message", None)
         text = format_message() if format_message is not None else str(error)
         if text.strip():  # empty after a help page shown for missing arguments
-            print_error(f"{' '.join(text.split())} (see '{where} --help')", out=console)
+            print_error(f"{' '.join(text.split())} (see '{where} --help')")
         raise SystemExit(getattr(error, "exit_code", 2)) from None
     except BayesmapError as error:
-        print_error(" ".join(str(error).split()), out=console)
+        print_error(" ".join(str(error).split()))
         raise SystemExit(1) from None
     raise SystemExit(code if isinstance(code, int) else 0)
 
 
-__all__ = ["app", "main"]
+__all__ = ["COMMANDS", "app", "load_command", "main"]

@@ -6,32 +6,47 @@ keeps a whole message on the line a ``grep`` finds.
 Network names, states, evidence and paths may hold brackets (``[/x]``, ``[m]``), which
 Rich would take for markup: eat them, or fail on them. The consoles made here have markup
 off, and styles come from :class:`rich.text.Text` spans, never from the text itself.
+
+Rich itself loads on the first message, so a command that prints nothing through it
+(``--help``, ``--version``, a ``--json`` answer) starts without it.
 """
 
 from __future__ import annotations
 
-from rich.console import Console
-from rich.text import Text
+from functools import cache
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from rich.console import Console
+    from rich.text import Text
 
 
 def console(*, stderr: bool = False) -> Console:
-    """A console that prints strings as they are (no markup, no highlighting)."""
-    return Console(stderr=stderr, markup=False, highlight=False)
+    """A console that prints strings as they are (no markup, no highlighting, no emoji)."""
+    from rich.console import Console
+
+    return Console(stderr=stderr, markup=False, highlight=False, emoji=False)
 
 
-_STDERR = console(stderr=True)
+@cache
+def _stderr() -> Console:
+    return console(stderr=True)
 
 
 def styled(*parts: str | tuple[str, str]) -> Text:
     """Literal text from plain strings and ``(text, style)`` pairs."""
+    from rich.text import Text
+
     return Text.assemble(*parts)
 
 
 def print_error(message: object, *, label: str = "error", out: Console | None = None) -> None:
     """Print ``label: message`` to stderr, the label in red, the message literally."""
-    (out or _STDERR).print(styled((f"{label}:", "red"), " ", str(message)), soft_wrap=True)
+    (out or _stderr()).print(styled((f"{label}:", "red"), " ", str(message)), soft_wrap=True)
 
 
 def print_note(message: object, *, out: Console | None = None) -> None:
     """Print a message to stderr, literally."""
-    (out or _STDERR).print(Text(str(message)), soft_wrap=True)
+    from rich.text import Text
+
+    (out or _stderr()).print(Text(str(message)), soft_wrap=True)
