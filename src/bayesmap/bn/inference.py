@@ -174,7 +174,7 @@ class Engine:
                 if not compiled.source_mask & (compiled.ancestor_masks[v] | 1 << v)
             )
         for v in checkable:
-            if not np.all(self.prior(v)[values(v)] > 0.0):
+            if not (self.prior(v)[values(v)] > 0.0).all():  # a numpy bool or bool array
                 raise InputError(case())
 
     def evidence_ids(self, evidence: Evidence) -> dict[int, int]:
