@@ -194,6 +194,40 @@ def test_elimination_rank_leaves_the_case_axis_out_of_the_graph() -> None:
     assert rank[1] > rank[0]  # 0 (with 1 only) before 1 (between 0 and 2)
 
 
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.lists(st.integers(0, 11), min_size=1, max_size=4, unique=True),
+        min_size=1,
+        max_size=14,
+    ),
+    st.lists(st.integers(2, 4), min_size=12, max_size=12),
+    st.sets(st.integers(0, 11), max_size=2),
+)
+def test_elimination_rank_always_sums_out_a_label_of_least_weight(scopes, card, output):
+    """Replayed from scratch, each label the order sums out has, among those left, the
+    fewest entries in its factor (itself and its current neighbours): the weights the order
+    updates as labels go are the weights recounted."""
+    rank = plans.elimination_rank(scopes, tuple(output), card)
+    labels = {u for scope in scopes for u in scope}
+    assert set(rank) == labels - output
+    neighbours = {u: set() for u in labels}
+    for scope in scopes:
+        for u in scope:
+            neighbours[u].update(w for w in scope if w != u)
+
+    def weight(u: int) -> int:
+        return card[u] * int(np.prod([card[w] for w in neighbours[u]]))
+
+    for u in sorted(rank, key=rank.__getitem__):
+        left = [v for v in neighbours if v not in output]
+        assert weight(u) == min(weight(v) for v in left)
+        around = neighbours.pop(u)
+        for x in around:
+            neighbours[x] |= around - {x}
+            neighbours[x].discard(u)
+
+
 def _diamond() -> BayesNet:
     """A → B, A → C, (B, C) → D (D's parents share A); E → F (F's one parent)."""
     net = BayesNet("diamond")
