@@ -164,13 +164,27 @@ def single_program(plan: Plan, compiled: Compiled, tuning: Tuning) -> tuple[Any,
         path: list[tuple[int, ...]] = [tuple(range(len(scopes)))]
         kept: list[tuple[int, ...]] | None = [plan.targets]
     else:
-        path, kept, _ = plans.order_steps(compiled, scopes, plan.targets, tuning=tuning)
+        path, kept, _ = single_order(plan, compiled, tuning)
     program = elimination.SumProgram(
         scopes, plan.targets, specs, path, kept, memo=compiled.constants, tuning=tuning
     )
     if not observed:
         return program(), []
     return program, observed
+
+
+def single_order(
+    plan: Plan, compiled: Compiled, tuning: Tuning
+) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int]:
+    """The one-case contraction order of a plan's factors: path, kept labels and cost
+    (:func:`~bayesmap.bn.plans.order_steps`, cached on the plan)."""
+    entry = plan.cache.single_order
+    if entry is None:
+        scopes = [f.free for f in plan.factors]
+        entry = plan.cache.single_order = plans.order_steps(
+            compiled, scopes, plan.targets, tuning=tuning
+        )
+    return entry
 
 
 def batch_program(plan: Plan, compiled: Compiled, n: int, tuning: Tuning) -> Any:

@@ -130,6 +130,8 @@ class PlanCache:
         The plan's dropped observed variables that have a cached prior to check.
     single
         The one-case sum-product program and its per-call factors (or a constant result).
+    single_order
+        The one-case contraction order: path, kept labels, multiply-adds.
     batch
         Batch sum-product programs, by size class of the number of cases.
     batch_order
@@ -158,6 +160,7 @@ class PlanCache:
     ancestral: list[int] | None = None
     checkable: tuple[int, ...] | None = None
     single: tuple[Any, list[Factor]] | None = None
+    single_order: tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int] | None = None
     batch: dict[int, SumProgram] = field(default_factory=dict)
     batch_order: dict[int, BatchOrder] = field(default_factory=dict)
     two_pass_pays: bool | None = None

@@ -100,23 +100,27 @@ def two_pass_pays(engine: Engine, plan: Plan, free: tuple[int, ...]) -> bool:
     """Whether one two-pass contraction of the whole network costs less than one pruned
     contraction per variable (decided once per pattern, by multiply-adds plus a fixed
     cost per call: the per-variable plans prune barren nodes and reuse priors, which on
-    some networks — munin1 — beats three contractions of everything)."""
+    some networks — munin1 — beats three contractions of everything).
+
+    When the fixed costs of the calls alone exceed the two-pass budget, no per-variable
+    order is computed (alarm, pathfinder, andes: the first all-posteriors question would
+    otherwise order a plan per variable); the orders that are computed stay on their plans
+    for the per-variable questions to reuse."""
     decision = plan.cache.two_pass_pays
     if decision is None:
-        compiled = engine.compiled
         ev = frozenset(plan.evidence)
         _, _, forward = two_pass_order(engine, plan, ())
         call_cost = engine.tuning.call_cost
         budget = 3 * forward + 3 * len(plan.factors) * call_cost
-        loop = 0
-        for v in free:
-            single = engine.plan(QueryKind.MARGINAL, (v,), ev)
-            loop += call_cost * engine.tuning.calls_per_question
-            if single.cache.ancestral is None and single.factors:
-                scopes = [f.free for f in single.factors]
-                loop += plans.order(compiled, scopes, single.targets, tuning=engine.tuning)[1]
-            if loop > budget:
-                break
+        per_call = call_cost * engine.tuning.calls_per_question
+        loop = per_call * len(free)
+        if loop < budget:
+            for v in free:
+                single = engine.plan(QueryKind.MARGINAL, (v,), ev)
+                if single.cache.ancestral is None and single.factors:
+                    loop += contraction.single_order(single, engine.compiled, engine.tuning)[2]
+                if loop > budget:
+                    break
         decision = plan.cache.two_pass_pays = budget <= loop
     return decision
 
