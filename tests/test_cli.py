@@ -121,3 +121,19 @@ def test_plain_option_values_convert_and_refuse_as_typer_does(tmp_path):
     ):
         with pytest.raises(typer.BadParameter, match=message):
             command.main(bad, standalone_mode=False)
+
+
+@pytest.mark.parametrize("args", [[], ["bn"], ["sonar"]])
+def test_a_bare_command_group_shows_its_help_on_stderr(args, monkeypatch, capsys):
+    from bayesmap.cli import main
+
+    monkeypatch.setattr("sys.argv", ["bayesmap", *args])
+    with pytest.raises(SystemExit) as stop:
+        main()
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    usage = err.splitlines()[0]
+    assert usage.startswith("Usage: ") and usage.endswith(
+        " ".join([*args, "[OPTIONS] COMMAND [ARGS]..."])
+    )
+    assert "\nCommands:\n" in err and "error:" not in err

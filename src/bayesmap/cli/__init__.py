@@ -169,9 +169,13 @@ def main() -> None:
         where = context.command_path if context is not None else "bayesmap"
         format_message = getattr(error, "format_message", None)
         text = format_message() if format_message is not None else str(error)
-        if text.strip():  # empty after a help page shown for missing arguments
+        code = getattr(error, "exit_code", 2)
+        if context is not None and text == context.get_help():  # a group called bare
+            typer.echo(text, err=True)
+            raise SystemExit(code) from None
+        if text.strip():
             print_error(f"{' '.join(text.split())} (see '{where} --help')")
-        raise SystemExit(getattr(error, "exit_code", 2)) from None
+        raise SystemExit(code) from None
     except BayesmapError as error:
         print_error(" ".join(str(error).split()))
         raise SystemExit(1) from None
