@@ -109,9 +109,21 @@ _PLAIN_PARAM = _make_plain_param()
 
 
 def plain_values(command: TyperCommand | TyperGroup) -> TyperCommand | TyperGroup:
-    """``command`` (and its sub-commands) with plain-typed parameters converted here."""
+    """``command`` (and its sub-commands) with plain-typed parameters converted here.
+
+    The hook rests on Typer's private parameter objects; a Typer whose objects are shaped
+    otherwise keeps its own conversion for every parameter not yet converted.
+    """
     if _PLAIN_PARAM is None:  # pragma: no cover - depends on the installed Typer
         return command
+    try:
+        return _plain_values(command)
+    except (AttributeError, TypeError):  # pragma: no cover - depends on the installed Typer
+        return command
+
+
+def _plain_values(command: TyperCommand | TyperGroup) -> TyperCommand | TyperGroup:
+    assert _PLAIN_PARAM is not None
     context = typer.Context(command, **getattr(command, "context_settings", {}))
     help_option = command.get_help_option(context)  # made once and kept by the command
     for param in [*command.params, *([help_option] if help_option is not None else [])]:
@@ -128,5 +140,5 @@ def plain_values(command: TyperCommand | TyperGroup) -> TyperCommand | TyperGrou
                 parameter_info=info, annotation=descriptor.annotation, convert=convert, many=many
             )
     for sub in getattr(command, "commands", {}).values():
-        plain_values(sub)
+        _plain_values(sub)
     return command
