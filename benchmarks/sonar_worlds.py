@@ -25,6 +25,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks._report import machine, update_section  # noqa: E402
+from scipy.stats import binomtest  # noqa: E402
 
 from bayesmap.experiments.sonar import BASELINES, Config, run  # noqa: E402
 
@@ -57,6 +58,14 @@ def _mean(values: list[float]) -> float:
     return sum(finite) / len(finite) if finite else float("nan")
 
 
+def pooled_ci(hits: float, total: float) -> str:
+    """Pooled proportion ``hits / total`` over the runs with its Wilson 95 % interval."""
+    if total <= 0:
+        return "–"
+    interval = binomtest(int(hits), int(total)).proportion_ci(0.95, method="wilson")
+    return f"{hits / total:.2f} [{interval.low:.2f}, {interval.high:.2f}]"
+
+
 def targets_table(metrics: dict) -> str:
     """The issue's targets per world for the default pipeline, each marked met or missed."""
     by_world: dict[str, dict[str, dict[str, list[float]]]] = {}
@@ -68,8 +77,9 @@ def targets_table(metrics: dict) -> str:
     default = metrics["default"]
     lines = [
         "| world | κ default | best baseline (κ) | κ margin (≥ +0.10) | missed wall − ROS (≤ 0) "
-        "| path cells occupied (0) | rej. precision / recall (≥ 0.85) |",
-        "|---|---|---|---|---|---|---|",
+        "| path cells occupied (0) | rej. precision / recall (≥ 0.85) "
+        "| specular readings | pooled precision [95 % CI] | pooled recall [95 % CI] |",
+        "|---|---|---|---|---|---|---|---:|---|---|",
     ]
 
     def mark(ok: bool) -> str:
@@ -84,17 +94,21 @@ def targets_table(metrics: dict) -> str:
         path = mean[default]["path_occupied"]
         precision = mean[default]["rejection_precision"]
         recall = mean[default]["rejection_recall"]
+        counts = table[default]
         lines.append(
             f"| {name} | {kappa:.3f} | {best} ({mean[best]['kappa']:.3f}) | {margin:+.3f} "
             f"{mark(margin >= 0.1)} | {missed:+.3f} {mark(missed <= 0)} | {path:.1f} "
             f"{mark(path == 0)} | {precision:.2f} / {recall:.2f} "
-            f"{mark(min(precision, recall) >= 0.85)} |"
+            f"{mark(min(precision, recall) >= 0.85)} | {int(sum(counts['specular_readings'])):,} "
+            f"| {pooled_ci(sum(counts['rejected_specular']), sum(counts['rejected_readings']))} "
+            f"| {pooled_ci(sum(counts['rejected_specular']), sum(counts['specular_readings']))} |"
         )
     runs = len(metrics["runs"]) // max(len(by_world), 1)
     return (
         f"### The issue's targets, world by world (default pipeline, {runs} runs each)\n\n"
         + "\n".join(lines)
-        + "\n"
+        + "\n\nPrecision and recall are means over runs; the pooled columns count every "
+        "reading of the world's runs together (Wilson 95 % interval, `scipy.stats.binomtest`).\n"
     )
 
 

@@ -204,3 +204,35 @@ def test_a_map_folder_is_replaced_whole_with_a_manifest(tmp_path: Path) -> None:
     result = _map(foreign)
     assert result.exit_code == 1 and (foreign / "notes.txt").read_text() == "keep me"
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+@pytest.mark.slow
+def test_run_scores_the_pipelines_on_a_world_file(tmp_path: Path) -> None:
+    import numpy as np
+
+    from bayesmap.sim.sonar_worlds import generate_world, save_world
+
+    world = save_world(generate_world(np.random.default_rng(5)), tmp_path / "world.json")
+    out = tmp_path / "run"
+    args = ["sonar", "run", "--world", str(world), "--out", str(out), "--runs", "1"]
+    result = runner.invoke(app, [*args, "--pipeline", "default", "--pipeline", "elfes"])
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["pipelines"] == ["default", "elfes"]
+    (record,) = metrics["runs"]
+    assert set(record["pipelines"]) == {"default", "elfes"}
+    assert -1.0 <= record["pipelines"]["default"]["kappa"] <= 1.0
+    assert list(out.glob("maps_*.png"))
+
+
+def test_run_names_a_bad_world_file_or_pipeline_in_one_line(tmp_path: Path) -> None:
+    bad = tmp_path / "world.json"
+    bad.write_text("{not json")
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["sonar", "run", "--world", str(bad), "--out", str(out)])
+    assert result.exit_code == 1
+    assert "world.json" in result.output and "Traceback" not in result.output
+    assert not out.exists()
+    args = ["sonar", "run", "--world", str(bad), "--out", str(out), "--pipeline", "best"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 1 and "unknown pipeline 'best'" in result.output

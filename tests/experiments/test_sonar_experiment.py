@@ -55,6 +55,14 @@ def test_small_run_writes_results_and_is_deterministic(tmp_path: Path) -> None:
     assert set(record["pipelines"]) == {"default", "elfes", "ros"}
     assert record["pipelines"]["elfes"]["rejected_fraction"] == 0.0
     assert 0 < record["pipelines"]["default"]["rejected_fraction"] < 1
+    default = record["pipelines"]["default"]  # the counts behind precision and recall
+    assert default["rejected_readings"] == pytest.approx(
+        default["rejected_fraction"] * record["readings"]
+    )
+    hits = default["rejected_specular"]
+    assert default["rejection_precision"] == hits / default["rejected_readings"]
+    assert default["rejection_recall"] == hits / default["specular_readings"]
+    assert default["specular_readings"] == round(record["specular_fraction"] * record["readings"])
     target = metrics["targets"]["sonar-clutter-v2"]
     assert target["best_baseline"] in ("elfes", "ros")
     assert "| default |" in (tmp_path / "a" / "summary.md").read_text()

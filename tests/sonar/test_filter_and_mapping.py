@@ -242,6 +242,30 @@ def test_cells_the_robot_stood_on_stay_free_when_a_person_passes_later() -> None
     assert mapper.probability()[grid.world_to_cell(1.4, 0.0)] == 0.5  # beyond: untouched
 
 
+def test_free_lock_keeps_well_seen_free_space_free_when_a_person_steps_in() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+
+    def after_person(free_lock: float) -> tuple[float, float]:
+        grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
+        mapper = ElfesMapper(grid, geometry, free_lock=free_lock, no_echo="ignore")
+        for _ in range(20):  # the wall 3 m ahead, the space before it seen free
+            mapper.integrate([0.0, 0.0, 0.0], [3.0, 6.0])
+        for _ in range(20):  # a person stops 1 m ahead
+            mapper.integrate([0.0, 0.0, 0.0], [1.0, 6.0])
+        p = mapper.probability()
+        return float(p[grid.world_to_cell(1.0, 0.0)]), float(p[grid.world_to_cell(3.0, 0.0)])
+
+    person, wall = after_person(3.0)
+    assert person < 0.5 and wall > 0.5  # the person is not written; the wall stays
+    assert after_person(0.0)[0] > 0.5  # without the lock the person is mapped
+    grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
+    fresh = ElfesMapper(grid, geometry, free_lock=3.0)
+    fresh.integrate([0.0, 0.0, 0.0], [1.0, 6.0])  # an unseen cell takes the echo
+    assert fresh.probability()[grid.world_to_cell(1.0, 0.0)] > 0.5
+    with pytest.raises(ConfigError, match="free_lock"):
+        ElfesMapper(grid, geometry, free_lock=-1.0)
+
+
 def test_ros_layer_drops_readings_above_max_range_and_marks_at_it() -> None:
     geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
     grid = OccupancyGrid(12.0, 2.0, 0.1, origin=(-6.0, -1.0))

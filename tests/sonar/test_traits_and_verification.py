@@ -11,7 +11,7 @@ from bayesmap.sim.sonar import cast_rays
 from bayesmap.sonar.traits import fit_line, fit_traits, point_segment_distance
 from bayesmap.sonar.verification import (
     TVReason,
-    axis_crossings,
+    axis_segment_hits,
     certainty,
     equivalent,
     extend_segments,
@@ -56,12 +56,12 @@ def test_point_segment_distance_against_hand_values() -> None:
     assert d.tolist() == pytest.approx([1.0, 1.0, math.sqrt(2)])
 
 
-def test_axis_crossings_agree_with_the_simulators_ray_caster() -> None:
+def test_axis_segment_hits_agree_with_the_simulators_ray_caster() -> None:
     rng = np.random.default_rng(3)
     segments = rng.uniform(-5, 5, (12, 4))
     centres = rng.uniform(-5, 5, (50, 2))
     axis = rng.uniform(-math.pi, math.pi, 50)
-    mine = axis_crossings(centres, axis, segments)
+    mine = axis_segment_hits(centres, axis, segments).min(axis=1)
     theirs, _ = cast_rays(centres, np.column_stack([np.cos(axis), np.sin(axis)]), segments)
     assert np.allclose(mine, theirs)
 

@@ -228,7 +228,7 @@ def map_command(
                 chosen, acceptability=False, agreeability=False, trait_verification=False
             )
         with Progress(
-            TextColumn("{task.description}"),
+            TextColumn("{task.description}", markup=False),
             BarColumn(),
             TaskProgressColumn(),
             console=_err,
@@ -280,6 +280,56 @@ def map_command(
         command = shlex.join(["bayesmap", *sys.argv[1:]])
         with run_folder(out, command=command, configuration=settings, seed=None) as folder:
             _write_outputs(folder, log, poses, data, built, pipeline, no_filter)
+
+
+@app.command("run")
+def run_command(
+    world: Annotated[
+        Path, typer.Option("--world", help="WORLD.json (see docs/sonar.md, random buildings).")
+    ],
+    out: Annotated[Path, typer.Option("--out", help="Output folder (replaced when done).")],
+    runs: Annotated[int, typer.Option("--runs", min=1, help="Seeded runs (logs).")] = 3,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of every random stream.")] = 2007,
+    pipeline: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--pipeline",
+            help=f"Pipelines to compare (repeatable; default all): {', '.join(PIPELINES)}.",
+        ),
+    ] = None,
+    jobs: Annotated[int, typer.Option("--jobs", min=1, help="Worker processes.")] = 1,
+) -> None:
+    """Simulate sonar logs in WORLD and score every pipeline and baseline: tables and maps."""
+    from bayesmap.experiments import sonar as experiment  # the simulator and matplotlib
+
+    with _user_errors():
+        names = tuple(pipeline) if pipeline else tuple(PIPELINES)
+        unknown = [name for name in names if name not in PIPELINES]
+        if unknown:
+            raise InputError(f"unknown pipeline {unknown[0]!r}; choose from {', '.join(PIPELINES)}")
+        config = experiment.Config.model_validate(
+            {"world": world, "runs": runs, "seed": seed, "pipelines": names, "jobs": jobs}
+        )
+        with Progress(
+            TextColumn("{task.description}", markup=False),
+            BarColumn(),
+            TaskProgressColumn(),
+            console=_err,
+            transient=True,
+        ) as bar:
+            task = bar.add_task("loading", total=None)
+
+            def hook(description: str, completed: int, total: int) -> None:
+                bar.update(task, description=description, completed=completed, total=total)
+
+            result = experiment.run(
+                config, out, progress=hook, command=shlex.join(["bayesmap", *sys.argv[1:]])
+            )
+    numbers = ", ".join(
+        f"{key} {value:.3f}" if isinstance(value, float) else f"{key} {value}"
+        for key, value in result.headline.items()
+    )
+    typer.echo(f"{numbers}; wrote {out}")
 
 
 def _read_bag(

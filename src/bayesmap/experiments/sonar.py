@@ -185,6 +185,9 @@ def _rejection_metrics(accepted: np.ndarray, specular: np.ndarray) -> dict[str, 
     rejected = ~accepted
     hits = int((rejected & specular).sum())
     return {
+        "specular_readings": float(specular.sum()),
+        "rejected_readings": float(rejected.sum()),
+        "rejected_specular": float(hits),
         "rejected_fraction": float(rejected.mean()),
         "rejection_precision": float(hits / rejected.sum()) if rejected.any() else float("nan"),
         "rejection_recall": float(hits / specular.sum()) if specular.any() else float("nan"),
@@ -490,6 +493,9 @@ METRIC_UNITS = {
     "observed_fraction": "fraction",
     "path_occupied": "cells",
     "rejected_fraction": "fraction",
+    "specular_readings": "readings",
+    "rejected_readings": "readings",
+    "rejected_specular": "readings",
     "rejection_precision": "fraction",
     "rejection_recall": "fraction",
 }

@@ -76,8 +76,12 @@ class _LogOddsMapper(_ConeMapper):
         clamp: float,
         decay: float = 0.0,
         footprint: float = 0.0,
+        free_lock: float = 0.0,
     ) -> None:
         super().__init__(grid, geometry)
+        if not free_lock >= 0:
+            raise ConfigError(f"free_lock must be >= 0 (log-odds), got {free_lock}")
+        self.free_lock = float(free_lock)
         if not footprint >= 0:
             raise ConfigError(f"footprint radius must be >= 0 metres, got {footprint}")
         self.footprint = float(footprint)
@@ -101,6 +105,11 @@ class _LogOddsMapper(_ConeMapper):
             self.log_odds_[index] = self.prior_log_odds + (1.0 - self.decay) * (
                 old - self.prior_log_odds
             )
+        if self.free_lock > 0.0:
+            # A cell many readings have seen free is free space: a later echo there is a
+            # passer-by, so its occupied evidence is not written (free evidence still is).
+            locked = self.log_odds_[index] <= self.prior_log_odds - self.free_lock
+            increment = np.where(locked & (increment > 0.0), 0.0, increment)
         np.add.at(self.log_odds_, index, increment)
         updated = np.clip(self.log_odds_[index], -self.clamp, self.clamp)
         # Where the robot's body has been, no static obstacle stands: an echo there later
@@ -196,8 +205,9 @@ class ElfesMapper(_LogOddsMapper):
         clamp: float = 10.0,
         decay: float = 0.0,
         footprint: float = 0.0,
+        free_lock: float = 0.0,
     ) -> None:
-        super().__init__(grid, geometry, clamp, decay, footprint)
+        super().__init__(grid, geometry, clamp, decay, footprint, free_lock)
         if no_echo not in ("cone", "clear", "ignore"):
             raise ConfigError(f"no_echo must be 'cone', 'clear' or 'ignore', got {no_echo!r}")
         if not 0.0 < clear_distance <= geometry.max_range:

@@ -231,6 +231,7 @@ class Pipeline:
     decay: float = 0.0
     footprint: float = 0.0
     p_free: float = 0.35
+    free_lock: float = 0.0
     merge_repeats: bool = False
     filter_options: tuple[tuple[str, float], ...] = ()
 
@@ -267,6 +268,7 @@ class Pipeline:
             decay=self.decay,
             footprint=self.footprint,
             p_free=self.p_free,
+            free_lock=self.free_lock,
         )
 
 

@@ -37,7 +37,6 @@ from bayesmap.sonar.traits import point_segment_distance
 
 __all__ = [
     "TVReason",
-    "axis_crossings",
     "axis_segment_hits",
     "certainty",
     "head_on",
@@ -121,14 +120,6 @@ def equivalent(
     shared = np.minimum(np.maximum(t0, t1), length) - np.maximum(np.minimum(t0, t1), 0.0)
     real = (len_v > 1e-3) & (length > 1e-3)
     return np.asarray(real & (diff <= match_angle) & near & (shared > 0.0))
-
-
-def axis_crossings(centres: FloatArray, axis: FloatArray, segments: FloatArray) -> FloatArray:
-    """``(n,)`` distance [m] along each beam axis to the first segment crossed (``inf``: none)."""
-    n = len(centres)
-    if len(segments) == 0 or n == 0:
-        return np.full(n, np.inf)
-    return np.asarray(axis_segment_hits(centres, axis, segments).min(axis=1))
 
 
 def axis_segment_hits(centres: FloatArray, axis: FloatArray, segments: FloatArray) -> FloatArray:

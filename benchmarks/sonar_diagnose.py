@@ -1,0 +1,148 @@
+"""Diagnostics behind docs/sonar.md's open-hall and truth-label notes (prints; writes no docs).
+
+``python benchmarks/sonar_diagnose.py variants WORLDS SEEDS [NAME:OPTION=VALUE,...;...]``
+maps one simulated log per world and seed (``numpy.random.default_rng(seed)``, seeds the
+benchmark of record does not use) with the best unfiltered baseline and variants of the
+default pipeline (``nofilt=1`` switches its filter off; other options are
+:class:`~bayesmap.sonar.pipeline.Pipeline` fields), and prints κ, false obstacles (also
+as cells near and far from solid: thick walls versus traces of people), missed walls, path
+cells occupied and rejection precision/recall.
+
+``python benchmarks/sonar_diagnose.py labels WORLDS SEED`` compares the simulator's truth
+labels (a reading is specular when its echo bounced or was lost while a wall stood in its
+cone) with an axis-only label (specular when the first echo is not from the nearest surface
+on the beam axis: an echo more than 0.1 m beyond it, or no echo with a surface on the axis
+within range; echoes from people are good), and prints the default filter's rejection
+precision and recall under both, with Wilson 95 % intervals and counts by echo kind.
+WORLDS is a comma-separated list of registered world names.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import numpy as np  # noqa: E402
+from scipy.ndimage import distance_transform_edt  # noqa: E402
+from scipy.stats import binomtest  # noqa: E402
+
+from bayesmap.experiments.sonar import Config, make_ring, ring_geometry, score_world  # noqa: E402
+from bayesmap.sim.polygons import world  # noqa: E402
+from bayesmap.sim.sonar import EchoKind, cast_rays  # noqa: E402
+from bayesmap.sim.sonar_log import simulate_log  # noqa: E402
+from bayesmap.sonar.pipeline import PIPELINES, grid_for_poses, map_log  # noqa: E402
+
+BASELINE = "elfes-ignore-no-echo"
+
+
+def _variants(spec: str) -> dict[str, object]:
+    out: dict[str, object] = {}
+    for item in filter(None, spec.split(";")):
+        name, _, options = item.partition(":")
+        kw: dict[str, object] = {}
+        for pair in filter(None, options.split(",")):
+            key, value = pair.split("=")
+            kw[key] = value if key == "no_echo" else float(value)
+        if kw.pop("nofilt", 0):
+            kw.update(acceptability=False, agreeability=False, trait_verification=False)
+        out[name] = dataclasses.replace(PIPELINES["default"], **kw)  # type: ignore[arg-type]
+    return out
+
+
+def variants(worlds: str, seeds: str, spec: str) -> None:
+    """Print the baseline's and each variant's scores on one log per world and seed."""
+    extra = _variants(spec or "default:")
+    PIPELINES.update(extra)  # type: ignore[arg-type]
+    names = (BASELINE, *extra)
+    config = Config()
+    for name in worlds.split(","):
+        w = world(name)
+        for seed in (int(s) for s in seeds.split(",")):
+            log = simulate_log(
+                w, make_ring(config), config.realism, rng=np.random.default_rng(seed)
+            )
+            metrics, maps, grid, truth = score_world(config, w, log, names)
+            solid = truth.astype(bool)
+            clearance = distance_transform_edt(~solid) * grid.resolution
+            for pipeline in names:
+                m = metrics[pipeline]
+                wrong = (maps[pipeline] > 0.5) & ~solid
+                far = int((wrong & (clearance > 1.0)).sum())
+                near = int((wrong & (clearance <= 0.35)).sum())
+                print(
+                    f"{name} seed {seed} {pipeline}: κ {m['kappa']:.3f}, false obstacle "
+                    f"{m['false_obstacle_rate']:.3f}, missed wall {m['missed_wall_rate']:.3f}, "
+                    f"path cells {m['path_occupied']:.0f}; false obstacle cells within 0.35 m "
+                    f"of solid {near}, over 1 m from it {far}; rejection precision "
+                    f"{m['rejection_precision']:.2f}, recall {m['rejection_recall']:.2f}",
+                    flush=True,
+                )
+
+
+def _share(k: int, n: int) -> str:
+    if n == 0:
+        return "– (n=0)"
+    ci = binomtest(k, n).proportion_ci(0.95, method="wilson")
+    return f"{k / n:.3f} [{ci.low:.3f}, {ci.high:.3f}] (n={n})"
+
+
+def labels(worlds: str, seed: str) -> None:
+    """Print the default filter's precision/recall under the simulator's and the axis label."""
+    config = Config()
+    ring = make_ring(config)
+    geometry = ring_geometry(ring)
+    pipeline = PIPELINES["default"]
+    for name in worlds.split(","):
+        w = world(name)
+        log = simulate_log(w, ring, config.realism, rng=np.random.default_rng(int(seed)))
+        centres, axis = ring.positions(log.poses)
+        rays = np.stack([np.cos(axis), np.sin(axis)], axis=-1).reshape(-1, 2)
+        surface, _ = cast_rays(centres.reshape(-1, 2), rays, w.segments)
+        surface = surface.reshape(log.ranges.shape)
+        echo = log.ranges < ring.max_range
+        person = log.kind == EchoKind.PERSON
+        on_axis = np.where(echo, (log.ranges > surface + 0.1) & ~person, surface < ring.max_range)
+        grid = grid_for_poses(log.odometry, ring.max_range + 1.0, config.resolution)
+        run = map_log(
+            log.odometry,
+            log.ranges,
+            pipeline.make_mapper(grid, geometry),
+            pipeline.make_filter(geometry),
+            merge_repeats=pipeline.merge_repeats,
+        )
+        rejected = ~run.accepted
+        for label, specular in (("simulator (cone)", log.specular), ("axis only", on_axis)):
+            hits = int((rejected & specular).sum())
+            print(
+                f"{name} seed {seed}, {label} label: {int(specular.sum())} specular of "
+                f"{specular.size}; precision {_share(hits, int(rejected.sum()))}, "
+                f"recall {_share(hits, int(specular.sum()))}",
+                flush=True,
+            )
+        kinds = ", ".join(
+            f"{kind.name.lower()} {int((rejected & (log.kind == kind)).sum())} of "
+            f"{int((log.kind == kind).sum())}"
+            for kind in EchoKind
+        )
+        lost = log.kind == EchoKind.LOST
+        print(
+            f"{name}: rejected by kind: {kinds}; lost echoes with a surface on the axis within "
+            f"range: {int((lost & (surface < ring.max_range)).sum())} of {int(lost.sum())}",
+            flush=True,
+        )
+
+
+def main(argv: list[str]) -> None:
+    if len(argv) >= 3 and argv[0] == "variants":
+        variants(argv[1], argv[2], argv[3] if len(argv) > 3 else "")
+    elif len(argv) == 3 and argv[0] == "labels":
+        labels(argv[1], argv[2])
+    else:
+        raise SystemExit(__doc__)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
