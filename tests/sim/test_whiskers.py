@@ -18,11 +18,11 @@ from bayesmap.sim.tables_world import (
     leg_centres,
     pose_sequence,
     rectangle_corners,
-    scenario,
+    world_params,
 )
 from bayesmap.sim.whiskers import NO_CONTACT, WhiskerParams, condition, h, observe
 
-PARAMS = scenario("whisker-tables-v1")
+PARAMS = world_params("whisker-tables-v1")
 WHISKERS = WhiskerParams()
 
 
@@ -227,7 +227,7 @@ def test_conditions_and_bad_input():
     with pytest.raises(ConfigError):
         WhiskerParams(whisker_length=0)
     with pytest.raises(ConfigError):
-        scenario("whisker-tables-v0")
+        world_params("whisker-tables-v0")
     with pytest.raises(InputError):
         h(initial(PARAMS, rng=np.random.default_rng(0)), np.array([1.0, 2.0]), WHISKERS)
 
