@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -144,6 +144,17 @@ def indicator_batch(
     }
 
 
+class Pattern(NamedTuple):
+    """The cases of a batch that observe the same variables."""
+
+    rows: IntArray
+    """Their rows in the batch."""
+    ev_vars: list[int]
+    """The observed variables' ids."""
+    values: IntArray
+    """``(len(rows), len(ev_vars))`` observed state indices."""
+
+
 def posterior_batch(
     engine: Engine,
     target: str,
@@ -198,22 +209,19 @@ def posterior_batch(
             state = values[:, ev_vars.index(t)]
             parts.append((rows, numbers.one_hot_batch(compiled.card[t], state)))
             continue
-        parts.append((rows, numbers.batch_marginal(engine, t, ev_vars, values, rows, weights)))
+        cases = Pattern(rows, ev_vars, values)
+        parts.append((rows, numbers.batch_marginal(engine, t, cases, weights)))
     return numbers.stack(parts, table.shape[0], compiled.card[t])
 
 
 def soft_marginal(
-    engine: Engine,
-    t: int,
-    ev_vars: Sequence[int],
-    values: IntArray,
-    rows: IntArray,
-    weights: Mapping[int, FloatArray],
+    engine: Engine, t: int, cases: Pattern, weights: Mapping[int, FloatArray]
 ) -> FloatArray:
     """``P(t | case)`` with soft evidence, for the cases of one pattern: ``P(t, S | case)``
     weighted by each case's likelihoods of the softly observed variables ``S`` and summed
     over ``S``."""
     compiled = engine.compiled
+    rows, ev_vars, values = cases
     targets = (t, *(v for v in weights if v != t))
     plan = engine.plan(QueryKind.MARGINAL, targets, frozenset(ev_vars))
     joint = contraction.batch_contract(engine, plan, ev_vars, values, rows)

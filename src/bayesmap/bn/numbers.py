@@ -44,6 +44,7 @@ from bayesmap.bn.plans import BATCH, Plan, QueryKind, symbol
 from bayesmap.errors import InputError
 
 if TYPE_CHECKING:
+    from bayesmap.bn.batches import Pattern
     from bayesmap.bn.inference import Engine, Evidence
 
 T = TypeVar("T")
@@ -125,16 +126,10 @@ class Numbers(Protocol[T, A, S_co]):
         """``(n, n_states)`` posteriors of an observed target, one-hot at ``states``."""
 
     def batch_marginal(
-        self,
-        engine: Engine,
-        t: int,
-        ev_vars: Sequence[int],
-        values: IntArray,
-        rows: IntArray,
-        weights: Mapping[int, FloatArray],
+        self, engine: Engine, t: int, cases: Pattern, weights: Mapping[int, FloatArray]
     ) -> A:
-        """``P(t | case)`` of the cases of one pattern (``values``, batch ``rows``), ``t``
-        unobserved, with soft evidence ``weights`` ``{variable: (n_cases, n_states)}``."""
+        """``P(t | case)`` of the cases of one pattern, ``t`` unobserved, with soft evidence
+        ``weights`` ``{variable: (n_cases, n_states)}``."""
 
     def stack(self, parts: Sequence[tuple[IntArray, A]], n: int, n_states: int) -> A:
         """The ``(n, n_states)`` answers of a batch from each pattern's ``(rows, answers)``."""
@@ -260,19 +255,13 @@ class Floats:
         return np.eye(n_states)[states]
 
     def batch_marginal(
-        self,
-        engine: Engine,
-        t: int,
-        ev_vars: Sequence[int],
-        values: IntArray,
-        rows: IntArray,
-        weights: Mapping[int, FloatArray],
+        self, engine: Engine, t: int, cases: Pattern, weights: Mapping[int, FloatArray]
     ) -> FloatArray:
         """Distinct cases contracted once and memoised (:func:`~bayesmap.bn.batches.batch_answers`),
         or, with soft evidence, the weighted joint (:func:`~bayesmap.bn.batches.soft_marginal`)."""
         if weights:
-            return batches.soft_marginal(engine, t, ev_vars, values, rows, weights)
-        return batches.batch_answers(engine, t, ev_vars, values, rows)
+            return batches.soft_marginal(engine, t, cases, weights)
+        return batches.batch_answers(engine, t, cases.ev_vars, cases.values, cases.rows)
 
     def stack(
         self, parts: Sequence[tuple[IntArray, FloatArray]], n: int, n_states: int
@@ -447,13 +436,7 @@ class FixedPoint:
         return FixedResult(self.q, raw, self.q.to_float(raw), eye * one.bound)
 
     def batch_marginal(
-        self,
-        engine: Engine,
-        t: int,
-        ev_vars: Sequence[int],
-        values: IntArray,
-        rows: IntArray,
-        weights: Mapping[int, FloatArray],
+        self, engine: Engine, t: int, cases: Pattern, weights: Mapping[int, FloatArray]
     ) -> FixedResult:
         """One quantised contraction with a case axis, one block exponent per case.
 
@@ -465,6 +448,7 @@ class FixedPoint:
         case has the one-case answer.
         """
         q, compiled = self.q, engine.compiled
+        rows, ev_vars, values = cases
         plan = engine.plan(
             QueryKind.MARGINAL, (t, *(v for v in weights if v != t)), frozenset(ev_vars)
         )
