@@ -1,18 +1,20 @@
-"""The two number systems every one-case question runs in: float64 and Q-format fixed point.
+"""The two number systems every question runs in: float64 and Q-format fixed point.
 
 A question — which plan, which evidence checks, which variables are summed or maximised — is
 written once (:mod:`~bayesmap.bn.posteriors`, :mod:`~bayesmap.bn.maps`,
-:mod:`~bayesmap.bn.probabilities`) against :class:`Numbers`; the arithmetic is the number
-system's:
+:mod:`~bayesmap.bn.probabilities`, and for many cases :func:`~bayesmap.bn.batches.posterior_batch`)
+against :class:`Numbers`; the arithmetic is the number system's:
 
 - :class:`Floats`: compiled float64 sum-product (:class:`~bayesmap.bn.elimination.SumProgram`),
   max-product in log space (:class:`~bayesmap.bn.elimination.LogMax`), answers as arrays and
-  floats;
+  floats; a batch's distinct cases memoised, or all its patterns in one contraction with
+  evidence indicators;
 - :class:`FixedPoint`: the rover's embedded arithmetic (Post et al. 2016 §3.2): CPT entries
   quantised to a :class:`~bayesmap.bn.fixed_point.QFormat`, sums and maxima in block floating
   point (:class:`~bayesmap.bn.fixed_point.FixedAlgebra`) along the orders the generated C
   code replays, answers as :class:`~bayesmap.bn.fixed_point.FixedResult` with a guaranteed
-  error bound.
+  error bound; a batch pattern in one contraction with a case axis, one block exponent per
+  case.
 
 Each operation is the one the engine always ran for its number system, so answers are the
 same to the bit whichever way the question is asked.
