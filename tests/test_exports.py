@@ -34,3 +34,11 @@ def test_importing_the_packages_loads_neither_matplotlib_nor_the_simulators() ->
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+@pytest.mark.parametrize("name", ("sonar", "sensing", "sim", "viz"))
+def test_a_lazy_package_lists_the_same_names_it_loads(name: str) -> None:
+    """``__all__`` stays a literal list (ruff and mypy read it); it must name exactly the
+    names the package loads on first use."""
+    package = importlib.import_module(f"bayesmap.{name}")
+    assert sorted(package.__all__) == dir(package)

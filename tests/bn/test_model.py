@@ -88,3 +88,27 @@ def test_kinds_are_metadata() -> None:
     assert net.kind("C") is NodeKind.CLASSIFICATION
     with pytest.raises(ModelError, match="unknown node kind"):
         net.set_kind("C", "Z")
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_ancestors_are_every_variable_with_a_directed_path_in(seed: int) -> None:
+    """Checked against reachability along reversed edges, on random DAGs."""
+    rng = np.random.default_rng(seed)
+    n = 12
+    net = BayesNet("dag")
+    for k in range(n):
+        chosen = [f"V{j}" for j in range(k) if rng.random() < 0.25][:3]
+        shape = (2, *([2] * len(chosen)))
+        cpt = np.full(shape, 0.5)
+        net.add_variable(f"V{k}", ["s0", "s1"], parents=chosen, cpt=cpt)
+    reach = np.eye(n, dtype=bool)  # reach[a, b]: a directed path from a to b (or a == b)
+    for k in range(n):
+        for parent in net.parents(f"V{k}"):
+            reach[:, k] |= reach[:, int(parent[1:])]
+    for k in range(n):
+        want = {f"V{a}" for a in range(n) if reach[a, k] and a != k}
+        assert net.ancestors([f"V{k}"]) == want
+    union = net.ancestors(["V3", "V11"])
+    assert union == net.ancestors(["V3"]) | net.ancestors(["V11"])
+    with pytest.raises(ModelError):
+        net.ancestors(["nowhere"])

@@ -39,6 +39,10 @@ def reduced(tmp_path_factory):
     return out, result, calls
 
 
+# The fixture runs the whole experiment (three conditions, each with the fused mapper); the
+# fused mapper's closing sweep over the arena on the noisy readings takes minutes, not the
+# 13 s of CPU it took when this fixture joined the default suite, so its tests are slow.
+@pytest.mark.slow
 def test_writes_every_file(reduced):
     out, result, _ = reduced
     for name in ("ground_truth.png", "snapshot_high.png", "snapshot_low.png"):
@@ -53,6 +57,7 @@ def test_writes_every_file(reduced):
     assert result.headline["scenario"] == "whisker-tables-v1"
 
 
+@pytest.mark.slow
 def test_metrics_are_sane(reduced):
     out, _, calls = reduced
     assert ("noisy", POSES, POSES) in calls

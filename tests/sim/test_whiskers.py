@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from bayesmap.errors import ConfigError, InputError, ModelError
+from bayesmap.geometry import wrap_angle
 from bayesmap.sim.tables_world import (
     WALL,
     WorldParams,
@@ -17,11 +18,11 @@ from bayesmap.sim.tables_world import (
     leg_centres,
     pose_sequence,
     rectangle_corners,
-    scenario,
+    world_params,
 )
 from bayesmap.sim.whiskers import NO_CONTACT, WhiskerParams, condition, h, observe
 
-PARAMS = scenario("whisker-tables-v1")
+PARAMS = world_params("whisker-tables-v1")
 WHISKERS = WhiskerParams()
 
 
@@ -155,7 +156,8 @@ def test_wall_contact_by_hand():
     c = h(walls_only, pose, WHISKERS)
     assert np.all(c.table[c.hit] == WALL)
     np.testing.assert_allclose(c.point[c.hit, 0], 6.0)
-    np.testing.assert_allclose(c.normal[c.hit], np.pi)
+    # the east wall faces −x: its normal is −π in the one convention, [−π, π)
+    np.testing.assert_array_equal(c.normal[c.hit], -np.pi)
     # the ±12° whiskers start 57° off the heading and already reach the wall there
     start = np.radians(57.0)
     np.testing.assert_allclose(c.r[2], 0.5 / math.cos(start))
@@ -194,7 +196,7 @@ def test_observe_noiseless_equals_h_and_is_deterministic(world):
     a = observe(world, pose, noisy, rng=np.random.default_rng(3))
     b = observe(world, pose, noisy, rng=np.random.default_rng(3))
     np.testing.assert_array_equal(a.shapelets, b.shapelets)
-    assert np.all((a.shapelets[:, 2] > -np.pi) & (a.shapelets[:, 2] <= np.pi))
+    assert np.all((a.shapelets[:, 2] >= -np.pi) & (a.shapelets[:, 2] < np.pi))
     assert np.all((a.shapelets[:, 3] > 0) & (a.shapelets[:, 3] < 1))
 
 
@@ -225,6 +227,19 @@ def test_conditions_and_bad_input():
     with pytest.raises(ConfigError):
         WhiskerParams(whisker_length=0)
     with pytest.raises(ConfigError):
-        scenario("whisker-tables-v0")
+        world_params("whisker-tables-v0")
     with pytest.raises(InputError):
         h(initial(PARAMS, rng=np.random.default_rng(0)), np.array([1.0, 2.0]), WHISKERS)
+
+
+def test_contacts_do_not_depend_on_which_turn_a_normal_is_stored_in(world):
+    """Normals ±π (and any angle plus whole turns) give the same contacts: ``h`` wraps them."""
+    turned = replace(world, normal=world.normal + 2.0 * np.pi * np.where(world.normal < 0, 1, -1))
+    for pose in pose_sequence(PARAMS)[::40]:
+        a, b = h(world, pose, WHISKERS), h(turned, pose, WHISKERS)
+        np.testing.assert_array_equal(a.hit, b.hit)
+        np.testing.assert_array_equal(a.table, b.table)
+        np.testing.assert_allclose(a.point, b.point, rtol=0, atol=1e-12)
+        gap = np.abs(wrap_angle(a.normal[a.hit] - b.normal[b.hit]))
+        assert np.all(gap < 1e-12)
+        assert np.all((a.normal[a.hit] >= -np.pi) & (a.normal[a.hit] < np.pi))

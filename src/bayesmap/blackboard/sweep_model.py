@@ -46,6 +46,7 @@ import numpy as np
 
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.errors import ConfigError
+from bayesmap.geometry import wrap_angle
 
 __all__ = [
     "ObjectType",
@@ -138,10 +139,6 @@ def _normal(x: FloatArray, sigma: float) -> FloatArray:
     return np.asarray(np.exp(-0.5 * (x / sigma) ** 2) / (math.sqrt(_TWO_PI) * sigma))
 
 
-def _wrap(angle: FloatArray) -> FloatArray:
-    return np.asarray(np.pi - np.mod(np.pi - angle, _TWO_PI))
-
-
 def _range_density(r_hat: FloatArray, r: FloatArray, sigma: float) -> FloatArray:
     """Folded range noise: N(r̂; r, σ) + N(−r̂; r, σ) for r̂ ≥ 0 (the simulator's fold)."""
     return np.asarray(_normal(r_hat - r, sigma) + _normal(r_hat + r, sigma))
@@ -226,7 +223,7 @@ def leg_contact_density(
     face_x = np.where(ux > 0, np.pi, 0.0)
     face_y = np.where(uy > 0, -0.5 * np.pi, 0.5 * np.pi)
     rel_phi = phi_hat[:, None] - theta[None]
-    d_phi = np.minimum(np.abs(_wrap(rel_phi - face_x)), np.abs(_wrap(rel_phi - face_y)))
+    d_phi = np.minimum(np.abs(wrap_angle(rel_phi - face_x)), np.abs(wrap_angle(rel_phi - face_y)))
     sr = model.sigma_r
     exponent = (e_perp / model.sigma_perp) ** 2 + (d_phi / model.sigma_phi) ** 2
     r_hat = r_hat[:, None]
@@ -256,7 +253,7 @@ def wall_contact_density(
     normal = np.where(
         x_wall, np.where(ux > 0, np.pi, 0.0), np.where(uy > 0, -0.5 * np.pi, 0.5 * np.pi)
     )
-    d_phi = _wrap(phi_hat - normal)
+    d_phi = wrap_angle(phi_hat - normal)
     return np.asarray(
         _range_density(r_hat, r_star, model.sigma_r)
         * _normal(np.zeros(1), model.sigma_perp)
@@ -284,10 +281,10 @@ def legs_swept(
     dy = legs[:, None, 1] - root[None, :, 1]
     d = np.hypot(dx, dy)
     radius = legs[:, None, 2] * math.sqrt(2.0) + margin
-    turn = _wrap(stop - start)[None]
+    turn = wrap_angle(stop - start)[None]
     direction = np.where(turn >= 0, 1.0, -1.0)
     extent = np.abs(turn)
-    rel = _wrap(np.arctan2(dy, dx) - start[None]) * direction
+    rel = wrap_angle(np.arctan2(dy, dx) - start[None]) * direction
     gamma = np.arcsin(np.clip(radius / np.maximum(d, 1e-9), 0.0, 1.0))
     inside = (d > radius) & (d - legs[:, None, 2] < length[None] - margin)
     return np.asarray(inside & (rel >= gamma) & (rel <= extent - gamma), dtype=np.float64)

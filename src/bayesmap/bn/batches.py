@@ -7,26 +7,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from bayesmap._typing import FloatArray, IntArray
-from bayesmap.bn import contraction, elimination, marginals, plans, posteriors
-from bayesmap.bn.fixed_point import (
-    FixedAlgebra,
-    FixedResult,
-    QFormat,
-    normalise,
-)
-from bayesmap.bn.numbers import FixedPoint
-from bayesmap.bn.plans import BATCH, Plan, QueryKind, symbol
+from bayesmap.bn import contraction, marginals, plans, posteriors
+from bayesmap.bn.plans import Plan, QueryKind
 from bayesmap.bn.soft import check_weights
 from bayesmap.errors import InputError
 
 if TYPE_CHECKING:
     from bayesmap.bn.inference import BatchEvidence, Engine, Evidence
+    from bayesmap.bn.numbers import A, Numbers
 
 
 def posteriors_batch(
@@ -64,9 +58,8 @@ def posteriors_batch(
             continue
         plan = engine.plan(QueryKind.WHOLE, free, frozenset(ev_vars))
         if not posteriors.two_pass_pays(engine, plan, free):
-            names = [compiled.names[v] for v in ev_vars]
             for v in free:
-                out[v][rows] = posterior_batch(engine, compiled.names[v], values, columns=names)
+                out[v][rows] = batch_answers(engine, v, ev_vars, values, rows)
             continue
         if not any(f.observed for f in plan.factors):  # the free part ignores the evidence
             answers = posteriors.posteriors(engine, {})
@@ -151,18 +144,32 @@ def indicator_batch(
     }
 
 
+class Pattern(NamedTuple):
+    """The cases of a batch that observe the same variables."""
+
+    rows: IntArray
+    """Their rows in the batch."""
+    ev_vars: list[int]
+    """The observed variables' ids."""
+    values: IntArray
+    """``(len(rows), len(ev_vars))`` observed state indices."""
+
+
 def posterior_batch(
     engine: Engine,
     target: str,
     evidence: BatchEvidence,
+    numbers: Numbers[Any, A, Any],
     *,
     columns: Sequence[str] | None = None,
     soft: Mapping[str, npt.ArrayLike] | None = None,
-) -> FloatArray:
-    """``P(target | case)`` for many evidence cases at once: shape ``(n_cases, n_states)``.
+) -> A:
+    """``P(target | case)`` for many evidence cases at once, in ``numbers`` (float64 or fixed
+    point, :mod:`bayesmap.bn.numbers`): shape ``(n_cases, n_states)``.
 
-    Cases with the same observed variables are answered by one contraction with a
-    leading case axis (cases are grouped by their pattern of observed columns).
+    Cases with the same observed variables are answered together (cases are grouped by
+    their pattern of observed columns); each pattern's answers are the number system's
+    (:meth:`~bayesmap.bn.numbers.Numbers.batch_marginal`).
 
     Parameters
     ----------
@@ -171,29 +178,27 @@ def posterior_batch(
     evidence
         An ``(n_cases, n_columns)`` integer array of state indices, −1 where a
         variable is unobserved, or a sequence of ``{variable: state}`` mappings.
+    numbers
+        The number system of the answers.
     columns
         Variable of each array column; default: all variables in network order.
     soft
-        Soft evidence per case, ``{variable: (n_cases, n_states) weights}``: the joint
-        posterior of the target and these variables is weighted by them and summed
-        (its size grows with the product of their state counts).
+        Soft evidence per case, ``{variable: (n_cases, n_states) weights}``.
     """
     compiled = engine.compiled
     t = compiled.id(target)
     table, cols = batch_array(engine, evidence, columns)
-    if table.shape[0] == 0:
-        return np.empty((0, compiled.card[t]))
-    if soft:
-        return soft_batch(engine, t, table, cols, soft)
-    groups = contraction.patterns(table)
-    if len(groups) > engine.tuning.many_patterns and not compiled.sources:
-        return indicator_batch(engine, (t,), table, cols)[t]
-    out = np.empty((table.shape[0], compiled.card[t]))
+    weights = soft_weights(engine, table, cols, soft) if soft else {}
+    groups = contraction.patterns(table) if table.shape[0] else []
+    if not weights:
+        whole = numbers.all_at_once(engine, t, table, cols, len(groups))
+        if whole is not None:
+            return whole
+    parts: list[tuple[IntArray, A]] = []
     for rows, pattern in groups:
         ev_vars = [cols[j] for j in pattern]
         values = table[np.ix_(rows, pattern)]
         if t in ev_vars:
-            col = ev_vars.index(t)
             contraction.batch_contract(
                 engine,
                 engine.plan(QueryKind.EVIDENCE, (), frozenset(ev_vars)),
@@ -201,47 +206,39 @@ def posterior_batch(
                 values,
                 rows,
             )
-            out[rows] = np.eye(compiled.card[t])[values[:, col]]
+            state = values[:, ev_vars.index(t)]
+            parts.append((rows, numbers.one_hot_batch(compiled.card[t], state)))
             continue
-        out[rows] = batch_answers(engine, t, ev_vars, values, rows)
-    return out
+        cases = Pattern(rows, ev_vars, values)
+        parts.append((rows, numbers.batch_marginal(engine, t, cases, weights)))
+    return numbers.stack(parts, table.shape[0], compiled.card[t])
 
 
-def soft_batch(
-    engine: Engine, t: int, table: IntArray, cols: list[int], soft: Mapping[str, npt.ArrayLike]
+def soft_marginal(
+    engine: Engine, t: int, cases: Pattern, weights: Mapping[int, FloatArray]
 ) -> FloatArray:
-    """:func:`posterior_batch` with soft evidence: ``P(t, S | case)`` weighted by each
-    case's likelihoods of the softly observed variables ``S`` and summed over ``S``."""
+    """``P(t | case)`` with soft evidence, for the cases of one pattern: ``P(t, S | case)``
+    weighted by each case's likelihoods of the softly observed variables ``S`` and summed
+    over ``S``."""
     compiled = engine.compiled
-    n = table.shape[0]
-    weights = soft_weights(engine, table, cols, soft)
-    out = np.empty((n, compiled.card[t]))
-    for rows, pattern in contraction.patterns(table):
-        ev_vars = [cols[j] for j in pattern]
-        values = table[np.ix_(rows, pattern)]
-        if t in ev_vars:
-            out[rows] = posterior_batch(
-                engine, compiled.names[t], values, columns=[compiled.names[v] for v in ev_vars]
-            )
-            continue
-        targets = (t, *(v for v in weights if v != t))
-        plan = engine.plan(QueryKind.MARGINAL, targets, frozenset(ev_vars))
-        joint = contraction.batch_contract(engine, plan, ev_vars, values, rows)
-        for axis, v in enumerate(targets, start=1):
-            if v in weights:
-                shape = [len(rows)] + [1] * len(targets)
-                shape[axis] = compiled.card[v]
-                joint = joint * weights[v][rows].reshape(shape)
-        answer = joint.reshape(len(rows), compiled.card[t], -1).sum(axis=2)
-        totals = answer.sum(axis=1)
-        bad = np.flatnonzero(~(totals > 0.0))
-        if bad.size:
-            raise InputError(
-                f"batched evidence case {int(rows[bad[0]])}: the evidence and soft "
-                "evidence have probability zero together"
-            )
-        out[rows] = answer / totals[:, np.newaxis]
-    return out
+    rows, ev_vars, values = cases
+    targets = (t, *(v for v in weights if v != t))
+    plan = engine.plan(QueryKind.MARGINAL, targets, frozenset(ev_vars))
+    joint = contraction.batch_contract(engine, plan, ev_vars, values, rows)
+    for axis, v in enumerate(targets, start=1):
+        if v in weights:
+            shape = [len(rows)] + [1] * len(targets)
+            shape[axis] = compiled.card[v]
+            joint = joint * weights[v][rows].reshape(shape)
+    answer = joint.reshape(len(rows), compiled.card[t], -1).sum(axis=2)
+    totals = answer.sum(axis=1)
+    bad = np.flatnonzero(~(totals > 0.0))
+    if bad.size:
+        raise InputError(
+            f"batched evidence case {int(rows[bad[0]])}: the evidence and soft "
+            "evidence have probability zero together"
+        )
+    return np.asarray(answer / totals[:, np.newaxis])
 
 
 def soft_weights(
@@ -451,75 +448,6 @@ def expected_counts(
             else:
                 view += share.sum(axis=0)
     return counts, log_likelihood
-
-
-def fixed_posterior_batch(
-    engine: Engine,
-    target: str,
-    evidence: BatchEvidence,
-    q: QFormat,
-    *,
-    columns: Sequence[str] | None = None,
-    soft: Mapping[str, npt.ArrayLike] | None = None,
-) -> FixedResult:
-    """:func:`posterior_batch` in Q-format integers: one contraction per evidence pattern,
-    one block exponent per case.
-
-    Soft evidence (``{variable: (n_cases, n_states) weights}``) enters as one more factor
-    per softly observed variable ``X``, over the case axis and ``X``: each case's
-    likelihood scaled to a largest weight of 1 and quantised like a CPT (the virtual
-    child's table of a single question, :mod:`bayesmap.bn.soft`), then summed out with
-    the other non-targets, so its rounding is inside the guaranteed bound.
-    """
-    compiled = engine.compiled
-    t = compiled.id(target)
-    table, cols = batch_array(engine, evidence, columns)
-    weights = soft_weights(engine, table, cols, soft) if soft else {}
-    n_states = compiled.card[t]
-    raw = np.empty((table.shape[0], n_states), dtype=np.int64)
-    bound = np.empty((table.shape[0], n_states))
-    targets = (t, *(v for v in weights if v != t))
-    for rows, pattern in contraction.patterns(table):
-        ev_vars = [cols[j] for j in pattern]
-        values = table[np.ix_(rows, pattern)]
-        plan = (
-            engine.plan(QueryKind.MARGINAL, targets, frozenset(ev_vars))
-            if t not in ev_vars
-            else None
-        )
-        if plan is None or not (weights or any(f.observed for f in plan.factors)):
-            for i, row in zip(rows, values, strict=True):
-                case = {compiled.names[v]: int(s) for v, s in zip(ev_vars, row, strict=True)}
-                one = posteriors.joint_posterior(engine, [target], case, FixedPoint(q))
-                raw[i], bound[i] = one.raw, one.bound
-            continue
-        contraction.batch_contract(engine, plan, ev_vars, values, rows)  # float evidence check
-        order = [ev_vars.index(v) for v in plan.evidence]
-        cols_k = [values[:, j] for j in order]
-        case_names = contraction.case_namer(compiled, plan.evidence, cols_k)
-        operands, terms = [], []
-        for f in plan.factors:
-            sliced = contraction.slice_batch(compiled, f, cols_k, case_names)
-            operands.append(q.quantise(sliced, case_axis=f.observed))
-            terms.append(BATCH + f.term if f.observed else f.term)
-        for v, w in weights.items():
-            mine = w[rows]
-            operands.append(q.quantise(mine / mine.max(axis=1, keepdims=True), case_axis=True))
-            terms.append(BATCH + symbol(v))
-        output = BATCH + symbol(t)
-        path = plan.cache.fixed_batch_path if not weights else None
-        if path is None:
-            path = elimination.find_path(
-                terms, output, [o.raw.shape for o in operands], tuning=engine.tuning
-            )
-            if not weights:  # a soft question's terms depend on which variables are soft
-                plan.cache.fixed_batch_path = path
-        result, term, _ = elimination.run(path, operands, FixedAlgebra(q))
-        if term != output:
-            result = result.transpose([term.index(ch) for ch in output])
-        answer = normalise(q, result, (1,), f"posterior of {target!r}")
-        raw[rows], bound[rows] = answer.raw, answer.bound
-    return FixedResult(q, raw, q.to_float(raw), bound)
 
 
 def is_mapping_list(evidence: object) -> bool:

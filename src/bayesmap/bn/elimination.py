@@ -12,10 +12,12 @@ a true joint maximisation, never per-variable arg-maxes of marginals.
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections import Counter
 from collections.abc import Hashable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any, Generic, Protocol, TypeVar
+from typing import Any, Generic, NamedTuple, Protocol, TypeVar
 
 import numpy as np
 import opt_einsum
@@ -381,8 +383,7 @@ L = TypeVar("L", bound=Hashable)
 """A label of an operand's axis (a variable id, an einsum character, the case axis)."""
 
 
-@dataclass(frozen=True)
-class Step(Generic[L]):
+class Step(NamedTuple, Generic[L]):
     """One step of an SSA contraction path, as :func:`walk` reads it.
 
     Attributes
@@ -401,6 +402,37 @@ class Step(Generic[L]):
     kept: tuple[L, ...]
 
 
+class Walker(Generic[L]):
+    """An SSA path read one step at a time: each operand's labels (inputs, then each step's
+    result) and how many live operands — and the output — still hold each label.
+
+    The one reader of paths: :func:`walk` reads a whole path with it, and the builders of
+    orders (:func:`~bayesmap.bn.plans.order_steps`) take each step through it as they
+    choose it.
+    """
+
+    def __init__(self, scopes: Sequence[Iterable[L]], output: Iterable[L]) -> None:
+        self.count: dict[L, int] = Counter(itertools.chain.from_iterable(scopes))
+        for label in output:
+            self.count[label] = self.count.get(label, 0) + 1
+        self.live: list[Iterable[L]] = list(scopes)
+        """Labels of every operand by SSA number."""
+
+    def step(self, position: Sequence[int]) -> Step[L]:
+        """Multiply the operands at SSA numbers ``position``; the step, its result appended."""
+        count, live = self.count, self.live
+        union: dict[L, None] = {}
+        for i in position:
+            for label in live[i]:
+                union[label] = None
+                count[label] -= 1
+        kept = tuple([label for label in union if count[label] > 0])
+        for label in kept:
+            count[label] += 1
+        live.append(kept)
+        return Step(tuple(position), tuple(union), kept)
+
+
 def walk(
     scopes: Sequence[Iterable[L]],
     output: Iterable[L],
@@ -412,24 +444,8 @@ def walk(
     Every contraction here — compiled sum-product, two-pass, pluggable-arithmetic
     :func:`run`, and the costs of orders — walks its path through this one function.
     """
-    count: dict[L, int] = dict.fromkeys(output, 1)
-    for scope in scopes:
-        for label in scope:
-            count[label] = count.get(label, 0) + 1
-    live = list(scopes)
-    steps: list[Step[L]] = []
-    for position in path:
-        union: dict[L, None] = {}
-        for i in position:
-            for label in live[i]:
-                union[label] = None
-                count[label] -= 1
-        kept = tuple([label for label in union if count[label] > 0])
-        for label in kept:
-            count[label] += 1
-        live.append(kept)
-        steps.append(Step(tuple(position), tuple(union), kept))
-    return steps
+    walker = Walker(scopes, output)
+    return [walker.step(position) for position in path]
 
 
 def _call(args: list[Any], large: bool) -> FloatArray:

@@ -223,7 +223,7 @@ class Engine:
         soft: Mapping[str, npt.ArrayLike] | None = None,
     ) -> FloatArray:
         """``P(target | case)`` for many cases: ``(n_cases, n_states)``."""
-        return batches.posterior_batch(self, target, evidence, columns=columns, soft=soft)
+        return batches.posterior_batch(self, target, evidence, FLOATS, columns=columns, soft=soft)
 
     def posteriors_batch(
         self,
@@ -286,7 +286,9 @@ class Engine:
         soft: Mapping[str, npt.ArrayLike] | None = None,
     ) -> FixedResult:
         """:meth:`posterior_batch` in Q-format integers (soft evidence per case too)."""
-        return batches.fixed_posterior_batch(self, target, evidence, q, columns=columns, soft=soft)
+        return batches.posterior_batch(
+            self, target, evidence, FixedPoint(q), columns=columns, soft=soft
+        )
 
     def fixed_mpe(self, evidence: Evidence, q: QFormat) -> tuple[dict[str, str], FixedResult]:
         """:meth:`mpe` in Q-format integers."""

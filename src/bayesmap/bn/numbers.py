@@ -1,18 +1,20 @@
-"""The two number systems every one-case question runs in: float64 and Q-format fixed point.
+"""The two number systems every question runs in: float64 and Q-format fixed point.
 
 A question — which plan, which evidence checks, which variables are summed or maximised — is
 written once (:mod:`~bayesmap.bn.posteriors`, :mod:`~bayesmap.bn.maps`,
-:mod:`~bayesmap.bn.probabilities`) against :class:`Numbers`; the arithmetic is the number
-system's:
+:mod:`~bayesmap.bn.probabilities`, and for many cases :func:`~bayesmap.bn.batches.posterior_batch`)
+against :class:`Numbers`; the arithmetic is the number system's:
 
 - :class:`Floats`: compiled float64 sum-product (:class:`~bayesmap.bn.elimination.SumProgram`),
   max-product in log space (:class:`~bayesmap.bn.elimination.LogMax`), answers as arrays and
-  floats;
+  floats; a batch's distinct cases memoised, or all its patterns in one contraction with
+  evidence indicators;
 - :class:`FixedPoint`: the rover's embedded arithmetic (Post et al. 2016 §3.2): CPT entries
   quantised to a :class:`~bayesmap.bn.fixed_point.QFormat`, sums and maxima in block floating
   point (:class:`~bayesmap.bn.fixed_point.FixedAlgebra`) along the orders the generated C
   code replays, answers as :class:`~bayesmap.bn.fixed_point.FixedResult` with a guaranteed
-  error bound.
+  error bound; a batch pattern in one contraction with a case axis, one block exponent per
+  case.
 
 Each operation is the one the engine always ran for its number system, so answers are the
 same to the bit whichever way the question is asked.
@@ -28,8 +30,8 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 import numpy as np
 import opt_einsum
 
-from bayesmap._typing import BoolArray, FloatArray
-from bayesmap.bn import contraction, elimination, posteriors
+from bayesmap._typing import BoolArray, FloatArray, IntArray
+from bayesmap.bn import batches, contraction, elimination, posteriors
 from bayesmap.bn.contraction import impossible, slice_case
 from bayesmap.bn.fixed_point import (
     Fixed,
@@ -40,10 +42,11 @@ from bayesmap.bn.fixed_point import (
     normalise,
     ratio,
 )
-from bayesmap.bn.plans import Plan, QueryKind
+from bayesmap.bn.plans import BATCH, Plan, QueryKind, symbol
 from bayesmap.errors import InputError
 
 if TYPE_CHECKING:
+    from bayesmap.bn.batches import Pattern
     from bayesmap.bn.inference import Engine, Evidence
 
 T = TypeVar("T")
@@ -115,6 +118,24 @@ class Numbers(Protocol[T, A, S_co]):
     ) -> tuple[S_co, list[elimination.Record]]:
         """``max_x Σ_Z Π φ`` by sum groups (eq. 14), as ``P(x | e)``, with the records."""
 
+    def all_at_once(
+        self, engine: Engine, t: int, table: IntArray, cols: Sequence[int], n_patterns: int
+    ) -> A | None:
+        """``P(t | case)`` of a whole batch in one go, where the number system has such a
+        way for cases spread over ``n_patterns`` patterns; ``None``: pattern by pattern."""
+
+    def one_hot_batch(self, n_states: int, states: IntArray) -> A:
+        """``(n, n_states)`` posteriors of an observed target, one-hot at ``states``."""
+
+    def batch_marginal(
+        self, engine: Engine, t: int, cases: Pattern, weights: Mapping[int, FloatArray]
+    ) -> A:
+        """``P(t | case)`` of the cases of one pattern, ``t`` unobserved, with soft evidence
+        ``weights`` ``{variable: (n_cases, n_states)}``."""
+
+    def stack(self, parts: Sequence[tuple[IntArray, A]], n: int, n_states: int) -> A:
+        """The ``(n, n_states)`` answers of a batch from each pattern's ``(rows, answers)``."""
+
 
 @dataclass(frozen=True)
 class Floats:
@@ -168,19 +189,10 @@ class Floats:
         self, engine: Engine, plan: Plan, ev: Mapping[int, int], ev_names: Evidence
     ) -> tuple[float, list[elimination.Record]]:
         """Max-product in log space; ``log max_x P(x, e)``."""
-        compiled = engine.compiled
-        ev_idx = [ev[v] for v in plan.evidence]
-        names = engine.source_evidence(ev)
-        log_scale = sum(_log(slice_case(compiled, f, ev_idx, names)) for f in plan.checks)
-        operands = [_log(slice_case(compiled, f, ev_idx, names)) for f in plan.factors]
-        path = plan.cache.scalar_path
-        if path is None:
-            path = plan.cache.scalar_path = elimination.find_path(
-                [f.term for f in plan.factors],
-                "",
-                [np.shape(op) for op in operands],
-                tuning=engine.tuning,
-            )
+        checks, factors = _sliced(engine, plan, ev)
+        log_scale = sum(_log(c) for c in checks)
+        operands = [_log(f) for f in factors]
+        path = _scalar_path(engine, plan, [np.shape(op) for op in operands])
         best: FloatArray = np.zeros(())
         records: list[elimination.Record] = []
         if operands:
@@ -207,11 +219,8 @@ class Floats:
         ev_names: Evidence,
     ) -> tuple[float, list[elimination.Record]]:
         """Each group summed by opt_einsum, then max-product in log space."""
-        compiled = engine.compiled
-        ev_idx = [ev[v] for v in plan.evidence]
-        names = engine.source_evidence(ev)
-        log_scale = sum(_log(slice_case(compiled, f, ev_idx, names)) for f in plan.checks)
-        sliced = [slice_case(compiled, f, ev_idx, names) for f in plan.factors]
+        checks, sliced = _sliced(engine, plan, ev)
+        log_scale = sum(_log(c) for c in checks)
         operands: list[FloatArray] = []
         terms: list[str] = []
         for members, boundary in groups:
@@ -234,6 +243,37 @@ class Floats:
         probability = math.exp(float(best) - math.log(total))
         return min(probability, 1.0), records
 
+    def all_at_once(
+        self, engine: Engine, t: int, table: IntArray, cols: Sequence[int], n_patterns: int
+    ) -> FloatArray | None:
+        """One contraction with evidence indicators (:func:`~bayesmap.bn.batches.indicator_batch`)
+        when the cases spread over more than ``tuning.many_patterns`` patterns."""
+        if n_patterns > engine.tuning.many_patterns and not engine.compiled.sources:
+            return batches.indicator_batch(engine, (t,), table, cols)[t]
+        return None
+
+    def one_hot_batch(self, n_states: int, states: IntArray) -> FloatArray:
+        """Rows of the identity."""
+        return np.eye(n_states)[states]
+
+    def batch_marginal(
+        self, engine: Engine, t: int, cases: Pattern, weights: Mapping[int, FloatArray]
+    ) -> FloatArray:
+        """Distinct cases contracted once and memoised (:func:`~bayesmap.bn.batches.batch_answers`),
+        or, with soft evidence, the weighted joint (:func:`~bayesmap.bn.batches.soft_marginal`)."""
+        if weights:
+            return batches.soft_marginal(engine, t, cases, weights)
+        return batches.batch_answers(engine, t, cases.ev_vars, cases.values, cases.rows)
+
+    def stack(
+        self, parts: Sequence[tuple[IntArray, FloatArray]], n: int, n_states: int
+    ) -> FloatArray:
+        """One array, each pattern's rows in place."""
+        out = np.empty((n, n_states))
+        for rows, part in parts:
+            out[rows] = part
+        return out
+
 
 @dataclass(frozen=True)
 class FixedPoint:
@@ -251,14 +291,12 @@ class FixedPoint:
         self, engine: Engine, plan: Plan, ev: Mapping[int, int], ev_names: Evidence
     ) -> list[Fixed]:
         """The plan's factors sliced by one case and quantised; raises on impossible evidence."""
-        compiled = engine.compiled
         if plan.dropped:
             engine.check_dropped(plan, ev.__getitem__, lambda: impossible(ev_names))
-        ev_idx = [ev[v] for v in plan.evidence]
-        names = engine.source_evidence(ev)
-        if any(not float(slice_case(compiled, f, ev_idx, names)) > 0.0 for f in plan.checks):
+        checks, factors = _sliced(engine, plan, ev)
+        if any(not float(c) > 0.0 for c in checks):
             raise InputError(impossible(ev_names))
-        return [self.q.quantise(slice_case(compiled, f, ev_idx, names)) for f in plan.factors]
+        return [self.q.quantise(f) for f in factors]
 
     def sum_product(
         self, engine: Engine, plan: Plan, ev: Mapping[int, int], ev_names: Evidence
@@ -323,24 +361,16 @@ class FixedPoint:
         self, engine: Engine, plan: Plan, ev: Mapping[int, int], algebra: FixedAlgebra
     ) -> tuple[Fixed, list[elimination.Record]]:
         """Every factor of the plan (checks included) contracted to a scalar in ``algebra``."""
-        compiled, q = engine.compiled, self.q
-        ev_idx = [ev[v] for v in plan.evidence]
-        names = engine.source_evidence(ev)
-        operands = [q.quantise(slice_case(compiled, f, ev_idx, names)) for f in plan.factors]
-        path = plan.cache.scalar_path
-        if path is None:
-            path = plan.cache.scalar_path = elimination.find_path(
-                [f.term for f in plan.factors],
-                "",
-                [op.raw.shape for op in operands],
-                tuning=engine.tuning,
-            )
+        q = self.q
+        checks, factors = _sliced(engine, plan, ev)
+        operands = [q.quantise(f) for f in factors]
+        path = _scalar_path(engine, plan, [op.raw.shape for op in operands])
         value = Fixed(np.ones((), dtype=np.int64), np.zeros((), dtype=np.int64), np.zeros(()))
         records: list[elimination.Record] = []
         if operands:
             value, _, records = elimination.run(path, operands, algebra)
-        for f in plan.checks:
-            value = algebra.multiply(value, q.quantise(slice_case(compiled, f, ev_idx, names)))
+        for c in checks:
+            value = algebra.multiply(value, q.quantise(c))
         return value, records
 
     def max_product(
@@ -394,9 +424,103 @@ class FixedPoint:
         total, _, _ = elimination.run(path, parts, sums)
         return ratio(q, best, total, "marginal MAP"), records
 
+    def all_at_once(
+        self, engine: Engine, t: int, table: IntArray, cols: Sequence[int], n_patterns: int
+    ) -> FixedResult | None:
+        """Never: fixed point answers pattern by pattern."""
+        return None
+
+    def one_hot_batch(self, n_states: int, states: IntArray) -> FixedResult:
+        """Rows of the identity; the bound is the rounding of 1."""
+        one = self.certain()
+        eye = np.eye(n_states)[states]
+        raw = (eye * one.raw).astype(np.int64)
+        return FixedResult(self.q, raw, self.q.to_float(raw), eye * one.bound)
+
+    def batch_marginal(
+        self, engine: Engine, t: int, cases: Pattern, weights: Mapping[int, FloatArray]
+    ) -> FixedResult:
+        """One quantised contraction with a case axis, one block exponent per case.
+
+        Soft evidence enters as one more factor per softly observed variable ``X``, over
+        the case axis and ``X``: each case's likelihood scaled to a largest weight of 1 and
+        quantised like a CPT (the virtual child's table of a single question,
+        :mod:`bayesmap.bn.soft`), then summed out with the other non-targets, so its
+        rounding is inside the guaranteed bound. Where no factor depends on the case, every
+        case has the one-case answer.
+        """
+        q, compiled = self.q, engine.compiled
+        rows, ev_vars, values = cases
+        plan = engine.plan(
+            QueryKind.MARGINAL, (t, *(v for v in weights if v != t)), frozenset(ev_vars)
+        )
+        contraction.batch_contract(engine, plan, ev_vars, values, rows)  # evidence check
+        what = f"posterior of {compiled.names[t]!r}"
+        if not (weights or any(f.observed for f in plan.factors)):
+            ev = {v: int(s) for v, s in zip(ev_vars, values[0], strict=True)}
+            names = compiled.evidence_names(ev)
+            return self.posterior(self.sum_product(engine, plan, ev, names), names, what)
+        order = [list(ev_vars).index(v) for v in plan.evidence]
+        cols_k = [values[:, j] for j in order]
+        case_names = contraction.case_namer(compiled, plan.evidence, cols_k)
+        operands, terms = [], []
+        for f in plan.factors:
+            sliced = contraction.slice_batch(compiled, f, cols_k, case_names)
+            operands.append(q.quantise(sliced, case_axis=f.observed))
+            terms.append(BATCH + f.term if f.observed else f.term)
+        for v, w in weights.items():
+            mine = w[rows]
+            operands.append(q.quantise(mine / mine.max(axis=1, keepdims=True), case_axis=True))
+            terms.append(BATCH + symbol(v))
+        output = BATCH + symbol(t)
+        path = plan.cache.fixed_batch_path if not weights else None
+        if path is None:
+            path = elimination.find_path(
+                terms, output, [o.raw.shape for o in operands], tuning=engine.tuning
+            )
+            if not weights:  # a soft question's terms depend on which variables are soft
+                plan.cache.fixed_batch_path = path
+        result, term, _ = elimination.run(path, operands, FixedAlgebra(q))
+        if term != output:
+            result = result.transpose([term.index(ch) for ch in output])
+        return normalise(q, result, (1,), what)
+
+    def stack(
+        self, parts: Sequence[tuple[IntArray, FixedResult]], n: int, n_states: int
+    ) -> FixedResult:
+        """One result, each pattern's rows in place."""
+        raw = np.empty((n, n_states), dtype=np.int64)
+        bound = np.empty((n, n_states))
+        for rows, part in parts:
+            raw[rows], bound[rows] = part.raw, part.bound
+        return FixedResult(self.q, raw, self.q.to_float(raw), bound)
+
 
 FLOATS = Floats()
 """The float64 number system."""
+
+
+def _sliced(
+    engine: Engine, plan: Plan, ev: Mapping[int, int]
+) -> tuple[list[FloatArray], list[FloatArray]]:
+    """The plan's evidence checks and its factors, sliced by one case."""
+    compiled = engine.compiled
+    ev_idx = [ev[v] for v in plan.evidence]
+    names = engine.source_evidence(ev)
+    return (
+        [slice_case(compiled, f, ev_idx, names) for f in plan.checks],
+        [slice_case(compiled, f, ev_idx, names) for f in plan.factors],
+    )
+
+
+def _scalar_path(engine: Engine, plan: Plan, shapes: Sequence[tuple[int, ...]]) -> elimination.Path:
+    """The order contracting every factor of the plan to a scalar (cached on the plan)."""
+    path = plan.cache.scalar_path
+    if path is None:
+        path = plan.cache.scalar_path = elimination.find_path(
+            [f.term for f in plan.factors], "", list(shapes), tuning=engine.tuning
+        )
+    return path
 
 
 def _log(values: FloatArray | float) -> Any:

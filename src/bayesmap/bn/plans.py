@@ -38,7 +38,7 @@ import opt_einsum
 
 from bayesmap._typing import FloatArray
 from bayesmap.bn.compiled import Compiled, bits
-from bayesmap.bn.elimination import walk
+from bayesmap.bn.elimination import Walker, walk
 from bayesmap.bn.tuning import TUNING, Tuning
 
 if TYPE_CHECKING:
@@ -431,10 +431,7 @@ def order_steps(
                 holders[u] = [k]
             else:
                 ks.append(k)
-    count = {u: len(ks) for u, ks in holders.items()}
-    for u in output:
-        count[u] = count.get(u, 0) + 1
-    live = list(scopes)
+    walker = Walker(scopes, output)
     alive = [True] * n
     path: list[tuple[int, ...]] = []
     kept_steps: list[tuple[int, ...]] = []
@@ -445,30 +442,24 @@ def order_steps(
         chosen = tuple([k for k in holders[u] if alive[k]])
         if not chosen:
             continue
-        union: dict[int, None] = {}
         for k in chosen:
             alive[k] = False
-            for w in live[k]:
-                union[w] = None
-                count[w] -= 1
-        kept = tuple([w for w in union if count[w] > 0])
-        new = len(live)
+        step = walker.step(chosen)
+        kept = step.kept
         entries = 1
-        for w in union:
+        for w in step.union:
             entries *= card[w] if w >= 0 else extra[w]
         total += entries
         for w in kept:
-            count[w] += 1
-            holders[w].append(new)
-        live.append(kept)
+            holders[w].append(len(walker.live) - 1)
         alive.append(True)
         path.append(chosen)
         kept_steps.append(kept)
-    rest = tuple([k for k in range(len(live)) if alive[k]])
+    rest = tuple([k for k in range(len(walker.live)) if alive[k]])
     if len(rest) > 1 or not path:
         path.append(rest)
         kept_steps.append(tuple(output))
-        labels = {w for k in rest for w in live[k]}
+        labels = {w for k in rest for w in walker.live[k]}
         total += math.prod([card[w] if w >= 0 else extra[w] for w in labels])
     if search or (total > tuning.greedy_above and total > tuning.greedy_per_factor * n):
         sets = [frozenset(scope) for scope in scopes]
@@ -554,9 +545,7 @@ def _greedy(
     for k, scope in enumerate(sets):
         for u in scope:
             owners.setdefault(u, []).append(k)
-    count = {u: len(ks) for u, ks in owners.items()}
-    for u in output:
-        count[u] = count.get(u, 0) + 1
+    walker = Walker(sets, output)
     ssa = list(range(n))  # current SSA id of each factor (a host's merged result)
     live = list(sets)
     absorbed = [False] * n
@@ -570,14 +559,7 @@ def _greedy(
         if host < 0:
             continue
         absorbed[k] = True
-        for u in scope:
-            count[u] -= 1
-        for u in live[host]:
-            count[u] -= 1
-        merged = frozenset(u for u in live[host] if count[u] > 0)
-        for u in merged:
-            count[u] += 1
-        live[host] = merged
+        live[host] = frozenset(walker.step((ssa[host], ssa[k])).kept)
         path.append((ssa[host], ssa[k]))
         ssa[host] = n + len(path) - 1
     rest = [j for j in range(n) if not absorbed[j]]

@@ -53,7 +53,7 @@ from bayesmap.experiments._common import (
 from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused
 from bayesmap.experiments.table_metrics import MatchTolerance, recall_by_support, score_run
 from bayesmap.sim import whisker_worlds
-from bayesmap.sim.tables_world import TablesWorld, initial, pose_sequence, scenario
+from bayesmap.sim.tables_world import TablesWorld, initial, pose_sequence, world_params
 from bayesmap.sim.whiskers import CONDITIONS, WhiskerParams, h, observe
 from bayesmap.viz.tables import (
     TableShape,
@@ -426,7 +426,7 @@ def _run(
     seeds = np.random.SeedSequence(config.seed).spawn(1 + 3 * len(CONDITIONS))
     if world_file is None:
         world = initial(
-            scenario(config.scenario), rng=np.random.default_rng(seeds[0]), name=config.scenario
+            world_params(config.scenario), rng=np.random.default_rng(seeds[0]), name=config.scenario
         )
         poses = pose_sequence(world.params)[: config.poses]
         p = world.params

@@ -20,13 +20,11 @@ areas, keeping at least
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import jsonschema
 import numpy as np
 import shapely
 
@@ -35,6 +33,7 @@ from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError
 from bayesmap.sim.world2d import BoxWorld, world_distance
+from bayesmap.sim.world_files import check_schema, read_document
 
 __all__ = ["WORLD_SCHEMA", "WorldSpec", "generate_world", "load_world", "save_world"]
 
@@ -149,19 +148,8 @@ def _obstacle(polygon: list[list[float]], where: str, path: Path) -> tuple[float
 def load_world(path: str | Path) -> WorldSpec:
     """Read and check a world file; :class:`FormatError` naming the file and field if bad."""
     file = Path(path)
-    try:
-        document = json.loads(file.read_text(encoding="utf-8"))
-    except OSError as error:
-        raise FormatError(f"cannot read the world file ({error.strerror})", path=file) from None
-    except UnicodeDecodeError:
-        raise FormatError("the world file is not UTF-8 text", path=file) from None
-    except json.JSONDecodeError as error:
-        raise FormatError(f"not JSON: {error.msg}", path=file, line=error.lineno) from None
-    try:
-        jsonschema.validate(document, WORLD_SCHEMA)
-    except jsonschema.ValidationError as error:
-        where = "/".join(str(part) for part in error.absolute_path) or "the document"
-        raise FormatError(error.message, path=file, element=where) from None
+    document = read_document(file)
+    check_schema(document, WORLD_SCHEMA, file)
     width, height = (float(v) for v in document["size"])
     obstacles = [
         _obstacle(polygon, f"obstacles/{k}", file)

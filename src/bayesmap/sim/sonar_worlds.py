@@ -17,17 +17,16 @@ every waypoint must lie in it. Every wall is acoustically smooth (see
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
-import jsonschema
 import numpy as np
 from shapely.geometry import Polygon
 
 from bayesmap._io import write_json
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.sim.polygons import PolygonWorld, _make, random_building
+from bayesmap.sim.world_files import check_schema, read_document
 
 __all__ = ["WORLD_SCHEMA", "generate_world", "load_world", "parse_world", "save_world", "to_json"]
 
@@ -79,11 +78,7 @@ def parse_world(obj: Any, source: str = "world") -> PolygonWorld:
     FormatError
         Naming ``source`` and the offending element.
     """
-    try:
-        jsonschema.validate(obj, WORLD_SCHEMA)
-    except jsonschema.ValidationError as error:
-        where = "/".join(str(part) for part in error.absolute_path) or "the document"
-        raise FormatError(error.message, path=source, element=where) from None
+    check_schema(obj, WORLD_SCHEMA, source)
     outline = Polygon(obj["outline"])
     if not outline.is_valid:
         raise FormatError("the outline crosses itself", path=source, element="outline")
@@ -102,16 +97,7 @@ def parse_world(obj: Any, source: str = "world") -> PolygonWorld:
 
 def load_world(path: str | Path) -> PolygonWorld:
     """Read and check a world file; :class:`FormatError` naming the file and element if bad."""
-    file = Path(path)
-    try:
-        document = json.loads(file.read_text(encoding="utf-8"))
-    except OSError as error:
-        raise FormatError(f"cannot read the world file ({error.strerror})", path=file) from None
-    except UnicodeDecodeError:
-        raise FormatError("the world file is not UTF-8 text", path=file) from None
-    except json.JSONDecodeError as error:
-        raise FormatError(f"not JSON: {error.msg}", path=file, line=error.lineno) from None
-    return parse_world(document, str(file))
+    return parse_world(read_document(path), str(Path(path)))
 
 
 def save_world(world: PolygonWorld, path: str | Path) -> Path:

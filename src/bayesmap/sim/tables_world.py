@@ -37,7 +37,7 @@ __all__ = [
     "leg_centres",
     "pose_sequence",
     "rectangle_corners",
-    "scenario",
+    "world_params",
 ]
 
 WALL = -1
@@ -374,7 +374,7 @@ def build_mixed(
 scenarios.register("whisker-tables-v1", WorldParams, WorldParams)
 
 
-def scenario(name: str) -> WorldParams:
+def world_params(name: str) -> WorldParams:
     """The :class:`WorldParams` of scenario ``name`` (:mod:`bayesmap.sim.scenarios`).
 
     :class:`ConfigError` if unknown.

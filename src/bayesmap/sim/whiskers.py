@@ -16,7 +16,7 @@ along it. A whisker reports (eqs. 1–3)
 with i.i.d. zero-mean Gaussian ε of standard deviations ``sigma_r`` [m], ``sigma_theta``
 [rad], ``sigma_tau``. Under perfect localisation a report becomes a *shapelet*
 ``S(x, y, θ, τ)``: the point ``r̂`` along the whisker's direction at contact, with
-``θ = φ̂`` (wrapped to (−π, π]) and ``τ = τ̂`` (clipped into (0, 1), its domain).
+``θ = φ̂`` (wrapped to [−π, π)) and ``τ = τ̂`` (clipped into (0, 1), its domain).
 
 A whisker cannot feel a contact behind its own root, so the reported distance is folded
 at the root: ``r̂ = |r + ε_r|``. Its density is ``N(r̂; r, σ_r) + N(−r̂; r, σ_r)`` for
@@ -48,7 +48,7 @@ import numpy as np
 
 from bayesmap._typing import BoolArray, FloatArray, IntArray
 from bayesmap.errors import ConfigError, InputError
-from bayesmap.geometry import cast_on_segments
+from bayesmap.geometry import cast_on_segments, wrap_angle
 from bayesmap.sim.tables_world import TablesWorld
 
 __all__ = [
@@ -201,11 +201,6 @@ NO_CONTACT = -2
 """Truth label of a whisker that touched nothing."""
 
 
-def _wrap(angle: FloatArray) -> FloatArray:
-    """Angles wrapped to (−π, π]."""
-    return np.asarray(np.pi - np.mod(np.pi - angle, 2.0 * np.pi))
-
-
 def _contact_candidates(
     origin: FloatArray, segments: FloatArray, normal: FloatArray, length: float
 ) -> tuple[FloatArray, IntArray]:
@@ -266,7 +261,7 @@ def h(world: TablesWorld, pose: FloatArray, params: WhiskerParams) -> Contacts:
     if len(candidates):
         v = candidates - origin
         rho = np.hypot(v[:, 0], v[:, 1])
-        turn = _wrap(np.arctan2(v[:, 1], v[:, 0])[None] - start[:, None]) * -side[:, None]
+        turn = wrap_angle(np.arctan2(v[:, 1], v[:, 0])[None] - start[:, None]) * -side[:, None]
         turn = np.where((turn >= 0.0) & (turn <= 2.0 * params.sweep), turn, np.inf)
         best = np.argmin(turn + 1e-9 * rho[None], axis=1)
         best_turn = turn[np.arange(len(best)), best]
@@ -285,8 +280,8 @@ def h(world: TablesWorld, pose: FloatArray, params: WhiskerParams) -> Contacts:
         hit=hit,
         point=point,
         r=r,
-        direction=_wrap(direction),
-        normal=np.where(hit, _wrap(world.normal[safe]), np.nan),
+        direction=wrap_angle(direction),
+        normal=np.where(hit, wrap_angle(world.normal[safe]), np.nan),
         texture=np.where(hit, world.texture[safe], np.nan),
         table=np.where(hit, world.table[safe], NO_CONTACT).astype(np.int64),
         leg=np.where(hit, world.leg[safe], NO_CONTACT).astype(np.int64),
@@ -305,7 +300,7 @@ def observe(
     n = len(contacts.hit)
     noise = rng.standard_normal((3, n))
     r_hat = np.abs(contacts.r + params.sigma_r * noise[0])
-    phi_hat = _wrap(contacts.normal + params.sigma_theta * noise[1])
+    phi_hat = wrap_angle(contacts.normal + params.sigma_theta * noise[1])
     tau_hat = np.clip(contacts.texture + params.sigma_tau * noise[2], 1e-3, 1.0 - 1e-3)
     origin = np.asarray(pose, dtype=np.float64)[:2]
     xy = origin + r_hat[:, None] * np.column_stack(
@@ -314,7 +309,7 @@ def observe(
     shapelets = np.column_stack([xy, phi_hat, tau_hat])[contacts.hit]
     side = np.sign(np.asarray(params.rest_angles))
     heading = float(np.asarray(pose, dtype=np.float64)[2])
-    start = _wrap(heading + np.asarray(params.rest_angles) + side * params.sweep)
+    start = wrap_angle(heading + np.asarray(params.rest_angles) + side * params.sweep)
     missing = np.where(contacts.hit, 1.0, np.nan)
     sweeps = np.column_stack(
         [
