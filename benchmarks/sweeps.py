@@ -216,12 +216,13 @@ went:
 
 {why}
 
-Dask's defaults differ from `bayesmap sweep`'s cluster in three settings
-(`bayesmap.sweeps.runner.LOCAL_CLUSTER_CONFIG`): its nanny starts workers with
-`MALLOC_TRIM_THRESHOLD_=65536`, which also freezes glibc's mmap threshold so that every
-numpy array over 128 KiB is mapped, faulted in and unmapped again (the *system* column);
-its profiler samples the running task every 10 ms; and it hands each worker a second task
-before the first is done.
+Dask's default worker settings differ from those of `bayesmap sweep`'s cluster
+(`bayesmap.sweeps.runner.LOCAL_CLUSTER_CONFIG`, explained in docs/cluster.md): Dask's
+nanny starts workers with `MALLOC_TRIM_THRESHOLD_=65536`, which also freezes glibc's mmap
+threshold so that every numpy array over 128 KiB is mapped, faulted in and unmapped again;
+its profiler samples the running task every 10 ms; it hands each worker a second task
+before the first is done; and its processes wake every 20 ms. Every executor runs each
+task with one BLAS thread.
 
 The same sweep from the command line, locally: `{command}`; on a cluster, start
 `dask scheduler` and `dask worker` processes and add `--scheduler tcp://HOST:8786`
