@@ -15,8 +15,9 @@ filesystem they share; metrics come back through Dask.
 Every task runs with one BLAS/OpenMP thread (:func:`threadpoolctl.threadpool_limits`), in
 this process as on a worker: the experiments' arrays are small, and W single-threaded
 workers on W cores must not start W × cores threads. A ``LocalCluster``'s workers are
-started without Dask's ``MALLOC_TRIM_THRESHOLD_`` (see :data:`LOCAL_CLUSTER_CONFIG`), so a
-task costs the same CPU on a worker as in a serial run. Each task's clock and CPU come
+started without Dask's ``MALLOC_TRIM_THRESHOLD_``, its profiler and most of its
+housekeeping (:data:`LOCAL_CLUSTER_CONFIG`), so a task's memory is handled as in a serial
+run and its worker's own threads take little from it. Each task's clock and CPU come
 back with its outcome (:mod:`~bayesmap.sweeps.timing`).
 """
 
@@ -63,9 +64,8 @@ LOCAL_CLUSTER_CONFIG: dict[str, Any] = {
     # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in its workers' environment so that
     # freed memory goes back to the operating system. Setting any trim threshold also
     # freezes glibc's mmap threshold at 128 KiB (mallopt(3)), so each larger numpy array
-    # is mapped, faulted in page by page and unmapped again: a blackboard run costs its
-    # worker about 15 % more CPU than the same run in a serial sweep. None leaves glibc's
-    # adaptive default.
+    # is mapped, faulted in page by page and unmapped again: a blackboard run took about
+    # 15 % more CPU in a process started with it. None leaves glibc's adaptive default.
     "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
     # The worker's sampling profiler walks the running task's stack every 10 ms, taking
     # the interpreter lock from it; nobody reads its profiles here.
