@@ -84,7 +84,8 @@ def load_note(before: tuple[float, ...], after: tuple[float, ...], cores: int) -
 
 def row(name: str, wall: float, serial_wall: float, got: SweepAccount, serial: SweepAccount) -> str:
     """One line of the table: wall time, speed-up and the account of the workers' time."""
-    per_task = got.task_cpu_s / serial.task_cpu_s - 1 if serial.task_cpu_s else 0.0
+    runs, serial_runs = got.task_cpu_s - got.import_cpu_s, serial.task_cpu_s - serial.import_cpu_s
+    per_task = runs / serial_runs - 1 if serial_runs else 0.0
     cells = [
         name,
         f"{wall:.1f}",
@@ -106,10 +107,12 @@ def row(name: str, wall: float, serial_wall: float, got: SweepAccount, serial: S
 def losses(got: SweepAccount, serial: SweepAccount, serial_wall: float) -> str:
     """Where a cluster run's wall time went beyond ``serial_wall / workers``, in words."""
     w = got.workers
-    more_cpu = (got.task_cpu_s - serial.task_cpu_s) / w
+    imports = (got.import_cpu_s - serial.import_cpu_s) / w
+    more_cpu = (got.task_cpu_s - serial.task_cpu_s) / w - imports
     waiting = ((got.task_wall_s - got.task_cpu_s) - (serial.task_wall_s - serial.task_cpu_s)) / w
     parts = [
-        ("more CPU in the tasks", more_cpu),
+        ("importing the experiment", imports),
+        ("more CPU in the runs", more_cpu),
         ("tasks waiting for a core", waiting),
         ("start-up", got.startup_s / w),
         ("gaps between tasks", got.gaps_s / w),
@@ -205,9 +208,10 @@ Speed-up of `bayesmap sweep` on {args.workers} workers: **{speedup:.2f}×** (tar
 {"yes" if same else "NO"}.
 
 *Task CPU* adds up, over the runs, the CPU time (user + system) of the process that ran
-each; *CPU vs serial* is how much more the same runs cost on the workers. *Task wall*
-adds up the runs' wall times (*imports*: the part spent importing the experiment, paid by
-each worker's first run). *Start-up*, *gaps*, *tail* and *shut-down* are worker-seconds
+each; *CPU vs serial* is how much more the same runs cost on the workers, their imports
+left out. *Task wall* adds up the runs' wall times (*imports*: the part spent importing
+the experiment, paid by each worker's first run; the serial run imported it before).
+*Start-up*, *gaps*, *tail* and *shut-down* are worker-seconds
 without a task: before a worker's first run (starting the cluster), between its runs
 (the scheduler's round trip), after its last run while another worker finished, and from
 the last run's end until the sweep returned; with the task wall they add up to workers ×

@@ -131,12 +131,10 @@ def run_task(task: Task, out_dir: str) -> TaskOutcome:
     thread whatever the process's settings.
     """
     clock = TaskClock()
-    import_s = 0.0
     try:
         with threadpool_limits(limits=1):
-            imported = time.perf_counter()
             module = load(task.experiment)
-            import_s = time.perf_counter() - imported
+            clock.imported()
             config = build_config(module, task.config, where=f"task {task.key}")
             result = module.run(config, task_folder(Path(out_dir), task.key))
             rows = protocol.metric_rows(module, result)
@@ -146,10 +144,10 @@ def run_task(task: Task, out_dir: str) -> TaskOutcome:
         message = str(error).splitlines()[0] if str(error) else ""
         return TaskOutcome(
             task.key,
-            timing=clock.stop(import_s),
+            timing=clock.stop(),
             error=f"{type(error).__name__}: {message}{where}",
         )
-    return TaskOutcome(task.key, rows, clock.stop(import_s))
+    return TaskOutcome(task.key, rows, clock.stop())
 
 
 def _record(out_dir: Path, task: Task, outcome: TaskOutcome) -> None:

@@ -49,8 +49,9 @@ class TaskTiming:
         process, so a worker's own threads (heartbeats, profiler) count too.
     system_s
         The system part of ``cpu_s`` (page faults, memory mapped and returned).
-    import_s
-        Seconds spent importing the experiment's module (its process's first task).
+    import_s, import_cpu_s
+        Wall and CPU seconds spent importing the experiment's module (its process's first
+        task), included in ``wall_s`` and ``cpu_s``.
     """
 
     worker: str
@@ -58,7 +59,8 @@ class TaskTiming:
     wall_s: float
     cpu_s: float
     system_s: float
-    import_s: float
+    import_s: float = 0.0
+    import_cpu_s: float = 0.0
 
     @property
     def finished(self) -> float:
@@ -66,15 +68,27 @@ class TaskTiming:
         return self.started + self.wall_s
 
 
+def _cpu() -> float:
+    times = os.times()
+    return times.user + times.system
+
+
 class TaskClock:
-    """Measures one task from its creation until :meth:`stop`."""
+    """Measures one task from its creation until :meth:`stop`; :meth:`imported` marks the
+    end of its import."""
 
     def __init__(self) -> None:
         self._unix = time.time()
         self._perf = time.perf_counter()
         self._times = os.times()
+        self._import = (0.0, 0.0)
 
-    def stop(self, import_s: float = 0.0) -> TaskTiming:
+    def imported(self) -> None:
+        """Mark that the experiment's module is imported: what went before was the import."""
+        spent = _cpu() - (self._times.user + self._times.system)
+        self._import = (time.perf_counter() - self._perf, spent)
+
+    def stop(self) -> TaskTiming:
         """The task's :class:`TaskTiming`, measured up to now."""
         times = os.times()
         user = times.user - self._times.user
@@ -85,7 +99,8 @@ class TaskClock:
             wall_s=time.perf_counter() - self._perf,
             cpu_s=user + system,
             system_s=system,
-            import_s=import_s,
+            import_s=self._import[0],
+            import_cpu_s=self._import[1],
         )
 
 
@@ -103,6 +118,7 @@ class SweepAccount:
     task_cpu_s: float
     system_s: float
     import_s: float
+    import_cpu_s: float
     startup_s: float
     gaps_s: float
     tail_s: float
@@ -141,6 +157,7 @@ def account(timings: Iterable[TaskTiming], started: float, finished: float) -> S
         task_cpu_s=sum(t.cpu_s for t in runs),
         system_s=sum(t.system_s for t in runs),
         import_s=sum(t.import_s for t in runs),
+        import_cpu_s=sum(t.import_cpu_s for t in runs),
         startup_s=startup,
         gaps_s=gaps,
         tail_s=tail,
