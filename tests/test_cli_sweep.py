@@ -22,6 +22,7 @@ def test_a_sweep_writes_tables_and_a_report_and_resumes(tmp_path):
     assert result.exit_code == 0, result.output
     assert "8 grid point(s), 8 distinct run(s)" in result.output
     assert "ran 8, skipped 0" in result.output
+    assert "1 worker process(es) busy" in result.output  # --serial: this process
     # toy method b is a plus one on the same noise: every pair differs by exactly -1
     assert "value: base / a − base / b = -1 (95 % CI -1 to -1, 4 pairs)" in result.output
     tidy = pd.read_parquet(tmp_path / "tidy.parquet")
@@ -30,6 +31,7 @@ def test_a_sweep_writes_tables_and_a_report_and_resumes(tmp_path):
     assert (tmp_path / "report.html").read_text().count("data:image/png;base64,") == 2
     again = _sweep(tmp_path, "--condition", "base", "--condition", "twice:scale=2")
     assert again.exit_code == 0 and "ran 0, skipped 8" in again.output
+    assert "busy" not in again.output  # nothing ran, nothing to account for
     out = tmp_path / "elsewhere.html"
     report = runner.invoke(app, ["report", str(tmp_path), "--out", str(out)])
     assert report.exit_code == 0 and out.read_text().startswith("<!DOCTYPE html>")

@@ -173,6 +173,38 @@ def test_a_local_cluster_gives_the_serial_numbers(tmp_path):
     pd.testing.assert_frame_equal(
         aggregate.tidy(plan, tmp_path / "local"), aggregate.tidy(plan, tmp_path / "serial")
     )
+    # every task, failed ones too, came back with its clock, from one of the two workers
+    assert local.timings.keys() == plan.tasks.keys()
+    pids = {timing.worker for timing in local.timings.values()}
+    assert 1 <= len(pids) <= 2 and f":{os.getpid()}" not in " ".join(pids)
+    spent = local.account()
+    assert spent.tasks == len(plan.tasks) and spent.span_s == pytest.approx(local.seconds, 0.05)
+
+
+def test_the_local_cluster_workers_run_one_thread_without_the_malloc_trim():
+    """The workers `bayesmap sweep` starts: one thread, one BLAS thread, glibc's adaptive
+    malloc (no MALLOC_TRIM_THRESHOLD_), no profiler; and this process's environment is
+    left as it was."""
+    from bayesmap.sweeps.runner import dask_client
+
+    def probe():
+        import dask
+        from threadpoolctl import threadpool_info
+
+        return (
+            os.environ.get("MALLOC_TRIM_THRESHOLD_"),
+            os.environ.get("OMP_NUM_THREADS"),
+            dask.config.get("distributed.worker.profile.enabled"),
+            max((pool["num_threads"] for pool in threadpool_info()), default=1),
+        )
+
+    before = dict(os.environ)
+    with dask_client(None, 2) as client:
+        threads = {w["nthreads"] for w in client.scheduler_info()["workers"].values()}
+        answers = set(client.run(probe).values())
+    assert threads == {1}
+    assert answers == {(None, "1", False, 1)}
+    assert dict(os.environ) == before
 
 
 def test_the_sweep_command_runs_on_the_scheduler_of_a_scheduler_file_and_resumes(

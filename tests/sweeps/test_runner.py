@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import json
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from bayesmap.sweeps import aggregate, expand, run_sweep
 from bayesmap.sweeps.protocol import TASK_RECORD, task_complete
-from bayesmap.sweeps.runner import task_folder
+from bayesmap.sweeps.runner import LOCAL_CLUSTER_CONFIG, task_folder
 
 from . import toy
 
@@ -111,3 +114,20 @@ def test_a_rover_sweep_over_generated_worlds_pairs_the_two_explorers(tmp_path):
     text = html.read_text()
     assert "Paired comparisons with entropy" in text
     assert '<td class="name">entropy</td><td class="name">frontier</td>' in text
+
+
+def test_the_worker_settings_in_the_cluster_guide_are_those_of_the_local_cluster():
+    """docs/cluster.md gives users the YAML of the settings `bayesmap sweep` starts its
+    LocalCluster with; the two must not drift apart."""
+    guide = (Path(__file__).resolve().parents[2] / "docs" / "cluster.md").read_text()
+    block = re.search(r"<!-- dask-config -->\n```yaml\n(.*?)```", guide, re.DOTALL)
+    assert block is not None
+
+    def flat(tree, prefix=""):
+        for key, value in tree.items():
+            if isinstance(value, dict):
+                yield from flat(value, f"{prefix}{key}.")
+            else:
+                yield f"{prefix}{key}", value
+
+    assert dict(flat(yaml.safe_load(block.group(1)))) == LOCAL_CLUSTER_CONFIG

@@ -162,6 +162,14 @@ def sweep(
             f"failed {len(outcome.failed)} in {outcome.seconds:.1f} s"
         )
     )
+    spent = outcome.account()
+    if spent.tasks:
+        console.print(
+            Text(
+                f"{spent.workers} worker process(es) busy {spent.busy:.0%} of the time; the "
+                f"runs took {spent.task_wall_s:.1f} s, {spent.task_cpu_s:.1f} s of it on a CPU"
+            )
+        )
     for key, message in outcome.failed.items():
         console.print(Text.assemble(("failed ", "red"), f"{key}: {message}"))
     lines = paired_lines(sections[0])

@@ -11,6 +11,14 @@ Before any task runs, the client writes the sweep's world files to ``<out>/world
 the tasks' configs point. Worlds are read and figures and maps written by the worker in
 the output folder, so on a cluster of several machines that folder must be on a
 filesystem they share; metrics come back through Dask.
+
+Every task runs with one BLAS/OpenMP thread (:func:`threadpoolctl.threadpool_limits`), in
+this process as on a worker: the experiments' arrays are small, and W single-threaded
+workers on W cores must not start W × cores threads. A ``LocalCluster``'s workers are
+started without Dask's ``MALLOC_TRIM_THRESHOLD_``, its profiler and most of its
+housekeeping (:data:`LOCAL_CLUSTER_CONFIG`), so a task's memory is handled as in a serial
+run and its worker's own threads take little from it. Each task's clock and CPU come
+back with its outcome (:mod:`~bayesmap.sweeps.timing`).
 """
 
 from __future__ import annotations
@@ -19,10 +27,13 @@ import contextlib
 import os
 import time
 import traceback
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from threadpoolctl import threadpool_limits
 
 from bayesmap import __version__
 from bayesmap._io import write_json, write_text
@@ -31,8 +42,17 @@ from bayesmap.experiments import ProgressHook, load
 from bayesmap.experiments._common import no_progress
 from bayesmap.sweeps import protocol
 from bayesmap.sweeps.grid import SweepPlan, Task, build_config
+from bayesmap.sweeps.timing import SweepAccount, TaskClock, TaskTiming, account
 
-__all__ = ["SWEEP_RECORD", "SweepOutcome", "TaskOutcome", "run_sweep", "run_task", "task_folder"]
+__all__ = [
+    "LOCAL_CLUSTER_CONFIG",
+    "SWEEP_RECORD",
+    "SweepOutcome",
+    "TaskOutcome",
+    "run_sweep",
+    "run_task",
+    "task_folder",
+]
 
 SWEEP_RECORD = "sweep.json"
 """The plan of a sweep, written to its output folder before any task runs."""
@@ -40,25 +60,62 @@ SWEEP_RECORD = "sweep.json"
 FAILURES = "failures.json"
 """The tasks that failed in the last attempt, with their errors."""
 
+LOCAL_CLUSTER_CONFIG: dict[str, Any] = {
+    # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in its workers' environment so that
+    # freed memory goes back to the operating system. Setting any trim threshold also
+    # freezes glibc's mmap threshold at 128 KiB (mallopt(3)), so each larger numpy array
+    # is mapped, faulted in page by page and unmapped again: a blackboard run took about
+    # 15 % more CPU in a process started with it. None leaves glibc's adaptive default.
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    # The worker's sampling profiler walks the running task's stack every 10 ms, taking
+    # the interpreter lock from it; nobody reads its profiles here.
+    "distributed.worker.profile.enabled": False,
+    # One task per worker at a time; the rest wait on the scheduler, which hands each to
+    # the first worker that is free (so no task queues behind a long one).
+    "distributed.scheduler.worker-saturation": 1.0,
+    # Each process's event loop wakes every 20 ms to check that it is not blocked, and
+    # polls its memory and the system's counters every 0.1 s and 0.5 s: with two workers,
+    # their nannies and the scheduler, an idle cluster kept about 7 % of one core busy.
+    # At 1 s, 1 s and 5 s it keeps under 2 %; the sweep's tasks last seconds to minutes.
+    "distributed.admin.tick.interval": "1s",
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+}
+"""Dask settings of the ``LocalCluster`` a sweep starts (:func:`dask_client`), and those
+docs/cluster.md suggests for a cluster started by hand."""
+
 
 @dataclass(frozen=True)
 class TaskOutcome:
-    """What a worker sends back: the rows on success, the error otherwise."""
+    """What a worker sends back: the rows on success, the error otherwise, and the timing
+    (``None`` when the worker died before it could measure one)."""
 
     key: str
     rows: list[dict[str, Any]] = field(default_factory=list)
-    seconds: float = 0.0
+    timing: TaskTiming | None = None
     error: str | None = None
 
 
 @dataclass(frozen=True)
 class SweepOutcome:
-    """How a sweep went: tasks run now, skipped as complete, and failed with their errors."""
+    """How a sweep went: tasks run now, skipped as complete, and failed with their errors.
+
+    ``timings`` holds every task that ran now (failed ones too, when their worker
+    survived); ``started`` and ``finished`` are the Unix times at which the sweep began
+    and returned (cluster start and shut-down included), ``seconds`` the time between.
+    """
 
     ran: tuple[str, ...]
     skipped: tuple[str, ...]
     failed: dict[str, str]
     seconds: float
+    timings: dict[str, TaskTiming] = field(default_factory=dict)
+    started: float = 0.0
+    finished: float = 0.0
+
+    def account(self) -> SweepAccount:
+        """Where the workers' time went (:func:`~bayesmap.sweeps.timing.account`)."""
+        return account(self.timings.values(), self.started, self.finished)
 
 
 def task_folder(out_dir: Path, key: str) -> Path:
@@ -70,27 +127,31 @@ def run_task(task: Task, out_dir: str) -> TaskOutcome:
     """Run one task (on a worker): the experiment's ``run`` into the task's folder.
 
     Never raises: an error becomes the outcome's ``error`` (its type, message and the
-    innermost frame), so one bad task cannot stop the sweep.
+    innermost frame), so one bad task cannot stop the sweep. Runs with one BLAS/OpenMP
+    thread whatever the process's settings.
     """
-    started = time.perf_counter()
+    clock = TaskClock()
     try:
-        module = load(task.experiment)
-        config = build_config(module, task.config, where=f"task {task.key}")
-        result = module.run(config, task_folder(Path(out_dir), task.key))
-        rows = protocol.metric_rows(module, result)
+        with threadpool_limits(limits=1):
+            module = load(task.experiment)
+            clock.imported()
+            config = build_config(module, task.config, where=f"task {task.key}")
+            result = module.run(config, task_folder(Path(out_dir), task.key))
+            rows = protocol.metric_rows(module, result)
     except Exception as error:  # a worker reports every failure instead of dying
         frame = traceback.extract_tb(error.__traceback__)[-1:]
         where = f" ({frame[0].filename}:{frame[0].lineno})" if frame else ""
         message = str(error).splitlines()[0] if str(error) else ""
         return TaskOutcome(
             task.key,
-            seconds=time.perf_counter() - started,
+            timing=clock.stop(),
             error=f"{type(error).__name__}: {message}{where}",
         )
-    return TaskOutcome(task.key, rows, time.perf_counter() - started)
+    return TaskOutcome(task.key, rows, clock.stop())
 
 
 def _record(out_dir: Path, task: Task, outcome: TaskOutcome) -> None:
+    timing = outcome.timing
     write_json(
         task_folder(out_dir, task.key) / protocol.TASK_RECORD,
         {
@@ -98,10 +159,26 @@ def _record(out_dir: Path, task: Task, outcome: TaskOutcome) -> None:
             "key": task.key,
             "config": task.config,
             "bayesmap": __version__,
-            "seconds": outcome.seconds,
+            "seconds": None if timing is None else timing.wall_s,
+            "cpu_seconds": None if timing is None else timing.cpu_s,
+            "worker": None if timing is None else timing.worker,
             "rows": outcome.rows,
         },
     )
+
+
+@contextlib.contextmanager
+def _environment_restored() -> Iterator[None]:
+    """Put this process's environment back as it was: a ``LocalCluster``'s nannies run in
+    this process and write their workers' pre-spawn variables (``OMP_NUM_THREADS=1``, ...)
+    into it, where every later child process would inherit them."""
+    saved = dict(os.environ)
+    try:
+        yield
+    finally:
+        for name in set(os.environ) - set(saved):
+            del os.environ[name]
+        os.environ.update(saved)
 
 
 @contextlib.contextmanager
@@ -109,8 +186,11 @@ def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
     """A Dask client on the scheduler at ``scheduler`` or on a new local cluster.
 
     ``scheduler`` is an address (``tcp://host:8786``) or the path of the JSON file a
-    ``dask scheduler --scheduler-file FILE`` wrote.
+    ``dask scheduler --scheduler-file FILE`` wrote. A local cluster has ``workers``
+    single-threaded processes (default: one per core), set up by
+    :data:`LOCAL_CLUSTER_CONFIG`.
     """
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
@@ -127,18 +207,22 @@ def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
             yield client
         return
     n = workers or os.cpu_count() or 1
-    with (
-        LocalCluster(  # type: ignore[no-untyped-call]
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address=None,
-            silence_logs=40,
-        ) as cluster,
-        Client(cluster) as client,  # type: ignore[no-untyped-call]
-    ):
-        yield client
+    with _environment_restored(), warnings.catch_warnings(), dask.config.set(LOCAL_CLUSTER_CONFIG):
+        # the scheduler serves health checks over HTTP on port 8787, or on a free port
+        # with a warning when another cluster holds 8787; the sweep needs neither
+        warnings.filterwarnings("ignore", "Port .* is already in use", UserWarning)
+        with (
+            LocalCluster(  # type: ignore[no-untyped-call]
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                silence_logs=40,
+            ) as cluster,
+            Client(cluster) as client,  # type: ignore[no-untyped-call]
+        ):
+            yield client
 
 
 def run_sweep(
@@ -177,10 +261,11 @@ def run_sweep(
     for world in plan.worlds:
         if not world.path.is_file() or world.path.read_text(encoding="utf-8") != world.text:
             write_text(world.path, world.text)
-    started = time.perf_counter()
+    started, unix_started = time.perf_counter(), time.time()
     skipped = tuple(k for k in plan.tasks if protocol.task_complete(task_folder(out_dir, k)))
     pending = [task for key, task in plan.tasks.items() if key not in skipped]
     failed: dict[str, str] = {}
+    timings: dict[str, TaskTiming] = {}
     done = len(skipped)
     total = len(plan.tasks)
     hook("0 failed", done, total)
@@ -188,6 +273,8 @@ def run_sweep(
     def finish(outcome: TaskOutcome) -> None:
         nonlocal done
         done += 1
+        if outcome.timing is not None:
+            timings[outcome.key] = outcome.timing
         if outcome.error is None:
             _record(out_dir, plan.tasks[outcome.key], outcome)
         else:
@@ -210,6 +297,9 @@ def run_sweep(
         skipped=skipped,
         failed=failed,
         seconds=time.perf_counter() - started,
+        timings=timings,
+        started=unix_started,
+        finished=time.time(),
     )
 
 
