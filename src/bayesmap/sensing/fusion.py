@@ -9,10 +9,7 @@ Each reading of ranger ``n`` gives, for every cell ``c`` near the rover, an opin
   ``exp(-(theta / w_r)^2)`` (the shape of eq. 34);
 - with contact within ``r_max``, cells around the sensed point get the contact opinion
   ``eq. 32 (o = 1)`` at the read range, weighted by a 2-D Gaussian of the positional
-  uncertainty ``sigma_xy`` (the spread of §4.3), but only cells at least ``r - sigma_xy``
-  from the ranger: a ranger reports the nearest obstacle in its cone, so nothing it read
-  lies closer than that. A ranger thus gives a cell either the free or the contact opinion,
-  never both, and its contact does not cancel its own free evidence in front of a face.
+  uncertainty ``sigma_xy`` (the spread of §4.3).
 
 The rangers' opinions are pooled linearly (eq. 35) and the pooled evidence updates the map
 by Bayes' rule (eq. 36). These choices fill gaps of the paper; docs/rover.md lists them.
@@ -138,8 +135,7 @@ def ir_cell_evidence(
         beta_r(distance, r_max=r_max, beta_b=beta_b, floor=reliability_floor), prior, 0
     )
     hx, hy = sx + r * np.cos(st), sy + r * np.sin(st)
-    behind_free = distance >= free_limit  # nothing read lies nearer than the free part
-    w_hit = np.exp(-((x - hx) ** 2 + (y - hy) ** 2) / (2.0 * sigma_xy**2)) * (hit & behind_free)
+    w_hit = np.exp(-((x - hx) ** 2 + (y - hy) ** 2) / (2.0 * sigma_xy**2)) * hit
     s_hit = sensor_posterior(
         beta_r(r, r_max=r_max, beta_b=beta_b, floor=reliability_floor), prior, 1
     )
