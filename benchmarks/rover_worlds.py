@@ -231,6 +231,7 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
         + (f" --size {args.size:g}" if args.size else "")
         + f" --jobs {args.jobs}"
         + (f" --world-seed {args.world_seed}" if args.world_seed != WORLD_SEED else "")
+        + (" --no-paper" if args.no_paper else "")
     )
     return "\n".join(
         [
@@ -254,9 +255,12 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
             f"Paper / frontier distance to 90 % coverage, median over the {len(ratios)} worlds "
             f"where both reach it: **{ratio:.2f}** (target <= 1.2).",
             "",
-            "The paper's four runs (`bayesmap reproduce rover`, seed 2016):",
-            "",
-            *_rows(paper),
+            *(
+                ["The paper's four runs (`bayesmap reproduce rover`, seed 2016):", ""]
+                + _rows(paper)
+                if paper
+                else ["The paper's four runs were not run (`--no-paper`)."]
+            ),
             "",
             "Runs missing a target (collision, clearance <= 0.05 m, or 90 % not reached): "
             + (", ".join(failing) if failing else "none")
