@@ -14,6 +14,7 @@ exists is not run again, so an interrupted benchmark resumes where it stopped. R
 ``--jobs`` worker processes. Run from the repository root, e.g.::
 
     python benchmarks/rover_worlds.py --worlds 12 --seeds 3 --jobs 8   # the issue's grid
+    python benchmarks/rover_worlds.py --world-seed 7 --out results/rover_fresh ...  # fresh worlds
 
 (``--size 20`` fixes the side of every world; by default each world draws it from 20–60 m.)
 """
@@ -38,7 +39,12 @@ from benchmarks._report import machine, update_section  # noqa: E402
 
 from bayesmap._io import write_json  # noqa: E402
 from bayesmap.experiments import rover  # noqa: E402
-from bayesmap.experiments.rover_world import EXPLORER_RULES, run_spec  # noqa: E402
+from bayesmap.experiments.rover import SWEEPS  # noqa: E402
+from bayesmap.experiments.rover_world import (  # noqa: E402
+    EXPLORER_RULES,
+    default_steps,
+    run_spec,
+)
 from bayesmap.sim.rover_worlds import generate_world  # noqa: E402
 from bayesmap.sim.world2d import box_world  # noqa: E402
 
@@ -48,22 +54,24 @@ GENERATOR = "rover-generated-v2"
 EXPLORERS = ("paper", "frontier")
 INITS = ("flat", "random")
 
-Job = tuple[str, int, int, str, str, float | None]
-"""(kind, world index, seed, explorer, entropy init, size): kind is "generated" or "paper"."""
+Job = tuple[str, int, int, str, str, float | None, int]
+"""(kind, world index, seed, explorer, entropy init, size, world seed): kind is "generated" or
+"paper"."""
 
 
 def job_name(job: Job) -> str:
     """The file stem of a run's result."""
-    kind, world, seed, explorer, init, size = job
+    kind, world, seed, explorer, init, size, world_seed = job
     if kind == "paper":
         return f"paper-{list(rover.RUNS)[world]}-{explorer}"
     side = "any" if size is None else f"{size:g}m"
-    return f"{GENERATOR}-{world:02d}-{side}-{explorer}-{init}-seed{seed}"
+    fresh = "" if world_seed == WORLD_SEED else f"-w{world_seed}"
+    return f"{GENERATOR}{fresh}-{world:02d}-{side}-{explorer}-{init}-seed{seed}"
 
 
 def one_run(job: Job, out: Path) -> dict[str, Any]:
     """Run one configuration, write its metrics to ``out`` and return them."""
-    kind, world, seed, explorer, init, size = job
+    kind, world, seed, explorer, init, size, world_seed = job
     started = time.perf_counter()
     if kind == "paper":
         name = list(rover.RUNS)[world]
@@ -76,10 +84,12 @@ def one_run(job: Job, out: Path) -> dict[str, Any]:
         metrics.update({"explorer": explorer, "entropy_init": init, "seed": config.seed})
         metrics["area_m"] = 20.0
     else:
+        fresh = "" if world_seed == WORLD_SEED else f"-w{world_seed}"
         spec = generate_world(
-            SeedSequence([WORLD_SEED, world]), size=size, name=f"{GENERATOR}-{world:02d}"
+            SeedSequence([world_seed, world]), size=size, name=f"{GENERATOR}{fresh}-{world:02d}"
         )
         metrics = run_spec(spec, None, explorer=explorer, entropy_init=init, seed=seed)
+        metrics["budget"] = default_steps(spec)
         metrics["boxes"] = len(spec.world.boxes)
         metrics["area_m"] = spec.world.width
     metrics.update({"kind": kind, "world_index": world, "wall_s": time.perf_counter() - started})
@@ -99,6 +109,12 @@ def main() -> None:
     parser.add_argument("--size", type=float, default=None, help="side [m]; default 20-60")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="processes")
     parser.add_argument("--out", type=Path, default=Path("results/rover_worlds"))
+    parser.add_argument(
+        "--world-seed",
+        type=int,
+        default=WORLD_SEED,
+        help=f"generator seed (default {WORLD_SEED}); another one validates on fresh worlds",
+    )
     parser.add_argument("--no-paper", action="store_true", help="skip the paper's four runs")
     parser.add_argument(
         "--report-only", action="store_true", help="summarise the finished runs, run nothing"
@@ -107,12 +123,12 @@ def main() -> None:
     jobs: list[Job] = []
     if not args.no_paper:  # the paper's explorer first: its runs are the reproduction
         jobs += [
-            ("paper", k, 0, e, "random" if rover.RUNS[name][1] else "flat", 20.0)
+            ("paper", k, 0, e, "random" if rover.RUNS[name][1] else "flat", 20.0, WORLD_SEED)
             for e in EXPLORERS
             for k, name in enumerate(rover.RUNS)
         ]
     jobs += [
-        ("generated", w, s, e, i, args.size)
+        ("generated", w, s, e, i, args.size, args.world_seed)
         for w in range(args.worlds)
         for s in range(args.seeds)
         for e in EXPLORERS
@@ -146,7 +162,8 @@ def main() -> None:
     wall = time.perf_counter() - started
     text = summary(runs, args, wall)
     print(text)
-    update_section("rover_worlds", text)
+    fresh = args.world_seed != WORLD_SEED  # validation on fresh worlds: a section of its own
+    update_section("rover_worlds_fresh" if fresh else "rover_worlds", text)
 
 
 def _rows(runs: list[dict[str, Any]]) -> list[str]:
@@ -205,6 +222,7 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
         or m["distance_to_90"] is None
     ]
     sizes = sorted({round(m["area_m"], 1) for m in generated})
+    budgets = [m["budget"] for m in generated if "budget" in m]
     worlds = sorted({m["world"] for m in generated})
     seeds = sorted({m["seed"] for m in generated})
     load = os.getloadavg()
@@ -212,18 +230,23 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
         f"python benchmarks/rover_worlds.py --worlds {args.worlds} --seeds {args.seeds}"
         + (f" --size {args.size:g}" if args.size else "")
         + f" --jobs {args.jobs}"
+        + (f" --world-seed {args.world_seed}" if args.world_seed != WORLD_SEED else "")
+        + (" --no-paper" if args.no_paper else "")
     )
     return "\n".join(
         [
-            "## rover_worlds: the rover on generated stress worlds",
+            "## rover_worlds: the rover on generated stress worlds"
+            + ("" if args.world_seed == WORLD_SEED else " never tuned on (fresh seed)"),
             "",
             f"`{command}`. Machine: {machine()}, load average at the end "
             f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} (shared; ms per cycle is wall "
             f"time and swings with the load). {len(worlds)} generated worlds "
             f"({', '.join(worlds) or 'none'}; sides "
             f"{min(sizes, default=0):g}–{max(sizes, default=0):g} m) x {len(seeds)} seed(s) x "
-            f"entropy initialisations x explorers = {len(generated)} runs, 5000 cycles per "
-            f"400 m² at most; coverage counts the observable cells (docs/rover.md). "
+            f"entropy initialisations x explorers = {len(generated)} runs, world seed "
+            f"{args.world_seed}; step budget {SWEEPS:g} sweeps of the observable area "
+            f"({min(budgets, default=0)}–{max(budgets, default=0)} cycles; the paper's runs "
+            f"5000); coverage counts the observable cells (docs/rover.md). "
             f"{len(runs)} of the {_expected(args)} runs the command asks for have finished; "
             f"wall time of this invocation {wall / 60:.0f} min (finished runs are reused).",
             "",
@@ -232,9 +255,12 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
             f"Paper / frontier distance to 90 % coverage, median over the {len(ratios)} worlds "
             f"where both reach it: **{ratio:.2f}** (target <= 1.2).",
             "",
-            "The paper's four runs (`bayesmap reproduce rover`, seed 2016):",
-            "",
-            *_rows(paper),
+            *(
+                ["The paper's four runs (`bayesmap reproduce rover`, seed 2016):", ""]
+                + _rows(paper)
+                if paper
+                else ["The paper's four runs were not run (`--no-paper`)."]
+            ),
             "",
             "Runs missing a target (collision, clearance <= 0.05 m, or 90 % not reached): "
             + (", ".join(failing) if failing else "none")

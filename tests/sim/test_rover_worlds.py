@@ -85,8 +85,16 @@ def test_generated_worlds_keep_passages_and_round_trip(tmp_path: Path, seed: int
     xmin, ymin, xmax, ymax = solid.bounds
     assert min(xmin, ymin) >= 1.2 - 1e-9 and max(xmax, ymax) <= side - 1.2 + 1e-9
     assert world_distance(world, *spec.start[:2]) >= 1.7
-    back = load_world(save_world(tmp_path / "w.json", spec))
-    np.testing.assert_allclose(back.world.boxes, np.round(world.boxes, 4))
+    path = save_world(tmp_path / "w.json", spec)
+    back = load_world(path)
+    np.testing.assert_allclose(back.world.boxes, np.round(world.boxes, 3))
+    assert back.world.width == round(side, 3)
+    document = json.loads(path.read_text(encoding="utf-8"))
+    lengths = np.array(
+        [*document["size"], *document["start"][:2]]
+        + [v for polygon in document["obstacles"] for corner in polygon for v in corner]
+    )
+    np.testing.assert_array_equal(lengths, np.round(lengths, 3))  # millimetres in the file
     assert len(back.world.polygons) == len(world.polygons)
     assert back.world.name == spec.world.name
 

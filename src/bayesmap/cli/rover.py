@@ -44,7 +44,11 @@ def run_command(
     seed: Annotated[int, typer.Option("--seed", help="Seed of every random stream.")] = 0,
     max_steps: Annotated[
         int | None,
-        typer.Option("--max-steps", min=1, help="Cycle budget (default 5000 per 400 m²)."),
+        typer.Option(
+            "--max-steps",
+            min=1,
+            help="Cycle budget (default: 6 sweeps of the observable area, docs/rover.md).",
+        ),
     ] = None,
 ) -> None:
     """Drive the rover on WORLD until the stop rule or the budget; write metrics, figures, map."""

@@ -160,6 +160,26 @@ def observable_mask(
     )
 
 
+SWEEPS = 6.0
+"""How many times the step budget lets the rangers' swath cover the observable area."""
+
+
+def step_budget(observable_area: float, params: RoverParams) -> int:
+    """Cycles a run may take on a world with ``observable_area`` [m²] to map.
+
+    ``SWEEPS * A / (W * v * dt)``: the rangers, turning with the rover, sweep a swath of
+    width ``W = 2 (sensor_offset + informative_range)`` (2.79 m with the paper's values) per
+    metre driven, and a cycle drives at most ``v * dt`` (0.1 m). One sweep of the paper's
+    20 m field takes 1434 cycles; on it the rover reaches 90 % after about 2.5 sweeps of
+    driving (docs/rover.md), and cluttered worlds, whose faces must be looked at from close
+    by, need more: the budget allows :data:`SWEEPS` (8600 cycles for 400 m²).
+    """
+    swath = 2.0 * (
+        params.sensor_offset + informative_range(r_max=params.r_max, beta_b=params.beta_b)
+    )
+    return max(math.ceil(SWEEPS * observable_area / (swath * params.speed * params.dt)), 1)
+
+
 def coverage(grid: OccupancyGrid, observable: BoolArray, h_desired: float) -> float:
     """Fraction of the observable cells whose entropy is below ``h_desired``."""
     if not observable.any():

@@ -3,8 +3,8 @@
 The world (:mod:`bayesmap.sim.rover_worlds`) gives the area, the obstacles, the map resolution
 and the start; the run uses the paper's §5 parameters (:class:`bayesmap.experiments.rover.Config`)
 with the chosen explorer, entropy initialisation and seed, and writes ``metrics.json``,
-the figures and the ROS map to its folder. The default step budget grows with the area:
-5000 cycles per 400 m², as on the paper's 20 m field.
+the figures and the ROS map to its folder. The default step budget grows with the area the
+rover can observe (:func:`bayesmap.experiments.rover.step_budget`).
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from bayesmap.experiments._common import (
     no_progress,
     run_in_folder,
 )
+from bayesmap.grid import OccupancyGrid
 from bayesmap.sim.rover_worlds import WorldSpec, load_world
 
 __all__ = ["Config", "run", "run_spec"]
@@ -43,8 +44,12 @@ class Config(ExperimentConfig):
 
 
 def default_steps(spec: WorldSpec) -> int:
-    """The step budget for a world: 5000 cycles per 400 m² (the paper's field)."""
-    return max(int(round(5000 * spec.world.width * spec.world.height / 400.0)), 1)
+    """The step budget for a world (:func:`bayesmap.experiments.rover.step_budget`) over its
+    observable area (:func:`bayesmap.experiments.rover.observable_mask`)."""
+    params = rover.Config.model_validate({}).rover_params()
+    grid = OccupancyGrid(spec.world.width, spec.world.height, spec.resolution)
+    observable = rover.observable_mask(spec.world, grid, params, spec.start)
+    return rover.step_budget(float(observable.sum()) * spec.resolution**2, params)
 
 
 def run_spec(

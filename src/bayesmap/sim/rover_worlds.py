@@ -83,6 +83,9 @@ WORLD_SCHEMA: dict[str, Any] = {
 }
 """JSON Schema (draft 2020-12) of a rover world file."""
 
+FILE_DIGITS = 3
+"""Decimals of a metre a world file keeps: millimetres."""
+
 START_CLEARANCE = 0.5
 """A start must be at least this far [m] from every obstacle."""
 
@@ -96,17 +99,22 @@ class WorldSpec:
     start: tuple[float, float, float]
 
     def to_json(self) -> dict[str, Any]:
-        """The world as a JSON document that :func:`load_world` reads back."""
+        """The world as a JSON document that :func:`load_world` reads back.
+
+        Lengths are written to the millimetre (:data:`FILE_DIGITS` decimals of a metre), the
+        start heading to the microradian.
+        """
         polygons = [
             [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
-            for x0, y0, x1, y1 in np.round(self.world.boxes, 4).tolist()
-        ] + [np.round(p, 4).tolist() for p in self.world.polygons]
+            for x0, y0, x1, y1 in np.round(self.world.boxes, FILE_DIGITS).tolist()
+        ] + [np.round(p, FILE_DIGITS).tolist() for p in self.world.polygons]
+        x, y, heading = self.start
         return {
             "name": self.world.name,
-            "size": [self.world.width, self.world.height],
+            "size": [round(self.world.width, FILE_DIGITS), round(self.world.height, FILE_DIGITS)],
             "resolution": self.resolution,
             "obstacles": polygons,
-            "start": [round(v, 6) for v in self.start],
+            "start": [round(x, FILE_DIGITS), round(y, FILE_DIGITS), round(heading, 6)],
         }
 
 
