@@ -293,6 +293,7 @@ def main() -> None:
             print(json.dumps({k: row[k] for k in keys}), flush=True)
     rows = [json.loads(run_file(t[0], t[2], t[3]).read_text()) for t in tasks]
     paper = [] if args.no_paper else paper_check()
+    command = " ".join(a for a in sys.argv[1:] if a != "--report-only")
     grid_rows = [r for r in rows if r["world"] not in fresh_worlds]
     fresh_rows = [r for r in rows if r["world"] in fresh_worlds]
     per_world = world_table(grid_rows)
@@ -326,7 +327,7 @@ def main() -> None:
             *calibration,
             "",
             "Per world: docs/blackboard-results.md, section “Generated worlds”. "
-            f"Command: `python benchmarks/blackboard.py {' '.join(sys.argv[1:])}` "
+            f"Command: `python benchmarks/blackboard.py {command}` "
             "(runs kept in results/benchmarks/blackboard/ are not measured again; `--fresh` "
             "re-measures).",
             *(
