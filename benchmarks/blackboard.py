@@ -44,12 +44,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks._report import machine, update_section  # noqa: E402
 
 from bayesmap.experiments import blackboard  # noqa: E402
-from bayesmap.experiments.blackboard_world import catalogue_of  # noqa: E402
-from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused  # noqa: E402
-from bayesmap.experiments.table_metrics import MatchTolerance  # noqa: E402
+from bayesmap.experiments.blackboard_world import fused_world_run  # noqa: E402
 from bayesmap.sim.tables_world import rectangle_corners  # noqa: E402
 from bayesmap.sim.whisker_worlds import StressOptions, WorldFile, generate_world  # noqa: E402
-from bayesmap.sim.whiskers import condition  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 RUNS = ROOT / "results" / "benchmarks" / "blackboard"
@@ -80,20 +77,7 @@ def stress_of(world: WorldFile) -> dict[str, float]:
 
 def run_one(index: int, plain: int, name: str, seed: int) -> dict[str, Any]:
     world_file = world_of(index, plain)
-    world = world_file.world(name=f"generated-{index}")
-    sensor = condition(name)
-    sensor_seed, chain_seed = np.random.SeedSequence(seed).spawn(2)
-    result = run_fused(
-        world,
-        world_file.robot_poses(),
-        catalogue_of(world_file),
-        sensor,
-        fused_params(sensor),
-        np.random.default_rng(sensor_seed),
-        np.random.default_rng(chain_seed),
-        label=name,
-    )
-    tol = MatchTolerance(angle_scale=world.params.table_length / 2)
+    _, result, metrics = fused_world_run(world_file, name, seed, name=f"generated-{index}")
     sizes = {tuple(row) for row in world_file.tables[:, 3:5].tolist()}
     return {
         "world": index,
@@ -105,10 +89,11 @@ def run_one(index: int, plain: int, name: str, seed: int) -> dict[str, Any]:
         **stress_of(world_file),
         "condition": name,
         "seed": seed,
-        **fused_metrics(result, world, tol),
+        **metrics,
         "per_pose_ms_median": float(np.median(result["step_ms"])),
         "per_pose_ms_p95": float(np.percentile(result["step_ms"], 95)),
         "wall_s": float(result["wall_s"]),
+        "cpu_s": float(result["cpu_s"]),
         "contacts_mean": float(result["contacts"][result["contacts"] > 0].mean()),
     }
 
@@ -150,8 +135,9 @@ def world_table(rows: list[dict[str, Any]]) -> list[str]:
 def target_lines(rows: list[dict[str, Any]]) -> list[str]:
     lines = [
         "| condition | runs | precision min / mean | recall min / mean | runs meeting P and R "
-        "| wall phantoms | type accuracy mean | per-pose median [ms] | whole run median [s] |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| wall phantoms | type accuracy mean | per-pose median [ms] | whole run median [s] "
+        "| CPU per run median [s] |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name in TARGETS:
         group = [r for r in rows if r["condition"] == name]
@@ -167,7 +153,8 @@ def target_lines(rows: list[dict[str, Any]]) -> list[str]:
             f"| {met} of {len(group)} | {sum(r['fused_wall_phantoms'] for r in group)} "
             f"| {_fmt(statistics.mean(types), 3) if types else '–'} "
             f"| {statistics.median(r['per_pose_ms_median'] for r in group):.0f} "
-            f"| {statistics.median(r['wall_s'] for r in group):.0f} |"
+            f"| {statistics.median(r['wall_s'] for r in group):.0f} "
+            f"| {_fmt(statistics.median(r.get('cpu_s', float('nan')) for r in group), 0)} |"
         )
     return lines
 
@@ -213,6 +200,34 @@ def paper_check() -> list[str]:
     return lines
 
 
+CALIBRATION_BINS = ((0.0, 0.5), (0.5, 0.9), (0.9, 1.0))
+"""Existence-probability bins of the calibration table (the last one closed at 1)."""
+
+
+def calibration_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """Per condition and existence-probability bin: mapped objects and the share that match a
+    true table (a calibrated map has few true objects below 0.5 and few false above 0.9)."""
+    lines = [
+        "| condition | existence p | mapped objects | of which true | share true |",
+        "|---|---|---|---|---|",
+    ]
+    for name in TARGETS:
+        group = [r for r in rows if r["condition"] == name]
+        if not group:
+            continue
+        p = np.concatenate([np.asarray(r["fused_existence"], dtype=float) for r in group])
+        true = np.concatenate([np.asarray(r["fused_object_true"], dtype=bool) for r in group])
+        for low, high in CALIBRATION_BINS:
+            inside = (p >= low) & ((p < high) if high < 1.0 else (p <= high))
+            count = int(inside.sum())
+            share = f"{true[inside].mean():.3f}" if count else "–"
+            lines.append(
+                f"| {name} | [{low:.1f}, {high:.1f}{']' if high == 1.0 else ')'} | {count} "
+                f"| {int(true[inside].sum())} | {share} |"
+            )
+    return lines
+
+
 def run_file(index: int, name: str, seed: int) -> Path:
     """Where the row of one run (world, condition, seed) is kept."""
     return RUNS / f"{name}-world{index:03d}-seed{seed}.json"
@@ -236,6 +251,11 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--conditions", default="normal,noiseless,noisy")
     parser.add_argument("--limit", action="append", default=[], help="COND=N worlds")
+    parser.add_argument(
+        "--validate",
+        default="7001,7002",
+        help="generator seeds of fresh stress worlds, outside the grid (seed 0 of each run)",
+    )
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel processes")
     parser.add_argument("--no-paper", action="store_true", help="skip the paper-faithful check")
     parser.add_argument("--fresh", action="store_true", help="measure again runs already kept")
@@ -245,12 +265,20 @@ def main() -> None:
     args = parser.parse_args()
     limits = {k: int(v) for k, v in (item.split("=") for item in args.limit)}
     RUNS.mkdir(parents=True, exist_ok=True)
-    tasks = [
-        (index, args.plain, name, seed)
-        for name in args.conditions.split(",")
-        for index in range(limits.get(name, args.worlds))
+    names = args.conditions.split(",")
+    fresh_worlds = [int(v) for v in args.validate.split(",") if v]
+    grid = [
+        [
+            (index, args.plain, name, seed)
+            for name in names
+            for index in range(limits.get(name, args.worlds))
+        ]
         for seed in range(args.seeds)
     ]
+    validation = [(index, args.plain, name, 0) for name in names for index in fresh_worlds]
+    # seed 0 of every world first, then the fresh worlds, then the other seeds: an
+    # interrupted run still covers every world
+    tasks = [*grid[0], *validation, *[t for seed in grid[1:] for t in seed]] if grid else []
     if args.report_only:
         tasks = [t for t in tasks if run_file(t[0], t[2], t[3]).exists()]
     todo = [
@@ -265,8 +293,12 @@ def main() -> None:
             print(json.dumps({k: row[k] for k in keys}), flush=True)
     rows = [json.loads(run_file(t[0], t[2], t[3]).read_text()) for t in tasks]
     paper = [] if args.no_paper else paper_check()
-    per_world = world_table(rows)
-    summary = target_lines(rows)
+    command = " ".join(a for a in sys.argv[1:] if a != "--report-only")
+    grid_rows = [r for r in rows if r["world"] not in fresh_worlds]
+    fresh_rows = [r for r in rows if r["world"] in fresh_worlds]
+    per_world = world_table(grid_rows)
+    summary = target_lines(grid_rows)
+    calibration = calibration_lines(grid_rows + fresh_rows)
     loads = [r["load_average"] for r in rows if "load_average" in r]
     head = (
         f"Machine: {machine()}, shared with other jobs: the 1-minute load average at the end "
@@ -285,8 +317,17 @@ def main() -> None:
             "",
             *summary,
             "",
+            f"Fresh stress worlds outside the grid (generator seeds {args.validate}, seed 0):",
+            "",
+            *(target_lines(fresh_rows) if fresh_rows else ["(none measured)"]),
+            "",
+            "Existence probabilities of the mapped objects (all runs above), against whether "
+            "each matches a true table:",
+            "",
+            *calibration,
+            "",
             "Per world: docs/blackboard-results.md, section “Generated worlds”. "
-            f"Command: `python benchmarks/blackboard.py --jobs {args.jobs}` "
+            f"Command: `python benchmarks/blackboard.py {command}` "
             "(runs kept in results/benchmarks/blackboard/ are not measured again; `--fresh` "
             "re-measures).",
             *(
@@ -312,7 +353,21 @@ def main() -> None:
     update_section(
         "blackboard-worlds",
         "\n".join(
-            ["### Generated worlds (`python benchmarks/blackboard.py`)", "", head, "", *per_world]
+            [
+                "### Generated worlds (`python benchmarks/blackboard.py`)",
+                "",
+                head,
+                "",
+                *per_world,
+                "",
+                f"Fresh stress worlds (generator seeds {args.validate}), not in the grid:",
+                "",
+                *world_table(fresh_rows),
+                "",
+                "Calibration of the existence probabilities (every mapped object of these runs):",
+                "",
+                *calibration,
+            ]
         ),
         RESULTS_DOC,
     )

@@ -32,7 +32,7 @@ TINY: dict[str, Any] = {
     "blackboard": lambda: blackboard.Config(
         poses=4,
         conditions=("normal", "noisy"),
-        fused_mapper={"burn_in": 20, "samples": 40, "anneal": 20},
+        fused_mapper={"burn_in": 20, "explore": 40, "anneal": 20, "samples": 40},
     ),
 }
 """Experiment name → its tiny configuration (default seed)."""

@@ -388,7 +388,9 @@ def test_fused_mapper_finds_both_types_and_says_which() -> None:
     world = build_mixed(
         truth[:, :3], np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]]), np.full(2, 0.3), ARENA
     )
-    mapper = FusedMapper(CATALOGUE, ARENA, FusedParams(burn_in=300, samples=600, anneal=200))
+    mapper = FusedMapper(
+        CATALOGUE, ARENA, FusedParams(burn_in=300, explore=600, anneal=200, samples=600)
+    )
     rng = np.random.default_rng(4)
     for x in np.linspace(0.4, 4.6, 6):
         for y in np.linspace(0.4, 3.6, 5):
@@ -441,3 +443,29 @@ def test_the_documented_example_runs_and_finds_the_stool() -> None:
     assert len(objects) == 1 and objects[0]["type"] == "stool"
     assert math.hypot(objects[0]["x"] - 2.0, objects[0]["y"] - 1.5) < 0.03
     assert objects[0]["existence_probability"] > 0.9
+
+
+def test_a_table_seen_by_one_contact_is_less_certain_than_one_seen_from_many_poses() -> None:
+    """Existence probabilities are the chain's visit frequencies at β = 1: a desk touched
+    from a ring of 48 poses reads near 1; a stool behind it that a single whisker contact
+    supports reads clearly lower (its death and rebirth are both proposed, and one contact
+    cannot pay for a table at the prior's intensity with certainty)."""
+    truth = np.array([[1.6, 1.5, 0.3, 0.0], [4.0, 3.0, 0.4, 1.0]])
+    sizes = np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]])
+    world = build_mixed(truth[:, :3], sizes, np.full(2, 0.3), ARENA)
+    rng = np.random.default_rng(5)
+    mapper = FusedMapper(CATALOGUE, ARENA, FusedParams(samples=1500))
+    for angle in np.linspace(0.0, 2 * math.pi, 12, endpoint=False):
+        for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+            pose = np.array([1.6 + math.cos(angle), 1.5 + math.sin(angle), heading])
+            mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
+    pose = np.array([3.1, 2.3, math.atan2(0.7, 0.9)])
+    reading = observe(world, pose, WhiskerParams(), rng=rng)
+    on_stool = np.flatnonzero(reading.table == 1)
+    assert len(on_stool) >= 1
+    keep = np.ones(len(reading.sweeps), dtype=bool)
+    keep[on_stool[1:]] = False  # the other whiskers on the stool never report
+    mapper.step(pose, reading.sweeps[keep], rng=rng)
+    desk, stool = mapper.existence(truth, rng=6)
+    assert desk > 0.9
+    assert stool < 0.8 and stool < desk - 0.2

@@ -13,7 +13,7 @@ from bayesmap.errors import ConfigError
 from bayesmap.experiments import blackboard
 
 POSES = 12
-QUICK = {"burn_in": 50, "samples": 100, "anneal": 50}
+QUICK = {"burn_in": 50, "explore": 100, "anneal": 50, "samples": 100}
 TIMINGS = (
     "per_pose_ms_median",
     "per_pose_ms_p95",

@@ -5,11 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayesmap.experiments.blackboard_world import catalogue_of
-from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused
-from bayesmap.experiments.table_metrics import MatchTolerance
+from bayesmap.experiments.blackboard_world import fused_world_run
 from bayesmap.sim.whisker_worlds import generate_world
-from bayesmap.sim.whiskers import condition
 
 
 @pytest.mark.slow
@@ -17,23 +14,10 @@ from bayesmap.sim.whiskers import condition
 def test_fused_map_of_a_fresh_stress_world_holds_every_table_and_no_phantom(seed: int) -> None:
     """A stress world from a seed the benchmark does not use (tables by walls, close pairs,
     two sizes), whole tour, `normal` sensor: every table found, of the right type, and
-    nothing else."""
-    world_file = generate_world(np.random.default_rng(seed))
-    world = world_file.world()
-    sensor = condition("normal")
-    sensor_seed, chain_seed = np.random.SeedSequence(seed).spawn(2)
-    result = run_fused(
-        world,
-        world_file.robot_poses(),
-        catalogue_of(world_file),
-        sensor,
-        fused_params(sensor),
-        np.random.default_rng(sensor_seed),
-        np.random.default_rng(chain_seed),
-        label="normal",
-    )
-    metrics = fused_metrics(result, world, MatchTolerance(angle_scale=0.6))
+    nothing else; every found table's existence probability is well above one half."""
+    _, _, metrics = fused_world_run(generate_world(np.random.default_rng(seed)), "normal", seed)
     assert metrics["fused_precision"] >= 0.97
     assert metrics["fused_recall"] >= 0.97
     assert metrics["fused_wall_phantoms"] == 0
     assert metrics["type_accuracy"] >= 0.95
+    assert min(metrics["fused_existence"]) > 0.5

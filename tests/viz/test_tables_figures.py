@@ -53,3 +53,27 @@ def test_figures_render_without_touching_the_pyplot_backend():
     assert annealing_gif([], SHAPE, TRUTH, pose, np.zeros((0, 2)), BOUNDS) == b""
     assert matplotlib.get_backend() == backend
     assert plt.get_fignums() == []
+
+
+def _square_tops(fig: matplotlib.figure.Figure, side: float) -> int:
+    """Polygons drawn with two adjacent sides of length ``side`` (a square top)."""
+    count = 0
+    for collection in fig.axes[0].collections:
+        for path in collection.get_paths():
+            v = path.vertices
+            if len(v) >= 4:
+                a, b = np.linalg.norm(v[1] - v[0]), np.linalg.norm(v[2] - v[1])
+                count += bool(np.isclose(a, side) and np.isclose(b, side))
+    return count
+
+
+def test_truth_of_a_mixed_size_world_is_drawn_at_each_table_size():
+    """Truth and montage draw a 0.8 × 0.8 stool as a square, not at the desk's 1.2 × 0.8."""
+    sizes = np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]])
+    poses = np.array([[0.5, 0.5, 0.0]])
+    mixed = [
+        ground_truth_figure(TRUTH, SHAPE, BOUNDS, poses, truth_sizes=sizes),
+        montage_figure(TRUTH, [np.zeros((0, 5))], SHAPE, BOUNDS, "m", truth_sizes=sizes),
+    ]
+    assert [_square_tops(fig, 0.8) for fig in mixed] == [1, 1]
+    assert _square_tops(ground_truth_figure(TRUTH, SHAPE, BOUNDS, poses), 0.8) == 0

@@ -8,10 +8,11 @@ an :class:`~bayesmap.blackboard.evidence.EvidenceStore` and runs one reversible-
 types — across poses. Each :meth:`FusedMapper.step` stores a pose's sweeps and moves the
 chain a little inside a window around the robot (data-driven births from the legs seen
 there); :meth:`FusedMapper.finish` runs the chain over the whole arena: a tempered
-burn-in, sampling at β = 1 (each object's existence probability is the fraction of samples
-holding it), then annealing and a greedy ascent through the polished data-driven candidates
-(:func:`~bayesmap.blackboard.rjmcmc.greedy_ascent`) only to read off the MAP
-map. See docs/blackboard.md.
+burn-in, a stretch at β = 1, then annealing and a greedy ascent through the polished
+data-driven candidates (:func:`~bayesmap.blackboard.rjmcmc.greedy_ascent`) only to read off
+the MAP map; finally the chain, restarted at the MAP, samples at β = 1 and each MAP object's
+existence probability is the fraction of those samples holding it (to the tolerance of the
+map's metric, 0.2 m and 15°). See docs/blackboard.md.
 
 Examples
 --------
@@ -42,7 +43,14 @@ from bayesmap.blackboard.data_driven import (
     table_candidates,
 )
 from bayesmap.blackboard.evidence import EvidenceStore, check_sweeps
-from bayesmap.blackboard.rjmcmc import ChainState, Context, MoveRates, greedy_ascent, run
+from bayesmap.blackboard.rjmcmc import (
+    ChainState,
+    Context,
+    MoveRates,
+    greedy_ascent,
+    run,
+    visit_frequencies,
+)
 from bayesmap.blackboard.sweep_model import (
     ObjectType,
     SweepModel,
@@ -80,15 +88,17 @@ class FusedParams:
         Tolerance [m] on leg spacings when pairing legs into tables.
     step_moves
         Chain moves per :meth:`FusedMapper.step`.
-    burn_in, samples, anneal
-        Moves of :meth:`FusedMapper.finish`: tempered burn-in (β rising from
-        ``beta_start`` to 1), sampling at β = 1, annealing (β from 1 to ``beta_end``).
-    record_every
-        Keep one sample of every this many sampling moves.
+    burn_in, explore, anneal
+        Search moves of :meth:`FusedMapper.finish`: tempered burn-in (β rising from
+        ``beta_start`` to 1), a stretch at β = 1, annealing (β from 1 to ``beta_end``).
+    samples
+        Moves of the β = 1 chain started at the MAP whose states (one per move) give the
+        existence probabilities.
     beta_start, beta_end
         Inverse temperatures at the start of the burn-in and the end of annealing.
     match_xy, match_theta
-        A sample holds a MAP object if it has one of the same type this close [m], [rad].
+        A sample holds a MAP object if it has one of the same type this close [m], [rad]
+        (the map metric's tolerances).
     rates
         Move probabilities and random-walk scales.
     """
@@ -107,13 +117,13 @@ class FusedParams:
     spacing_tol: float = 0.06
     step_moves: int = 20
     burn_in: int = 800
-    samples: int = 1500
+    explore: int = 1500
     anneal: int = 500
-    record_every: int = 5
+    samples: int = 1500
     beta_start: float = 0.2
     beta_end: float = 10.0
-    match_xy: float = 0.1
-    match_theta: float = 0.175
+    match_xy: float = 0.2
+    match_theta: float = math.pi / 12
     rates: MoveRates = field(default_factory=MoveRates)
 
     def __post_init__(self) -> None:
@@ -128,9 +138,9 @@ class FusedParams:
             raise ConfigError(f"FusedParams.log_overlap must be < 0, got {self.log_overlap}")
         if not 0 < self.p_miss < 1 or not 0 < self.uniform_share <= 1:
             raise ConfigError("FusedParams: p_miss must lie in (0, 1) and uniform_share in (0, 1]")
-        for name in ("step_moves", "burn_in", "samples", "anneal", "record_every"):
-            if getattr(self, name) < 0 or (name == "record_every" and self.record_every < 1):
-                raise ConfigError(f"FusedParams.{name} must be >= 0 (record_every >= 1)")
+        for name in ("step_moves", "burn_in", "explore", "anneal", "samples"):
+            if getattr(self, name) < 0:
+                raise ConfigError(f"FusedParams.{name} must be >= 0, got {getattr(self, name)}")
         if not self.beta_start <= 1.0 <= self.beta_end:
             raise ConfigError("FusedParams: need beta_start <= 1 <= beta_end")
 
@@ -152,8 +162,9 @@ class FusedMap:
     tables
         ``(n, 4)`` MAP objects ``x, y`` [m], ``θ`` [rad] in [0, π), type index.
     existence
-        ``(n,)`` each object's existence probability: the fraction of the β = 1 samples
-        holding an object of its type within ``match_xy`` and ``match_theta``.
+        ``(n,)`` each object's existence probability: the fraction of the states of a β = 1
+        chain started at the MAP that hold an object of its type within ``match_xy`` and
+        ``match_theta`` (NaN when ``samples`` is 0).
     catalogue
         The object types the indices refer to.
     log_posterior
@@ -188,12 +199,9 @@ class FusedMap:
         return out
 
 
-def _same_object(a: FloatArray, b: FloatArray, xy: float, theta: float, square: bool) -> bool:
-    if int(a[3]) != int(b[3]) or math.hypot(a[0] - b[0], a[1] - b[1]) > xy:
-        return False
-    period = 0.5 * math.pi if square else math.pi
-    d = (a[2] - b[2]) % period
-    return bool(min(d, period - d) <= theta)
+def _symmetry(kind: ObjectType) -> float:
+    """Rotational symmetry [rad] of a type: π/2 for a square top, π for an oblong one."""
+    return 0.5 * math.pi if math.isclose(kind.length, kind.width) else math.pi
 
 
 class FusedMapper:
@@ -355,41 +363,55 @@ class FusedMapper:
         betas = np.concatenate(
             [
                 np.geomspace(p.beta_start, 1.0, p.burn_in) if p.burn_in else np.zeros(0),
-                np.ones(p.samples),
+                np.ones(p.explore),
                 np.geomspace(1.0, p.beta_end, p.anneal) if p.anneal else np.zeros(0),
             ]
         )
-        best, best_log_pi, samples, info = run(
-            generator,
-            self.state_,
-            self._ctx,
-            proposal,
-            p.rates,
-            betas,
-            record_every=p.record_every,
-        )
+        best, _, _, info = run(generator, self.state_, self._ctx, proposal, p.rates, betas)
         self.state_.tables = best
         self._ctx.refresh(self.state_)
         order = np.argsort(-proposal.weights, kind="stable")
         info |= greedy_ascent(self.state_, self._ctx, proposal.candidates[order])
         best, best_log_pi = self.state_.tables.copy(), self.state_.log_pi
-        squares = [abs(t.length - t.width) < 1e-9 for t in self.catalogue]
-        existence = np.array(
-            [
-                np.mean(
-                    [
-                        any(
-                            _same_object(
-                                row, other, p.match_xy, p.match_theta, squares[int(row[3])]
-                            )
-                            for other in sample
-                        )
-                        for sample in samples
-                    ]
-                )
-                if samples
-                else float("nan")
-                for row in best
-            ]
+        start = ChainState(best.copy(), self.state_.free_space.copy(), best_log_pi)
+        existence, visits = self._existence(start, proposal, generator)
+        info |= visits
+        return FusedMap(best, existence, self.catalogue, best_log_pi, info)
+
+    def existence(self, tables: FloatArray, *, rng: RNGLike = None) -> FloatArray:
+        """Existence probabilities ``(n,)`` of the objects ``tables`` (n, 4) ``x, y, θ, k``
+        on the evidence stored so far (see :meth:`_existence`); the mapper's own chain is
+        left as it was."""
+        start = ChainState(np.asarray(tables, dtype=np.float64).reshape(-1, 4).copy())
+        self._ctx.refresh(start)
+        proposal = self._proposal((0.0, 0.0, *self.arena), polish=True)
+        return self._existence(start, proposal, as_generator(rng))[0]
+
+    def _existence(
+        self, start: ChainState, proposal: BirthProposal, generator: np.random.Generator
+    ) -> tuple[FloatArray, dict[str, int]]:
+        """Visit frequencies of the objects of ``start`` in a β = 1 chain started there.
+
+        The chain runs ``samples`` moves on the untempered posterior and every state it
+        visits is a sample; an object's existence probability is the fraction of samples
+        holding one of its type within ``match_xy`` and ``match_theta``. Its births draw
+        from ``proposal``'s candidates *and* the start's objects (the proposal is fixed
+        before the chain starts, so it is a valid Metropolis–Hastings proposal): an object
+        the data support weakly dies and is born again at the rate its posterior odds
+        allow, which the search's candidates alone (pairs of legs) could not offer for an
+        object seen by one leg. Returns the probabilities and the chain's move counters
+        (prefixed ``sampling_``).
+        """
+        p = self.params
+        weight = float(proposal.weights.mean()) if len(proposal.weights) else 1.0
+        births = proposal._replace(
+            candidates=np.vstack([proposal.candidates.reshape(-1, 4), start.tables]),
+            weights=np.concatenate([proposal.weights, np.full(len(start.tables), weight)]),
         )
-        return FusedMap(best, existence.reshape(-1), self.catalogue, best_log_pi, info)
+        reference = start.tables.copy()
+        _, _, samples, visits = run(
+            generator, start, self._ctx, births, p.rates, np.ones(p.samples), record_every=1
+        )
+        periods = np.array([_symmetry(self.catalogue[int(k)]) for k in reference[:, 3]])
+        existence = visit_frequencies(samples, reference, p.match_xy, p.match_theta, periods)
+        return existence, {f"sampling_{key}": value for key, value in visits.items()}

@@ -44,7 +44,7 @@ from enum import Enum
 
 import numpy as np
 
-from bayesmap._typing import FloatArray, IntArray
+from bayesmap._typing import BoolArray, FloatArray, IntArray
 from bayesmap.blackboard.data_driven import (
     BirthProposal,
     birth_density,
@@ -73,9 +73,11 @@ __all__ = [
     "MoveRates",
     "evaluate",
     "greedy_ascent",
+    "holding",
     "moved_tables",
     "propose",
     "run",
+    "visit_frequencies",
 ]
 
 
@@ -485,18 +487,43 @@ def _copy(state: ChainState) -> ChainState:
     return ChainState(state.tables.copy(), state.free_space.copy(), state.log_pi)
 
 
+def holding(
+    tables: FloatArray, reference: FloatArray, xy: float, theta: float, periods: FloatArray
+) -> BoolArray:
+    """``(n,)`` whether ``tables`` holds, for each of ``reference`` (n, 4), a table of the same
+    type within ``xy`` [m] and ``theta`` [rad]; ``periods`` (n,) is each reference object's
+    rotational symmetry (π for a rectangle, π/2 for a square)."""
+    if not len(tables) or not len(reference):
+        return np.zeros(len(reference), dtype=bool)
+    d = np.mod(tables[None, :, 2] - reference[:, None, 2], periods[:, None])
+    close = np.hypot(
+        tables[None, :, 0] - reference[:, None, 0], tables[None, :, 1] - reference[:, None, 1]
+    )
+    same = (
+        (tables[None, :, 3] == reference[:, None, 3])
+        & (close <= xy)
+        & (np.minimum(d, periods[:, None] - d) <= theta)
+    )
+    return np.asarray(same.any(axis=1))
+
+
+def visit_frequencies(
+    samples: list[FloatArray], reference: FloatArray, xy: float, theta: float, periods: FloatArray
+) -> FloatArray:
+    """``(n,)`` the fraction of ``samples`` (states of a chain at β = 1) holding each object
+    of ``reference`` (see :func:`holding`): a Monte Carlo estimate of the posterior
+    probability that an object of that type stands there, to the given tolerance."""
+    if not samples:
+        return np.full(len(reference), np.nan)
+    held = np.zeros(len(reference))
+    for sample in samples:
+        held += holding(sample, reference, xy, theta, periods)
+    return held / len(samples)
+
+
 def _holds(tables: FloatArray, table: FloatArray, xy: float = 0.03, theta: float = 0.05) -> bool:
     """Whether ``tables`` holds one of the same type within ``xy`` [m] and ``theta`` [rad]."""
-    if not len(tables):
-        return False
-    d = np.mod(tables[:, 2] - table[2], math.pi)
-    return bool(
-        (
-            (tables[:, 3] == table[3])
-            & (np.hypot(tables[:, 0] - table[0], tables[:, 1] - table[1]) <= xy)
-            & (np.minimum(d, math.pi - d) <= theta)
-        ).any()
-    )
+    return bool(holding(tables, table[None], xy, theta, np.array([math.pi]))[0])
 
 
 def _try(state: ChainState, ctx: Context, move: Move) -> float:

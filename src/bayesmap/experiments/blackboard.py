@@ -448,7 +448,11 @@ def _run(
     figures = [
         write_bytes(
             out_dir / "ground_truth.png",
-            figure_png(ground_truth_figure(world.tables, shape, world.bounds, poses)),
+            figure_png(
+                ground_truth_figure(
+                    world.tables, shape, world.bounds, poses, truth_sizes=world.table_sizes
+                )
+            ),
         )
     ]
     metric_files: list[Path] = []
@@ -466,7 +470,14 @@ def _run(
             write_bytes(
                 out_dir / name / "montage.png",
                 figure_png(
-                    montage_figure(world.tables, result["maps"], shape, world.bounds, title)
+                    montage_figure(
+                        world.tables,
+                        result["maps"],
+                        shape,
+                        world.bounds,
+                        title,
+                        truth_sizes=world.table_sizes,
+                    )
                 ),
             )
         )

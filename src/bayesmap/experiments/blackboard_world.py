@@ -96,6 +96,41 @@ def _tolerance(world: TablesWorld) -> MatchTolerance:
     )
 
 
+def fused_world_run(
+    world_file: WorldFile,
+    condition_name: str,
+    seed: int,
+    *,
+    name: str = "whisker-tables-file",
+    overrides: dict[str, int | float] | None = None,
+    progress: ProgressHook = no_progress,
+) -> tuple[TablesWorld, dict[str, Any], dict[str, Any]]:
+    """The fused mapper over a world file's whole tour under one sensor condition.
+
+    The seed's two :class:`~numpy.random.SeedSequence` children drive the sensor noise and
+    the chain. Returns the world, the run (:func:`~bayesmap.experiments.fused_run.run_fused`)
+    and its ``fused_*`` metrics.
+    """
+    world = world_file.world(name=name)
+    poses = world_file.robot_poses()
+    if not len(poses):
+        raise ConfigError(f"{name}: every robot pose is blocked by a table")
+    sensor = condition(condition_name)
+    sensor_seed, chain_seed = np.random.SeedSequence(seed).spawn(2)
+    result = run_fused(
+        world,
+        poses,
+        catalogue_of(world_file),
+        sensor,
+        fused_params(sensor, overrides),
+        np.random.default_rng(sensor_seed),
+        np.random.default_rng(chain_seed),
+        label=condition_name,
+        progress=progress,
+    )
+    return world, result, fused_metrics(result, world, _tolerance(world))
+
+
 def run(
     config: Config,
     out_dir: str | Path,
@@ -139,19 +174,16 @@ def _run(
         "catalogue": [t._asdict() for t in catalogue],
     }
     if config.mode == "fused":
-        result = run_fused(
-            world,
-            poses,
-            catalogue,
-            sensor,
-            fused_params(sensor, config.fused),
-            sensor_rng,
-            chain_rng,
-            label=config.condition,
+        _, result, scores = fused_world_run(
+            world_file,
+            config.condition,
+            config.seed,
+            name=config.world.name,
+            overrides=config.fused,
             progress=progress,
         )
         fused: FusedMap = result["fused"]
-        metrics.update(fused_metrics(result, world, _tolerance(world)))
+        metrics.update(scores)
         objects = fused.objects()
     else:
         params = paper.paper_params(world, sensor)

@@ -12,7 +12,12 @@ from bayesmap.blackboard.fused import FusedMap, FusedMapper, FusedParams
 from bayesmap.blackboard.sweep_model import ObjectType
 from bayesmap.errors import ConfigError
 from bayesmap.experiments._common import ProgressHook, no_progress
-from bayesmap.experiments.table_metrics import MatchTolerance, fused_scores
+from bayesmap.experiments.table_metrics import (
+    MatchTolerance,
+    fused_scores,
+    match_tables,
+    symmetry_period,
+)
 from bayesmap.sim.tables_world import TablesWorld
 from bayesmap.sim.whiskers import WhiskerParams, observe
 
@@ -69,7 +74,7 @@ def run_fused(
     mapper = FusedMapper(catalogue, arena, params)
     maps, touched, support, contacts, step_s = [], [], [], [], []
     seen: dict[int, set[int]] = {}
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     for index, pose in enumerate(poses):
         reading = observe(world, pose, sensor, rng=sensor_rng)
         tic = time.perf_counter()
@@ -90,6 +95,7 @@ def run_fused(
         "contacts": np.asarray(contacts),
         "step_ms": 1e3 * np.asarray(step_s),
         "wall_s": time.perf_counter() - start,
+        "cpu_s": time.process_time() - cpu_start,
         "sensor": sensor,
         "fused": fused,
         "store_rows": len(mapper.store_),
@@ -97,8 +103,17 @@ def run_fused(
 
 
 def fused_metrics(run: dict[str, Any], world: TablesWorld, tol: MatchTolerance) -> dict[str, Any]:
-    """The ``fused_*`` metrics of a fused run's final map, and its size."""
+    """The ``fused_*`` metrics of a fused run's final map, and its size.
+
+    ``fused_existence`` and ``fused_object_true`` list, per mapped object, its existence
+    probability and whether it matches a true table (the data of a calibration check).
+    """
     fused: FusedMap = run["fused"]
+    matched, _ = match_tables(
+        fused.tables, world.tables, tol, symmetry_period(world.table_sizes[:, :2])
+    )
+    true = np.zeros(len(fused.tables), dtype=bool)
+    true[matched] = True
     sizes = np.array(
         [
             [fused.catalogue[int(k)].length, fused.catalogue[int(k)].width]
@@ -111,4 +126,6 @@ def fused_metrics(run: dict[str, Any], world: TablesWorld, tol: MatchTolerance) 
         ),
         "fused_log_posterior": fused.log_posterior,
         "fused_evidence_rows": run["store_rows"],
+        "fused_existence": [float(p) for p in fused.existence],
+        "fused_object_true": true.tolist(),
     }

@@ -149,11 +149,19 @@ def ground_truth_figure(
     shape: TableShape,
     bounds: tuple[float, float, float, float],
     poses: FloatArray,
+    *,
+    truth_sizes: FloatArray | None = None,
 ) -> Figure:
-    """Fig. 4: the true tables and the robot's positions, with the order they are visited."""
+    """Fig. 4: the true tables and the robot's positions, with the order they are visited.
+
+    ``truth_sizes`` (rows ``length, width, leg`` per table) draws a world of several table
+    sizes at each table's own size; without it every table has ``shape``.
+    """
     fig = Figure(figsize=(5.2, 5.2))
     ax = fig.subplots()
-    draw_tables(ax, truth, shape, color=TRUTH_COLOR, alpha=0.55)
+    _draw_sized(
+        ax, truth, _sizes_of(truth, shape, truth_sizes), color=TRUTH_COLOR, alpha=0.55, filled=True
+    )
     xy = np.asarray(poses)[:, :2]
     _, first = np.unique(xy, axis=0, return_index=True)
     path = xy[np.sort(first)]
@@ -173,11 +181,15 @@ def montage_figure(
     shape: TableShape,
     bounds: tuple[float, float, float, float],
     title: str,
+    *,
+    truth_sizes: FloatArray | None = None,
 ) -> Figure:
     """Figs. 5–7: every pose's MAP tables, translucent, over the true tables' outlines.
 
     The fill's opacity falls with the number of tables drawn, so that where many poses
-    agree on a table the map is dark and a lone table stays faint.
+    agree on a table the map is dark and a lone table stays faint. The MAP tables have the
+    mapper's one size ``shape``; the true tables have ``truth_sizes`` (rows ``length, width,
+    leg``) when given.
     """
     fig = Figure(figsize=(5.2, 6.0))
     ax = fig.subplots()
@@ -186,7 +198,15 @@ def montage_figure(
     if len(every):
         alpha = float(np.clip(12.0 / len(every), 0.025, 0.3))
         draw_tables(ax, every, shape, color=MAP_COLOR, alpha=alpha)
-    draw_tables(ax, truth, shape, color=TRUTH_COLOR, alpha=1.0, filled=False, linewidth=1.4)
+    _draw_sized(
+        ax,
+        truth,
+        _sizes_of(truth, shape, truth_sizes),
+        color=TRUTH_COLOR,
+        alpha=1.0,
+        filled=False,
+        linewidth=1.4,
+    )
     _arena(ax, bounds)
     ax.set_title(title, fontsize=9)
     corners = _rectangles(every, shape.length, shape.width)
@@ -330,6 +350,13 @@ def annealing_gif(
         buffer, format="GIF", save_all=True, append_images=frames[1:], duration=durations, loop=0
     )
     return buffer.getvalue()
+
+
+def _sizes_of(tables: FloatArray, shape: TableShape, sizes: FloatArray | None) -> FloatArray:
+    """Per-table sizes ``length, width, leg``: ``sizes`` if given, else ``shape`` for all."""
+    if sizes is not None:
+        return np.asarray(sizes, dtype=np.float64).reshape(-1, 3)
+    return np.tile(np.array(shape, dtype=np.float64), (len(np.asarray(tables).reshape(-1, 3)), 1))
 
 
 def _draw_sized(
