@@ -49,7 +49,7 @@ from bayesmap.blackboard.sweep_model import (
     arena_contains,
     check_catalogue,
 )
-from bayesmap.errors import ConfigError
+from bayesmap.errors import ConfigError, InputError
 
 __all__ = ["FusedMap", "FusedMapper", "FusedParams", "FusedStep"]
 
@@ -91,6 +91,9 @@ class FusedParams:
         A sample holds a MAP object if it has one of the same type this close [m], [rad].
     rates
         Move probabilities and random-walk scales.
+    reach
+        Whisker length [m]: no surface farther than this from a whisker's root explains its
+        contact (∞: no bound). Sweeps longer than this are refused.
     """
 
     sigma_r: float = 0.02
@@ -115,11 +118,12 @@ class FusedParams:
     match_xy: float = 0.1
     match_theta: float = 0.175
     rates: MoveRates = field(default_factory=MoveRates)
+    reach: float = math.inf
 
     def __post_init__(self) -> None:
         positive = (
             "sigma_r sigma_perp sigma_phi clutter intensity birth_sigma_xy birth_sigma_theta "
-            "spacing_tol min_votes beta_start beta_end match_xy match_theta"
+            "spacing_tol min_votes beta_start beta_end match_xy match_theta reach"
         )
         for name in positive.split():
             if not getattr(self, name) > 0:
@@ -237,11 +241,14 @@ class FusedMapper:
             params.intensity,
             params.log_overlap,
             self.arena,
+            params.reach,
         )
         self.store_ = EvidenceStore(cell=1.0)
         self.state_ = ChainState()
         self._ctx = Context(self.catalogue, self.model, self.store_)
-        self._votes = LegVotes(self.arena, params.sigma_r, 0.5 * min(t.leg for t in self.catalogue))
+        self._votes = LegVotes(
+            self.arena, params.sigma_r, 0.5 * min(t.leg for t in self.catalogue), params.reach
+        )
 
     def _polished(self, tables: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Candidates merged where they coincide (4 cm, 0.06 rad grid; weights summed), each moved
@@ -322,6 +329,12 @@ class FusedMapper:
         """
         generator = as_generator(rng)
         pose, sweeps = check_sweeps(pose, sweeps)
+        if (sweeps[:, 2] > self.params.reach).any():
+            row = int(np.flatnonzero(sweeps[:, 2] > self.params.reach)[0])
+            raise InputError(
+                f"sweeps row {row}: length {sweeps[row, 2]} m exceeds the model's whisker "
+                f"reach {self.params.reach} m (FusedParams.reach)"
+            )
         ids = self.store_.add(pose, sweeps)
         hit = np.isfinite(sweeps[:, 3])
         if hit.any():

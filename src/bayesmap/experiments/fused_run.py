@@ -26,13 +26,15 @@ def fused_params(
 
     The model's σ_r and σ_φ are the sensor's, at least 2 cm and 0.1 rad (a noiseless
     sensor still meets a model that is not exact); births jitter by a tenth of σ_r (at
-    least 2 cm); in the noisy condition leg spacings are matched to 12 cm instead of 6.
+    least 2 cm); in the noisy condition leg spacings are matched to 12 cm instead of 6; the
+    model's reach is the whiskers' length.
     """
     base: dict[str, Any] = {
         "sigma_r": max(0.02, sensor.sigma_r),
         "sigma_phi": max(0.1, sensor.sigma_theta),
         "birth_sigma_xy": max(0.02, sensor.sigma_r / 10.0),
         "spacing_tol": 0.06 if sensor.sigma_r < 0.1 else 0.12,
+        "reach": sensor.whisker_length,
     }
     base.update(overrides or {})
     try:
