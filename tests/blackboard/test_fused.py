@@ -468,3 +468,30 @@ def test_the_documented_example_runs_and_finds_the_stool() -> None:
     assert len(objects) == 1 and objects[0]["type"] == "stool"
     assert math.hypot(objects[0]["x"] - 2.0, objects[0]["y"] - 1.5) < 0.03
     assert objects[0]["existence_probability"] > 0.9
+
+
+def test_a_candidate_that_cannot_pay_alone_never_raises_the_posterior() -> None:
+    """The pruning of polished candidates: a table's gain over an empty room equals the
+    joint's, and adding it to any map gains no more than that (so a table whose gain alone
+    is not positive is never needed in a MAP map)."""
+    store, truth = _store(sensor=condition("noisy"))
+    mapper = FusedMapper(CATALOGUE, ARENA, FusedParams(sigma_r=0.5, reach=1.0))
+    for row, count in zip(store.rows_, store.counts_, strict=True):
+        for _ in range(int(count)):
+            mapper.store_.add(np.array([row[0], row[1], 0.0]), row[None, 2:])
+    mapper._ctx.refresh(mapper.state_)
+    ctx = mapper._ctx
+    rng = np.random.default_rng(4)
+    empty = _joint(ctx, np.zeros((0, 4)))
+    for _ in range(30):
+        table = np.array(
+            [rng.uniform(0.8, 4.2), rng.uniform(0.8, 3.2), rng.uniform(0, math.pi), 1.0]
+        )
+        if not arena_contains(table, CATALOGUE, ARENA)[0]:
+            continue
+        alone = mapper._gain_alone(table)
+        assert alone == pytest.approx(_joint(ctx, table[None]) - empty, abs=1e-6)
+        for others in (truth[:1], truth[1:], truth):
+            with_it = _joint(ctx, np.vstack([others, table]))
+            if math.isfinite(with_it):
+                assert with_it - _joint(ctx, others) <= alone + 1e-6

@@ -200,6 +200,22 @@ def _same_object(a: FloatArray, b: FloatArray, xy: float, theta: float, square: 
     return bool(min(d, period - d) <= theta)
 
 
+def _merge_coincident(tables: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Tables that share a 4 cm, 0.06 rad grid point (and type) as one, the first of each
+    group, with their weights summed."""
+    if not len(tables):
+        return np.zeros((0, 4)), np.zeros(0)
+    keys = np.column_stack(
+        [np.round(tables[:, :2] / 0.04), np.round(tables[:, 2] / 0.06), tables[:, 3]]
+    ).astype(np.int64)
+    unique, inverse = np.unique(keys, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    summed = np.bincount(inverse, weights=weights, minlength=len(unique)).astype(np.float64)
+    first = np.zeros(len(unique), dtype=np.int64)
+    first[inverse[::-1]] = np.arange(len(inverse))[::-1]
+    return tables[first], summed
+
+
 class FusedMapper:
     """One persistent posterior over the tables of a room, from every whisker sweep.
 
@@ -256,22 +272,19 @@ class FusedMapper:
 
         Used by :meth:`finish` (polishing every window's candidates at every pose would cost
         more than the whole run); the result depends on the stored data alone, never on the
-        chain, as a proposal must.
+        chain, as a proposal must. Polished candidates that land on the same grid point are
+        merged again, and a candidate that cannot pay for itself even alone — its log π gain
+        over an empty room (:meth:`_gain_alone`) is not positive — is dropped: with other
+        tables present its gain is no larger (each contact takes its best cause), so it can
+        never be a MAP table, and the noisy condition's hundreds of crossings of bearings
+        that fit no table stop costing the greedy ascent a trial each.
         """
         if not len(tables):
             return tables, weights
-        keys = np.column_stack(
-            [np.round(tables[:, :2] / 0.04), np.round(tables[:, 2] / 0.06), tables[:, 3]]
-        ).astype(np.int64)
-        unique, inverse = np.unique(keys, axis=0, return_inverse=True)
-        inverse = inverse.reshape(-1)
-        summed = np.bincount(inverse, weights=weights, minlength=len(unique)).astype(np.float64)
-        first = np.zeros(len(unique), dtype=np.int64)
-        first[inverse[::-1]] = np.arange(len(inverse))[::-1]
+        tables, summed = _merge_coincident(tables, weights)
         ctx, store = self._ctx, self.store_
-        out = np.empty((len(unique), 4))
-        for row, index in enumerate(first):
-            table = tables[index]
+        out = np.empty((len(tables), 4))
+        for row, table in enumerate(tables):
             ids = store.contacts_near(table[0], table[1], ctx.contact_radius + 0.1)
             rows = store.rows_[ids]
             out[row] = polish_table(
@@ -282,7 +295,24 @@ class FusedMapper:
                 self.catalogue,
                 self.model,
             )
-        return out, summed
+        pays = np.array([self._gain_alone(table) for table in out]) > 0
+        return _merge_coincident(out[pays], summed[pays])
+
+    def _gain_alone(self, table: FloatArray) -> float:
+        """Δlog π of adding ``table`` to an empty room: prior, its contacts against walls and
+        clutter, its free space (−∞ across a wall)."""
+        if not arena_contains(table, self.catalogue, self.arena)[0]:
+            return -math.inf
+        ctx, store = self._ctx, self.store_
+        gain = ctx.log_intensity + ctx.table_free_space(table)
+        ids = store.contacts_near(table[0], table[1], ctx.contact_radius)
+        if len(ids):
+            density = ctx.tables_density(table[None], ids)[:, 0]
+            floor = ctx.floor[ids]
+            gain += float(
+                (store.counts_[ids] * (np.log(np.maximum(floor, density)) - np.log(floor))).sum()
+            )
+        return gain
 
     def _proposal(
         self, box: tuple[float, float, float, float], *, polish: bool = False
