@@ -38,10 +38,11 @@ from bayesmap.blackboard.sweep_model import (
     legs_swept,
     log_posterior,
     tables_overlap,
+    wall_contact_density,
 )
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.sim.tables_world import build_mixed
-from bayesmap.sim.whiskers import WhiskerParams, observe
+from bayesmap.sim.whiskers import WhiskerParams, condition, observe
 
 DESK = ObjectType("desk", 1.2, 0.8, 0.1)
 STOOL = ObjectType("stool", 0.8, 0.8, 0.08)
@@ -50,14 +51,19 @@ ARENA = (5.0, 4.0)
 MODEL = SweepModel(0.02, 0.01, 0.1, 0.05, 0.05, 0.02, -12.0, ARENA)
 
 
-def _store(seed: int = 0) -> tuple[EvidenceStore, np.ndarray]:
+NOISY_MODEL = MODEL._replace(sigma_r=0.5, sigma_phi=math.pi / 8, reach=1.0)
+"""The noisy condition's model: σ_r = 0.5 m along 1 m whiskers, a surface beyond reach
+explains nothing."""
+
+
+def _store(seed: int = 0, sensor: WhiskerParams | None = None) -> tuple[EvidenceStore, np.ndarray]:
     """Sweeps of a whiskered robot around two true tables (a desk and a stool)."""
     truth = np.array([[1.6, 1.5, 0.3, 0.0], [3.5, 2.4, 1.1, 1.0]])
     sizes = np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]])
     world = build_mixed(truth[:, :3], sizes, np.full(2, 0.3), ARENA)
     rng = np.random.default_rng(seed)
     store = EvidenceStore()
-    sensor = WhiskerParams()
+    sensor = sensor or WhiskerParams()
     for x in np.linspace(0.4, 4.6, 5):
         for y in np.linspace(0.4, 3.6, 4):
             for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
@@ -66,8 +72,8 @@ def _store(seed: int = 0) -> tuple[EvidenceStore, np.ndarray]:
     return store, truth
 
 
-def _context(store: EvidenceStore) -> Context:
-    ctx = Context(CATALOGUE, MODEL, store)
+def _context(store: EvidenceStore, model: SweepModel = MODEL) -> Context:
+    ctx = Context(CATALOGUE, model, store)
     return ctx
 
 
@@ -78,14 +84,16 @@ def _state(ctx: Context, tables: np.ndarray) -> ChainState:
 
 
 def _joint(ctx: Context, tables: np.ndarray) -> float:
-    return log_posterior(tables, CATALOGUE, MODEL, ctx.store.rows_, ctx.store.counts_)
+    return log_posterior(tables, CATALOGUE, ctx.model, ctx.store.rows_, ctx.store.counts_)
 
 
-def test_every_move_ratio_matches_the_full_joint() -> None:
+@pytest.mark.parametrize("name", ["normal", "noisy"])
+def test_every_move_ratio_matches_the_full_joint(name: str) -> None:
     """For hundreds of random moves of every kind, the local Δlog π used in the acceptance
-    equals log π(X') − log π(X) computed from scratch over all stored sweeps."""
-    store, truth = _store()
-    ctx = _context(store)
+    equals log π(X') − log π(X) computed from scratch over all stored sweeps (also with the
+    noisy condition's wide, reach-limited contact density and its smaller windows)."""
+    store, truth = _store(sensor=condition(name))
+    ctx = _context(store, MODEL if name == "normal" else NOISY_MODEL)
     rng = np.random.default_rng(3)
     candidates, weights = table_candidates(
         leg_centres(truth, CATALOGUE).reshape(-1, 3)[:, :2], CATALOGUE, ARENA, 0.06
@@ -313,6 +321,25 @@ def test_leg_density_entry_distance_matches_a_ray_march() -> None:
         assert r[np.argmax(density)] == pytest.approx(entry, abs=1e-3)
 
 
+def test_a_surface_beyond_the_whiskers_reach_explains_no_contact() -> None:
+    """With σ_r = 0.5 m a range of 1.3 m fits a leg 1.3 m along the bearing best, but a 1 m
+    whisker cannot touch it: ρ_leg is 0 there and positive for a leg within reach; a wall
+    beyond reach explains nothing either, one within reach does."""
+    root, bearing = np.array([[1.0, 1.0]]), np.array([0.0])
+    r_hat, phi_hat = np.array([1.3]), np.array([math.pi])
+    legs = np.array([[2.35, 1.0, 0.05], [1.85, 1.0, 0.05]])  # faces at 1.3 m and 0.8 m
+    density = leg_contact_density(root, bearing, r_hat, phi_hat, legs, np.zeros(2), NOISY_MODEL)
+    assert density[0, 0] == 0.0 < density[0, 1]
+    unbounded = NOISY_MODEL._replace(reach=math.inf)
+    assert (
+        leg_contact_density(root, bearing, r_hat, phi_hat, legs, np.zeros(2), unbounded)[0, 0]
+        > density[0, 1]
+    )
+    far_wall, near_wall = np.array([[ARENA[0] - 1.3, 1.0]]), np.array([[ARENA[0] - 0.9, 1.0]])
+    assert wall_contact_density(far_wall, bearing, r_hat, phi_hat, NOISY_MODEL)[0] == 0.0
+    assert wall_contact_density(near_wall, bearing, r_hat, phi_hat, NOISY_MODEL)[0] > 0.0
+
+
 def test_free_space_counts_legs_inside_a_swept_sector_only() -> None:
     root = np.array([[0.0, 0.0]])
     start, stop, length = np.array([0.8]), np.array([-0.8]), np.array([1.0])
@@ -469,3 +496,28 @@ def test_a_table_seen_by_one_contact_is_less_certain_than_one_seen_from_many_pos
     desk, stool = mapper.existence(truth, rng=6)
     assert desk > 0.9
     assert stool < 0.8 and stool < desk - 0.2
+def test_a_candidate_that_cannot_pay_alone_never_raises_the_posterior() -> None:
+    """The pruning of polished candidates: a table's gain over an empty room equals the
+    joint's, and adding it to any map gains no more than that (so a table whose gain alone
+    is not positive is never needed in a MAP map)."""
+    store, truth = _store(sensor=condition("noisy"))
+    mapper = FusedMapper(CATALOGUE, ARENA, FusedParams(sigma_r=0.5, reach=1.0))
+    for row, count in zip(store.rows_, store.counts_, strict=True):
+        for _ in range(int(count)):
+            mapper.store_.add(np.array([row[0], row[1], 0.0]), row[None, 2:])
+    mapper._ctx.refresh(mapper.state_)
+    ctx = mapper._ctx
+    rng = np.random.default_rng(4)
+    empty = _joint(ctx, np.zeros((0, 4)))
+    for _ in range(30):
+        table = np.array(
+            [rng.uniform(0.8, 4.2), rng.uniform(0.8, 3.2), rng.uniform(0, math.pi), 1.0]
+        )
+        if not arena_contains(table, CATALOGUE, ARENA)[0]:
+            continue
+        alone = mapper._gain_alone(table)
+        assert alone == pytest.approx(_joint(ctx, table[None]) - empty, abs=1e-6)
+        for others in (truth[:1], truth[1:], truth):
+            with_it = _joint(ctx, np.vstack([others, table]))
+            if math.isfinite(with_it):
+                assert with_it - _joint(ctx, others) <= alone + 1e-6

@@ -70,13 +70,23 @@ class LegVotes:
         Range noise [m] that spreads each vote along its whisker.
     leg_half
         Half a leg's side [m]: a leg's centre lies about this far beyond its contact.
+    reach
+        Whisker length [m]: a vote lands only where the whisker could have touched (within
+        ``reach`` of its root, plus half a leg), so a noisy contact votes along the reachable
+        segment of its bearing, not past the tip.
     cell
         Grid resolution [m].
     """
 
     def __init__(
-        self, arena: tuple[float, float], sigma_r: float, leg_half: float, cell: float = 0.025
+        self,
+        arena: tuple[float, float],
+        sigma_r: float,
+        leg_half: float,
+        reach: float = math.inf,
+        cell: float = 0.025,
     ) -> None:
+        self.reach = reach
         self.cell = cell
         self.shape = (int(math.ceil(arena[1] / cell)) + 1, int(math.ceil(arena[0] / cell)) + 1)
         self.votes_ = np.zeros(self.shape)
@@ -100,7 +110,8 @@ class LegVotes:
         x = root[:, :1] + t * np.cos(bearing)[:, None]
         y = root[:, 1:] + t * np.sin(bearing)[:, None]
         i, j = np.round(y / self.cell).astype(np.int64), np.round(x / self.cell).astype(np.int64)
-        ok = (t >= 0) & (i >= 0) & (i < self.shape[0]) & (j >= 0) & (j < self.shape[1])
+        ok = (t >= 0) & (t <= self.reach + self.leg_half)
+        ok &= (i >= 0) & (i < self.shape[0]) & (j >= 0) & (j < self.shape[1])
         w = (counts[:, None] * self._weights[None]) * ok
         np.add.at(self.votes_, (i[ok], j[ok]), w[ok])
 

@@ -110,7 +110,9 @@ class EvidenceStore:
 
     @property
     def points_(self) -> FloatArray:
-        """``(m, 2)`` contact points root + r̂ along the stop bearing [m] (0 for misses)."""
+        """``(m, 2)`` contact points root + min(r̂, length) along the stop bearing [m] (0 for
+        misses): where on the whisker the contact can have been (a range read past the
+        tip is noise)."""
         return self._points[: self._size]
 
     def __len__(self) -> int:
@@ -156,7 +158,7 @@ class EvidenceStore:
         self._size += 1
         self._grid.setdefault(self._cell_of(pose[0], pose[1]), []).append(index)
         if hit:
-            point = pose[:2] + row[3] * np.array([math.cos(row[1]), math.sin(row[1])])
+            point = pose[:2] + min(row[3], row[2]) * np.array([math.cos(row[1]), math.sin(row[1])])
             self._points[index] = point
             self._contact_grid.setdefault(self._cell_of(*point), []).append(index)
         return index
@@ -167,7 +169,9 @@ class EvidenceStore:
         if hit:
             self._rows[index, 5] = (n * self._rows[index, 5] + row[3]) / (n + 1.0)
             r = self._rows[index]
-            self._points[index] = r[:2] + r[5] * np.array([math.cos(r[3]), math.sin(r[3])])
+            self._points[index] = r[:2] + min(r[5], r[4]) * np.array(
+                [math.cos(r[3]), math.sin(r[3])]
+            )
             self._normal_sum[index] += (math.cos(row[4]), math.sin(row[4]))
             self._rows[index, 6] = math.atan2(
                 self._normal_sum[index, 1], self._normal_sum[index, 0]
@@ -180,8 +184,8 @@ class EvidenceStore:
         return self._query(self._grid, self._rows, x, y, radius, radius)
 
     def contacts_near(self, x: float, y: float, radius: float) -> IntArray:
-        """Indices of stored contacts whose point (root + r̂ along the bearing) lies within
-        ``radius`` [m] of ``(x, y)``."""
+        """Indices of stored contacts whose point (:attr:`points_`) lies within ``radius``
+        [m] of ``(x, y)``."""
         # A merged contact's point moves with its mean range; the index keeps its first
         # cell, so the cells searched are widened by a quarter cell.
         return self._query(

@@ -57,7 +57,7 @@ from bayesmap.blackboard.sweep_model import (
     arena_contains,
     check_catalogue,
 )
-from bayesmap.errors import ConfigError
+from bayesmap.errors import ConfigError, InputError
 
 __all__ = ["FusedMap", "FusedMapper", "FusedParams", "FusedStep"]
 
@@ -101,6 +101,9 @@ class FusedParams:
         (the map metric's tolerances).
     rates
         Move probabilities and random-walk scales.
+    reach
+        Whisker length [m]: no surface farther than this from a whisker's root explains its
+        contact (∞: no bound). Sweeps longer than this are refused.
     """
 
     sigma_r: float = 0.02
@@ -125,11 +128,12 @@ class FusedParams:
     match_xy: float = 0.2
     match_theta: float = math.pi / 12
     rates: MoveRates = field(default_factory=MoveRates)
+    reach: float = math.inf
 
     def __post_init__(self) -> None:
         positive = (
             "sigma_r sigma_perp sigma_phi clutter intensity birth_sigma_xy birth_sigma_theta "
-            "spacing_tol min_votes beta_start beta_end match_xy match_theta"
+            "spacing_tol min_votes beta_start beta_end match_xy match_theta reach"
         )
         for name in positive.split():
             if not getattr(self, name) > 0:
@@ -204,6 +208,22 @@ def _symmetry(kind: ObjectType) -> float:
     return 0.5 * math.pi if math.isclose(kind.length, kind.width) else math.pi
 
 
+def _merge_coincident(tables: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Tables that share a 4 cm, 0.06 rad grid point (and type) as one, the first of each
+    group, with their weights summed."""
+    if not len(tables):
+        return np.zeros((0, 4)), np.zeros(0)
+    keys = np.column_stack(
+        [np.round(tables[:, :2] / 0.04), np.round(tables[:, 2] / 0.06), tables[:, 3]]
+    ).astype(np.int64)
+    unique, inverse = np.unique(keys, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    summed = np.bincount(inverse, weights=weights, minlength=len(unique)).astype(np.float64)
+    first = np.zeros(len(unique), dtype=np.int64)
+    first[inverse[::-1]] = np.arange(len(inverse))[::-1]
+    return tables[first], summed
+
+
 class FusedMapper:
     """One persistent posterior over the tables of a room, from every whisker sweep.
 
@@ -245,11 +265,14 @@ class FusedMapper:
             params.intensity,
             params.log_overlap,
             self.arena,
+            params.reach,
         )
         self.store_ = EvidenceStore(cell=1.0)
         self.state_ = ChainState()
         self._ctx = Context(self.catalogue, self.model, self.store_)
-        self._votes = LegVotes(self.arena, params.sigma_r, 0.5 * min(t.leg for t in self.catalogue))
+        self._votes = LegVotes(
+            self.arena, params.sigma_r, 0.5 * min(t.leg for t in self.catalogue), params.reach
+        )
 
     def _polished(self, tables: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Candidates merged where they coincide (4 cm, 0.06 rad grid; weights summed), each moved
@@ -257,22 +280,19 @@ class FusedMapper:
 
         Used by :meth:`finish` (polishing every window's candidates at every pose would cost
         more than the whole run); the result depends on the stored data alone, never on the
-        chain, as a proposal must.
+        chain, as a proposal must. Polished candidates that land on the same grid point are
+        merged again, and a candidate that cannot pay for itself even alone — its log π gain
+        over an empty room (:meth:`_gain_alone`) is not positive — is dropped: with other
+        tables present its gain is no larger (each contact takes its best cause), so it can
+        never be a MAP table, and the noisy condition's hundreds of crossings of bearings
+        that fit no table stop costing the greedy ascent a trial each.
         """
         if not len(tables):
             return tables, weights
-        keys = np.column_stack(
-            [np.round(tables[:, :2] / 0.04), np.round(tables[:, 2] / 0.06), tables[:, 3]]
-        ).astype(np.int64)
-        unique, inverse = np.unique(keys, axis=0, return_inverse=True)
-        inverse = inverse.reshape(-1)
-        summed = np.bincount(inverse, weights=weights, minlength=len(unique)).astype(np.float64)
-        first = np.zeros(len(unique), dtype=np.int64)
-        first[inverse[::-1]] = np.arange(len(inverse))[::-1]
+        tables, summed = _merge_coincident(tables, weights)
         ctx, store = self._ctx, self.store_
-        out = np.empty((len(unique), 4))
-        for row, index in enumerate(first):
-            table = tables[index]
+        out = np.empty((len(tables), 4))
+        for row, table in enumerate(tables):
             ids = store.contacts_near(table[0], table[1], ctx.contact_radius + 0.1)
             rows = store.rows_[ids]
             out[row] = polish_table(
@@ -283,7 +303,24 @@ class FusedMapper:
                 self.catalogue,
                 self.model,
             )
-        return out, summed
+        pays = np.array([self._gain_alone(table) for table in out]) > 0
+        return _merge_coincident(out[pays], summed[pays])
+
+    def _gain_alone(self, table: FloatArray) -> float:
+        """Δlog π of adding ``table`` to an empty room: prior, its contacts against walls and
+        clutter, its free space (−∞ across a wall)."""
+        if not arena_contains(table, self.catalogue, self.arena)[0]:
+            return -math.inf
+        ctx, store = self._ctx, self.store_
+        gain = ctx.log_intensity + ctx.table_free_space(table)
+        ids = store.contacts_near(table[0], table[1], ctx.contact_radius)
+        if len(ids):
+            density = ctx.tables_density(table[None], ids)[:, 0]
+            floor = ctx.floor[ids]
+            gain += float(
+                (store.counts_[ids] * (np.log(np.maximum(floor, density)) - np.log(floor))).sum()
+            )
+        return gain
 
     def _proposal(
         self, box: tuple[float, float, float, float], *, polish: bool = False
@@ -330,6 +367,12 @@ class FusedMapper:
         """
         generator = as_generator(rng)
         pose, sweeps = check_sweeps(pose, sweeps)
+        if (sweeps[:, 2] > self.params.reach).any():
+            row = int(np.flatnonzero(sweeps[:, 2] > self.params.reach)[0])
+            raise InputError(
+                f"sweeps row {row}: length {sweeps[row, 2]} m exceeds the model's whisker "
+                f"reach {self.params.reach} m (FusedParams.reach)"
+            )
         ids = self.store_.add(pose, sweeps)
         hit = np.isfinite(sweeps[:, 3])
         if hit.any():

@@ -31,7 +31,10 @@ inside the arena)::
   tables on well-seen legs (we saw +69 nats for a duplicate against ε_c = e⁻¹⁰). Each
   surface's density is the range-bearing sensor model: along the whisker the range noise
   σ_r (folded at the root, as the simulator folds it), across it σ_⊥, and the normal σ_φ —
-  a normalised Gaussian, so a noisier contact weighs less against clutter.
+  a normalised Gaussian, so a noisier contact weighs less against clutter. A surface
+  beyond the whisker's reach (its length) explains no contact: with σ_r = 0.5 m the range
+  says little, but the bearing (exact) and the reach still pin the surface to a segment of
+  the whisker.
 - F3: s(leg) counts sweeps whose free sector (swept before the contact, or the whole
   sector when nothing was touched) wholly contains the leg: each such sweep missed the leg,
   which happens with probability p_miss.
@@ -57,6 +60,7 @@ __all__ = [
     "leg_contact_density",
     "legs_swept",
     "log_posterior",
+    "reachable_point",
     "tables_overlap",
     "wall_contact_density",
 ]
@@ -123,6 +127,9 @@ class SweepModel(NamedTuple):
         log ε_c, the log factor of each overlapping pair of tables (eq. 16).
     arena
         ``(width, height)`` [m] of the walled arena, corner at the origin.
+    reach
+        Whisker length [m]: a whisker touches nothing farther than this from its root, so
+        a surface beyond reach explains no contact, whatever its range noise (∞: no bound).
     """
 
     sigma_r: float
@@ -133,6 +140,7 @@ class SweepModel(NamedTuple):
     intensity: float
     log_overlap: float
     arena: tuple[float, float]
+    reach: float = math.inf
 
 
 def _normal(x: FloatArray, sigma: float) -> FloatArray:
@@ -168,11 +176,29 @@ def leg_centres(tables: FloatArray, catalogue: tuple[ObjectType, ...]) -> FloatA
 def contact_cutoff(half_side: float, model: SweepModel) -> float:
     """Distance [m] from a leg's centre beyond which a contact point gets ρ_leg = 0.
 
-    4σ_r along plus 4σ_⊥ across plus the leg's half diagonal: the Gaussian there is below
-    e⁻⁸ of its peak. The cut keeps every sum local (and the joint and the local ratios use
-    the same truncated density).
+    The contact point is :func:`reachable_point` (the reported range clipped to the
+    whisker's reach). 4σ_r along (at most the reach: the clipped point and the leg's face
+    both lie on the whisker within reach) plus 4σ_⊥ across plus the leg's half diagonal:
+    the Gaussian there is below e⁻⁸ of its peak. The cut keeps every sum local (and the
+    joint and the local ratios use the same truncated density). With σ_r = 0.5 m and 1 m
+    whiskers the reach halves the cut (1.1 m instead of 2.1 m), and with it the evidence
+    every move reads.
     """
-    return 4.0 * model.sigma_r + 4.0 * model.sigma_perp + math.sqrt(2.0) * half_side
+    along = min(4.0 * model.sigma_r, model.reach)
+    return along + 4.0 * model.sigma_perp + math.sqrt(2.0) * half_side
+
+
+def reachable_point(
+    root: FloatArray, bearing: FloatArray, r_hat: FloatArray, reach: FloatArray | float
+) -> FloatArray:
+    """``(m, 2)`` contact points ``root + min(r̂, reach) (cos ψ, sin ψ)`` [m].
+
+    Where a contact can have been: on the whisker within its reach. A range read beyond the
+    whisker's length (noise) is placed at the tip; the spatial index of the evidence and the
+    cut of :func:`contact_cutoff` both use this point.
+    """
+    r = np.minimum(r_hat, reach)
+    return np.column_stack([root[:, 0] + r * np.cos(bearing), root[:, 1] + r * np.sin(bearing)])
 
 
 def leg_contact_density(
@@ -195,13 +221,16 @@ def leg_contact_density(
 
         ρ = [N(r̂; r*, σ_r) + N(−r̂; r*, σ_r)] · N(e_⊥; 0, σ_⊥) · N(wrap(φ̂ − φ*); 0, σ_φ)
 
-    set to 0 where the contact point ``root + r̂ (cos ψ, sin ψ)`` lies farther than
-    :func:`contact_cutoff` from the leg's centre.
+    set to 0 where the contact point (:func:`reachable_point`) lies farther than
+    :func:`contact_cutoff` from the leg's centre, and where the leg lies beyond the
+    whisker's reach (r* > reach when the line enters it; its centre's along-distance less
+    its half diagonal > reach when the line misses it): a whisker cannot touch it there.
     """
     cos_b, sin_b = np.cos(bearing)[:, None], np.sin(bearing)[:, None]
     dx = root[:, None, 0] - legs[None, :, 0]
     dy = root[:, None, 1] - legs[None, :, 1]
-    px, py = dx + r_hat[:, None] * cos_b, dy + r_hat[:, None] * sin_b
+    r_near = np.minimum(r_hat, model.reach)[:, None]
+    px, py = dx + r_near * cos_b, dy + r_near * sin_b
     cut = np.array([contact_cutoff(h, model) for h in legs[:, 2]])
     near = px * px + py * py <= cut * cut
     c, s = np.cos(theta)[None], np.sin(theta)[None]
@@ -218,6 +247,7 @@ def leg_contact_density(
     gap = np.maximum(np.abs(ux * oy - uy * ox) - h * (ax + ay), 0.0)
     along = np.where(hit, t_near, -(ox * ux + oy * uy))
     e_perp = np.where(hit, 0.0, gap)
+    near &= np.where(hit, along, along - math.sqrt(2.0) * h) <= model.reach
     # φ*: of the (one or two) faces turned towards the root, the one nearest φ̂ — a whisker
     # resting on a corner reports either face.
     face_x = np.where(ux > 0, np.pi, 0.0)
@@ -239,7 +269,7 @@ def wall_contact_density(
 
     The whisker's line from ``root`` inside the arena leaves it at distance r* through a
     wall of inward normal φ*; ρ = [N(r̂; r*, σ_r) + N(−r̂; r*, σ_r)] · N(0; 0, σ_⊥) ·
-    N(wrap(φ̂ − φ*); 0, σ_φ).
+    N(wrap(φ̂ − φ*); 0, σ_φ), and 0 when the wall lies beyond the whisker's reach (r* > reach).
     """
     width, height = model.arena
     ux, uy = np.cos(bearing), np.sin(bearing)
@@ -255,7 +285,8 @@ def wall_contact_density(
     )
     d_phi = wrap_angle(phi_hat - normal)
     return np.asarray(
-        _range_density(r_hat, r_star, model.sigma_r)
+        np.where(r_star <= model.reach, 1.0, 0.0)
+        * _range_density(r_hat, r_star, model.sigma_r)
         * _normal(np.zeros(1), model.sigma_perp)
         * _normal(d_phi, model.sigma_phi)
     )

@@ -31,13 +31,18 @@ def fused_params(
 
     The model's σ_r and σ_φ are the sensor's, at least 2 cm and 0.1 rad (a noiseless
     sensor still meets a model that is not exact); births jitter by a tenth of σ_r (at
-    least 2 cm); in the noisy condition leg spacings are matched to 12 cm instead of 6.
+    least 2 cm); in the noisy condition leg spacings are matched to 12 cm instead of 6 and
+    a leg candidate needs four contacts' bearings crossing (1.5 contacts' worth otherwise:
+    two noisy bearings cross somewhere wherever they point); the model's reach is the
+    whiskers' length.
     """
     base: dict[str, Any] = {
         "sigma_r": max(0.02, sensor.sigma_r),
         "sigma_phi": max(0.1, sensor.sigma_theta),
         "birth_sigma_xy": max(0.02, sensor.sigma_r / 10.0),
         "spacing_tol": 0.06 if sensor.sigma_r < 0.1 else 0.12,
+        "min_votes": 1.5 if sensor.sigma_r < 0.1 else 4.0,
+        "reach": sensor.whisker_length,
     }
     base.update(overrides or {})
     try:
