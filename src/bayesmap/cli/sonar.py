@@ -51,6 +51,17 @@ class _LiteralHandler(logging.Handler):
         _say(f"warning: {record.getMessage()}")
 
 
+def _bar() -> Progress:
+    """The sonar commands' progress bar on stderr: what is being done, how far, gone when done."""
+    return Progress(
+        TextColumn("{task.description}", markup=False),
+        BarColumn(),
+        TaskProgressColumn(),
+        console=_err,
+        transient=True,
+    )
+
+
 @contextmanager
 def _user_errors() -> Iterator[None]:
     handler = _LiteralHandler(level=logging.WARNING)
@@ -227,13 +238,7 @@ def map_command(
             chosen = replace(
                 chosen, acceptability=False, agreeability=False, trait_verification=False
             )
-        with Progress(
-            TextColumn("{task.description}", markup=False),
-            BarColumn(),
-            TaskProgressColumn(),
-            console=_err,
-            transient=True,
-        ) as bar:
+        with _bar() as bar:
             reading = bar.add_task(f"reading {log.name}", total=1)
             if topics is not None:
                 data = _read_bag(
@@ -310,13 +315,7 @@ def run_command(
         config = experiment.Config.model_validate(
             {"world": world, "runs": runs, "seed": seed, "pipelines": names, "jobs": jobs}
         )
-        with Progress(
-            TextColumn("{task.description}", markup=False),
-            BarColumn(),
-            TaskProgressColumn(),
-            console=_err,
-            transient=True,
-        ) as bar:
+        with _bar() as bar:
             task = bar.add_task("loading", total=None)
 
             def hook(description: str, completed: int, total: int) -> None:
