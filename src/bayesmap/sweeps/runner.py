@@ -84,6 +84,14 @@ LOCAL_CLUSTER_CONFIG: dict[str, Any] = {
 """Dask settings of the ``LocalCluster`` a sweep starts (:func:`dask_client`), and those
 docs/cluster.md suggests for a cluster started by hand."""
 
+_UNSET_IN_WORKERS = tuple(
+    key.rsplit(".", 1)[1]
+    for key, value in LOCAL_CLUSTER_CONFIG.items()
+    if key.startswith("distributed.nanny.pre-spawn-environ.") and value is None
+)
+"""Environment variables the local cluster's workers must not have (from
+:data:`LOCAL_CLUSTER_CONFIG`)."""
+
 
 @dataclass(frozen=True)
 class TaskOutcome:
@@ -208,6 +216,10 @@ def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
         return
     n = workers or os.cpu_count() or 1
     with _environment_restored(), warnings.catch_warnings(), dask.config.set(LOCAL_CLUSTER_CONFIG):
+        # Dask leaves a variable its config unsets to the environment the workers inherit,
+        # where an earlier cluster's nanny in this process (or the shell) may have put it.
+        for name in _UNSET_IN_WORKERS:
+            os.environ.pop(name, None)
         # the scheduler serves health checks over HTTP on port 8787, or on a free port
         # with a warning when another cluster holds 8787; the sweep needs neither
         warnings.filterwarnings("ignore", "Port .* is already in use", UserWarning)
