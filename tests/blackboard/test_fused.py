@@ -496,6 +496,8 @@ def test_a_table_seen_by_one_contact_is_less_certain_than_one_seen_from_many_pos
     desk, stool = mapper.existence(truth, rng=6)
     assert desk > 0.9
     assert stool < 0.8 and stool < desk - 0.2
+
+
 def test_a_candidate_that_cannot_pay_alone_never_raises_the_posterior() -> None:
     """The pruning of polished candidates: a table's gain over an empty room equals the
     joint's, and adding it to any map gains no more than that (so a table whose gain alone
