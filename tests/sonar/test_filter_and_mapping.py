@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,10 +14,14 @@ from bayesmap.experiments.sonar import ring_geometry
 from bayesmap.grid import OccupancyGrid
 from bayesmap.sim.polygons import path_poses, world
 from bayesmap.sim.sonar import SonarRing, SonarScan, observe
+from bayesmap.sim.sonar_log import Realism, simulate_log
 from bayesmap.sonar.filter import SpecularFilter, Stage
 from bayesmap.sonar.geometry import SonarGeometry, cone_cells
+from bayesmap.sonar.logs import LogUnits, read_sonar_log
 from bayesmap.sonar.mapping import ElfesMapper, RosRangeLayerMapper, ThrunMapper
-from bayesmap.sonar.pipeline import PIPELINES, build_map, grid_for_poses, map_log
+from bayesmap.sonar.pipeline import PIPELINES, build_map, grid_for_poses, map_log, repeats_last
+
+DATA = Path(__file__).parent / "data"
 
 Corridor = tuple[np.ndarray, SonarScan, SonarGeometry]
 
@@ -354,3 +359,90 @@ def test_a_pipelines_free_probability_reaches_its_mapper() -> None:
         mapper.integrate([0.0, 0.0, 0.0], [3.0, 6.0])
         cleared[p_free] = mapper.probability()[grid.world_to_cell(1.0, 0.0)]
     assert cleared[0.35] == pytest.approx(0.35, abs=0.01) and cleared[0.45] > cleared[0.35]
+
+
+@pytest.fixture(scope="module")
+def realistic_log() -> tuple[np.ndarray, np.ndarray, SonarGeometry]:
+    """A Pioneer 16-ring log with stops, people and drift (the ring has true offsets)."""
+    ring = SonarRing.pioneer(16)
+    log = simulate_log(world("sonar-office-v2"), ring, Realism(laps=1), rng=5)
+    return log.odometry[:260], log.ranges[:260], ring_geometry(ring)
+
+
+def test_sensors_many_places_every_ring_as_sensors_does(
+    realistic_log: tuple[np.ndarray, np.ndarray, SonarGeometry],
+) -> None:
+    poses, _, geometry = realistic_log
+    for g in (geometry, replace(geometry, offsets=None, radius=0.2)):
+        centres, axis = g.sensors_many(poses[:7])
+        assert centres.shape == (7, g.n, 2) and axis.shape == (7, g.n)
+        for i in range(7):
+            one_c, one_a = g.sensors(poses[i])
+            assert np.array_equal(centres[i], one_c) and np.array_equal(axis[i], one_a)
+    with pytest.raises(InputError, match="finite"):
+        geometry.sensors_many(np.array([[0.0, np.nan, 0.0]]))
+
+
+def test_batched_filter_gives_the_ring_by_ring_verdicts_rejections_and_l(
+    realistic_log: tuple[np.ndarray, np.ndarray, SonarGeometry],
+) -> None:
+    poses, ranges, geometry = realistic_log
+    options = dict(PIPELINES["default"].filter_options)
+    one, many = SpecularFilter(geometry, **options), SpecularFilter(geometry, **options)
+    stages = np.array([one.process(p, r).stage for p, r in zip(poses, ranges, strict=True)])
+    # Uneven batches, so batch edges fall anywhere (the filter's state carries across them).
+    batched = np.vstack(
+        [many.process_many(poses[a:b], ranges[a:b]).stage for a, b in ((0, 1), (1, 90), (90, 260))]
+    )
+    assert np.count_nonzero(stages) > 0  # the log has something to reject
+    assert np.array_equal(stages, batched)
+    assert one.rejections_ == many.rejections_ and one.counts_ == many.counts_
+    assert np.array_equal(one.l_segments_, many.l_segments_) and one.path_ == many.path_
+    with pytest.raises(InputError, match="non-negative"):
+        many.process_many(poses[:2], np.where(np.arange(16) == 3, -1.0, ranges[:2]))
+
+
+@pytest.mark.parametrize("name", ["default", "thrun", "ros", "paper"])
+def test_batched_mapping_gives_the_ring_by_ring_map(
+    name: str, realistic_log: tuple[np.ndarray, np.ndarray, SonarGeometry]
+) -> None:
+    poses, ranges, geometry = realistic_log
+    pipeline = replace(PIPELINES[name], decay=0.05) if name != "ros" else PIPELINES[name]
+    use = np.random.default_rng(0).random(ranges.shape) < 0.8
+
+    def mapper() -> object:
+        return pipeline.make_mapper(grid_for_poses(poses, geometry.max_range, 0.1), geometry)
+
+    one, many = mapper(), mapper()
+    for p, r, u in zip(poses, ranges, use, strict=True):
+        one.integrate(p, r, u)  # type: ignore[attr-defined]
+    many.integrate_many(poses[:100], ranges[:100], use[:100])  # type: ignore[attr-defined]
+    many.integrate_many(poses[100:], ranges[100:], use[100:])  # type: ignore[attr-defined]
+    assert np.array_equal(one.probability(), many.probability())  # type: ignore[attr-defined]
+    assert one.rings_ == many.rings_ == len(poses)  # type: ignore[attr-defined]
+
+
+def test_map_log_matches_a_ring_by_ring_run_of_the_fixture_log() -> None:
+    log = read_sonar_log(DATA / "example_log.txt", 16, units=LogUnits("mm", "mm", "deg"))
+    geometry = SonarGeometry(tuple(math.radians(22.5 * k) for k in range(16)), max_range=5.0)
+    pipeline = PIPELINES["default"]
+    grid = grid_for_poses(log.poses, geometry.max_range, 0.1)
+    mapper, filt = pipeline.make_mapper(grid, geometry), pipeline.make_filter(geometry)
+    assert filt is not None
+    run = map_log(log.poses, log.ranges, mapper, filt, merge_repeats=True)
+    # The same by hand, one ring at a time.
+    ref_mapper = pipeline.make_mapper(grid_for_poses(log.poses, geometry.max_range, 0.1), geometry)
+    ref_filter = pipeline.make_filter(geometry)
+    assert ref_filter is not None
+    stages, last = [], -1
+    for i, (p, r) in enumerate(zip(log.poses, log.ranges, strict=True)):
+        if last >= 0 and repeats_last(log.poses[last], log.ranges[last], p, r, geometry):
+            stages.append(stages[-1])
+            continue
+        last = i
+        verdict = ref_filter.process(p, r)
+        ref_mapper.integrate(p, r, verdict.accepted)
+        stages.append(verdict.stage)
+    assert np.array_equal(run.stage, np.array(stages))
+    assert filt.rejections_ == ref_filter.rejections_
+    assert np.array_equal(mapper.probability(), ref_mapper.probability())

@@ -248,59 +248,105 @@ class SpecularFilter:
         -------
         :class:`RingVerdict`; the rejections are also appended to ``rejections_``.
         """
-        geometry = self.geometry
         p = np.asarray(pose, dtype=np.float64)
-        centres, axis = geometry.sensors(p)
         r = np.asarray(ranges, dtype=np.float64)
-        if r.shape != (geometry.n,):
-            raise InputError(f"a ring has {geometry.n} readings, got shape {r.shape}")
+        if p.shape != (3,):
+            raise InputError(f"a pose must be 3 numbers (x, y, heading), got shape {p.shape}")
+        if r.shape != (self.geometry.n,):
+            raise InputError(f"a ring has {self.geometry.n} readings, got shape {r.shape}")
+        verdict = self.process_many(p[None], r[None])
+        return RingVerdict(verdict.accepted[0], verdict.flagged[0], verdict.stage[0])
+
+    def process_many(self, poses: npt.ArrayLike, ranges: npt.ArrayLike) -> RingVerdict:
+        """Judge ``m`` consecutive rings: ``ranges`` ``(m, n)`` [m] taken at ``poses`` ``(m, 3)``.
+
+        The same verdicts as :meth:`process` ring by ring. What does not depend on ``L`` and
+        ``V`` (the transducers' positions, Acceptability and Agreeability, which compare a
+        reading only with its neighbours in the same ring) is computed for all rings at once;
+        Trait Verification then runs ring by ring, in order, since each ring's verdict
+        changes ``L`` and ``V`` for the next.
+
+        Returns
+        -------
+        :class:`RingVerdict` with ``(m, n)`` arrays; rejections are appended to
+        ``rejections_``.
+        """
+        geometry = self.geometry
+        n = geometry.n
+        p = np.asarray(poses, dtype=np.float64)
+        r = np.asarray(ranges, dtype=np.float64)
+        if r.ndim != 2 or r.shape[1] != n or len(r) != len(p):
+            raise InputError(f"a ring has {n} readings, got {len(p)} poses and ranges {r.shape}")
         if np.any(np.isnan(r)) or np.any(r < 0):
-            raise InputError(f"sonar ranges must be non-negative metres (inf = no echo), got {r}")
+            bad = int(np.flatnonzero(np.any(np.isnan(r) | (r < 0), axis=1))[0])
+            raise InputError(
+                f"sonar ranges must be non-negative metres (inf = no echo), got {r[bad]}"
+            )
+        centres, axis = geometry.sensors_many(p)
         r = np.minimum(r, geometry.max_range)
         echo = geometry.echo(r)
-        if self.last_pose_ is not None:
-            self.path_ += float(np.hypot(*(p[:2] - self.last_pose_[:2])))
-        self.last_pose_ = p
-        stage = np.full(geometry.n, Stage.ACCEPTED, dtype=np.int64)
-        flagged = np.zeros(geometry.n, dtype=bool)
-        half = geometry.beam_width / 2.0
+        m = len(p)
+        stage = np.full((m, n), Stage.ACCEPTED, dtype=np.int64)
+        flagged = np.zeros((m, n), dtype=bool)
+        # The rings side by side as one long reading set whose neighbours stay in their ring.
+        ring_start = (n * np.arange(m))[:, None]
+        left = np.where(self.left >= 0, self.left + ring_start, -1).ravel()
+        right = np.where(self.right >= 0, self.right + ring_start, -1).ravel()
         if self.stages[Stage.ACCEPTABILITY]:
             verdict = acceptability(
-                r,
-                echo,
-                centres,
-                axis,
-                self.left,
-                self.right,
+                r.ravel(),
+                echo.ravel(),
+                centres.reshape(-1, 2),
+                axis.ravel(),
+                left,
+                right,
                 sigma=geometry.sigma,
-                half_width=half,
+                half_width=geometry.beam_width / 2.0,
                 critical_angle=self.critical_angle,
                 k=self.k_sigma,
                 tilts=self.tilts,
             )
-            stage[verdict.discard] = Stage.ACCEPTABILITY
-            flagged |= verdict.flag
+            stage[verdict.discard.reshape(m, n)] = Stage.ACCEPTABILITY
+            flagged |= verdict.flag.reshape(m, n)
         if self.stages[Stage.AGREEABILITY]:
-            verdict = agreeability(echo, self.left, self.right)
-            stage[verdict.discard & (stage == Stage.ACCEPTED)] = Stage.AGREEABILITY
-            flagged |= verdict.flag
+            verdict = agreeability(echo.ravel(), left, right)
+            stage[verdict.discard.reshape(m, n) & (stage == Stage.ACCEPTED)] = Stage.AGREEABILITY
+            flagged |= verdict.flag.reshape(m, n)
+        for i in range(m):
+            self._finish_ring(p[i], r[i], echo[i], centres[i], axis[i], flagged[i], stage[i])
+        return RingVerdict(accepted=stage == Stage.ACCEPTED, flagged=flagged, stage=stage)
+
+    def _finish_ring(
+        self,
+        pose: FloatArray,
+        r: FloatArray,
+        echo: BoolArray,
+        centres: FloatArray,
+        axis: FloatArray,
+        flagged: BoolArray,
+        stage: IntArray,
+    ) -> None:
+        """Trait Verification of one ring (``stage`` is updated in place) and the bookkeeping."""
+        if self.last_pose_ is not None:
+            self.path_ += float(np.hypot(*(pose[:2] - self.last_pose_[:2])))
+        self.last_pose_ = pose
         reasons = {int(k): _STAGE_REASONS[Stage(int(stage[k]))] for k in np.flatnonzero(stage)}
         if self.stages[Stage.TRAIT_VERIFICATION]:
-            self._clean_l(p, r, echo, ~flagged & (stage == Stage.ACCEPTED), centres, axis)
+            distance = self._clean_l(
+                pose, r, echo, ~flagged & (stage == Stage.ACCEPTED), centres, axis
+            )
             tv = self._trait_verification(
-                p, r, echo, centres, axis, flagged, stage == Stage.ACCEPTED
+                pose, r, echo, centres, axis, flagged, stage == Stage.ACCEPTED, distance
             )
             for k in np.flatnonzero(tv):
                 stage[k] = Stage.TRAIT_VERIFICATION
                 reasons[int(k)] = _TV_REASONS[TVReason(int(tv[k]))]
-        accepted = stage == Stage.ACCEPTED
-        self._remember(centres, axis, r, echo & accepted)
+        self._remember(centres, axis, r, echo & (stage == Stage.ACCEPTED))
         for sensor, reason in sorted(reasons.items()):
             kind = Stage(int(stage[sensor]))
             self.rejections_.append(Rejection(self.rings_, sensor, kind, reason))
             self.counts_[kind.name.lower()] += 1
         self.rings_ += 1
-        return RingVerdict(accepted=accepted, flagged=flagged, stage=stage)
 
     def _echo_points(self, centres: FloatArray, axis: FloatArray, r: FloatArray) -> FloatArray:
         return np.asarray(centres + r[:, None] * np.column_stack([np.cos(axis), np.sin(axis)]))
@@ -314,7 +360,9 @@ class SpecularFilter:
         axis: FloatArray,
         flagged: BoolArray,
         candidate: BoolArray,
+        distance: FloatArray,
     ) -> IntArray:
+        """Trait Verification of one ring; ``distance``: from the robot to each trait of ``L``."""
         current = np.flatnonzero(echo & candidate)
         points_now = self._echo_points(centres[current], axis[current], r[current])
         past = list(self.points_)
@@ -341,7 +389,6 @@ class SpecularFilter:
         )
         l_view = self.l_segments_
         if len(l_view):
-            distance = point_segment_distance(pose[:2], l_view)[0]
             if self.enough_state:
                 # Only traits that some beam, echo point or trait of V can reach matter; the
                 # rest are left out of the (per-trait) tests, which gives the same verdicts.
@@ -389,16 +436,18 @@ class SpecularFilter:
         trusted: BoolArray,
         centres: FloatArray,
         axis: FloatArray,
-    ) -> None:
+    ) -> FloatArray:
         """Trait hygiene: drop traits of ``L`` the robot stands on or readings see through.
 
         A trusted reading (not flagged by the bottom-up stages) sees through a trait when its
         echo lies more than ``margin`` beyond the trait on its axis, or, with no echo, when
         its axis meets the trait head-on (within the critical angle of its normal) inside
         the max range: a wall there would have echoed.
+
+        Returns the distance [m] from the robot to each trait left in ``L``.
         """
         if len(self.l_segments_) == 0:
-            return
+            return np.zeros(0)
         distance = point_segment_distance(pose[:2], self.l_segments_)[0]
         keep = distance > self.footprint
         # Beams cross only traits within their range of the robot (plus the ring's size).
@@ -417,6 +466,7 @@ class SpecularFilter:
         self.l_segments_ = self.l_segments_[keep]
         self.l_seen_ = self.l_seen_[keep]
         self.l_passes_ = self.l_passes_[keep]
+        return np.asarray(distance[keep])
 
     def _grow_l(self, segments: FloatArray) -> None:
         """Merge ``V`` traits into ``L`` (extending equivalent ones) and forget old traits."""

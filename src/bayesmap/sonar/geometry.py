@@ -110,16 +110,27 @@ class SonarGeometry:
         p = np.asarray(pose, dtype=np.float64)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise InputError(f"a pose must be 3 finite numbers (x, y, heading), got {p!r}")
-        axis = p[2] + np.asarray(self.angles)
+        centres, axis = self.sensors_many(p[None])
+        return centres[0], axis[0]
+
+    def sensors_many(self, poses: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Transducer positions ``(m, n, 2)`` [m] and bearings ``(m, n)`` [rad] at ``poses``.
+
+        ``poses`` is ``(m, 3)``, each ``(x, y, heading)``; all rings are placed at once.
+        """
+        p = np.asarray(poses, dtype=np.float64)
+        if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
+            raise InputError(f"poses must be finite (m, 3) rows (x, y, heading), got {p.shape}")
+        axis = p[:, 2:3] + np.asarray(self.angles)[None, :]
         if self.offsets is None:
-            centres = p[:2] + self.radius * np.column_stack([np.cos(axis), np.sin(axis)])
-            return centres, axis
-        off = np.asarray(self.offsets)
-        c, s = math.cos(p[2]), math.sin(p[2])
-        centres = p[:2] + np.column_stack(
-            [c * off[:, 0] - s * off[:, 1], s * off[:, 0] + c * off[:, 1]]
-        )
-        return centres, axis
+            offset = self.radius * np.stack([np.cos(axis), np.sin(axis)], axis=-1)
+        else:
+            off = np.asarray(self.offsets)[None]
+            c, s = np.cos(p[:, 2])[:, None], np.sin(p[:, 2])[:, None]
+            offset = np.stack(
+                [c * off[..., 0] - s * off[..., 1], s * off[..., 0] + c * off[..., 1]], axis=-1
+            )
+        return p[:, None, :2] + offset, axis
 
     @property
     def reach(self) -> float:

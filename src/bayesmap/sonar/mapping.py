@@ -29,6 +29,9 @@ __all__ = ["ElfesMapper", "NoEcho", "RosRangeLayerMapper", "ThrunMapper"]
 NoEcho = Literal["cone", "clear", "ignore"]
 """How a mapper treats a no-echo reading (see :class:`ElfesMapper`)."""
 
+_READINGS_PER_BATCH = 256
+"""Readings whose cone cells are found in one pass (bounds the memory of a batch)."""
+
 
 class _ConeMapper:
     """Shared shell: checks a ring's readings and finds the cells of each cone."""
@@ -40,27 +43,49 @@ class _ConeMapper:
 
     def _prepare(
         self,
-        pose: npt.ArrayLike,
+        poses: npt.ArrayLike,
         ranges: npt.ArrayLike,
         use: npt.ArrayLike | None,
         *,
         clip: bool = True,
     ) -> tuple[FloatArray, FloatArray, FloatArray, np.ndarray]:
+        """Check ``m`` rings: ``(m, n, 2)`` centres, ``(m, n)`` bearings, ranges and mask."""
         r = np.asarray(ranges, dtype=np.float64)
-        if r.shape != (self.geometry.n,):
-            raise InputError(f"a ring has {self.geometry.n} readings, got shape {r.shape}")
+        p = np.asarray(poses, dtype=np.float64)
+        if r.ndim != 2 or r.shape[1] != self.geometry.n or len(r) != len(p):
+            raise InputError(
+                f"a ring has {self.geometry.n} readings, got {len(p)} poses and ranges {r.shape}"
+            )
         if np.any(np.isnan(r)) or np.any(r < 0):
             raise InputError(
                 "sonar ranges must be non-negative numbers (inf = no echo), got NaN or < 0"
             )
-        mask = np.ones(self.geometry.n, dtype=bool) if use is None else np.asarray(use, dtype=bool)
+        mask = np.ones(r.shape, dtype=bool) if use is None else np.asarray(use, dtype=bool)
         if mask.shape != r.shape:
-            raise InputError(f"'use' mask has shape {mask.shape}, the ring {r.shape}")
-        centres, axis = self.geometry.sensors(np.asarray(pose, dtype=np.float64))
+            raise InputError(f"'use' mask has shape {mask.shape}, the rings {r.shape}")
+        centres, axis = self.geometry.sensors_many(p)
         if clip:
             r = np.minimum(r, self.geometry.max_range)
-        self.rings_ += 1
+        self.rings_ += len(r)
         return centres, axis, r, mask
+
+    def integrate(
+        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+    ) -> None:
+        """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
+        p = np.asarray(pose, dtype=np.float64)
+        r = np.asarray(ranges, dtype=np.float64)
+        if p.shape != (3,):
+            raise InputError(f"a pose must be 3 numbers (x, y, heading), got shape {p.shape}")
+        if r.shape != (self.geometry.n,):
+            raise InputError(f"a ring has {self.geometry.n} readings, got shape {r.shape}")
+        self.integrate_many(p[None], r[None], None if use is None else np.asarray(use)[None])
+
+    def integrate_many(
+        self, poses: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+    ) -> None:
+        """Add ``m`` rings in order: ``ranges`` ``(m, n)`` [m] at ``poses`` ``(m, 3)``."""
+        raise NotImplementedError
 
     def _cells(self, centres: FloatArray, axis: FloatArray, reach: FloatArray) -> ConeCells:
         return cone_cells(self.grid, centres, axis, reach, self.geometry.beam_width / 2.0)
@@ -95,6 +120,45 @@ class _LogOddsMapper(_ConeMapper):
         self.prior_log_odds = float(log_odds(prior))
         self.log_odds_: Grid = np.full(grid.shape, self.prior_log_odds)
         self.swept_: np.ndarray = np.zeros(grid.shape, dtype=bool)
+
+    def _reach(self, ranges: FloatArray) -> FloatArray:
+        """How far each reading's cone is updated [m]."""
+        raise NotImplementedError
+
+    def _increment(self, ranges: FloatArray, cells: ConeCells) -> FloatArray:
+        """Log-odds added to each cell of ``cells`` (``ranges``: its reading's range)."""
+        raise NotImplementedError
+
+    def integrate_many(
+        self, poses: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+    ) -> None:
+        """Add ``m`` rings in order: ``ranges`` ``(m, n)`` [m] at ``poses`` ``(m, 3)``.
+
+        The cone cells and the model's log-odds of a batch of rings are computed at once;
+        they are added ring by ring (saturation, decay and the footprint act per ring), so
+        the map is the one ring-by-ring integration gives.
+        """
+        centres, axis, r, mask = self._prepare(poses, ranges, use)
+        p = np.asarray(poses, dtype=np.float64)
+        n = self.geometry.n
+        reach = np.where(mask, self._reach(r), 0.0)
+        step = max(1, _READINGS_PER_BATCH // n)
+        for a in range(0, len(r), step):
+            b = min(a + step, len(r))
+            cells = self._cells(centres[a:b].reshape(-1, 2), axis[a:b].ravel(), reach[a:b].ravel())
+            increment = self._increment(r[a:b].ravel()[cells.reading], cells)
+            bounds = np.searchsorted(cells.reading, n * np.arange(b - a + 1))
+            for i in range(b - a):
+                part = slice(bounds[i], bounds[i + 1])
+                piece = ConeCells(
+                    cells.rows[part],
+                    cells.cols[part],
+                    cells.rho[part],
+                    cells.theta[part],
+                    cells.reading[part],
+                )
+                self._add(piece, increment[part])
+                self._clear_footprint(p[a + i])
 
     def _add(self, cells: ConeCells, increment: FloatArray) -> None:
         index = (cells.rows, cells.cols)
@@ -232,17 +296,14 @@ class ElfesMapper(_LogOddsMapper):
             p_free=p_free,
         )
 
-    def integrate(
-        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
-    ) -> None:
-        """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
-        centres, axis, r, mask = self._prepare(pose, ranges, use)
-        echo = r < self.geometry.max_range
+    def _reach(self, ranges: FloatArray) -> FloatArray:
+        echo = ranges < self.geometry.max_range
         no_echo_reach = {"cone": self.geometry.max_range, "clear": self.clear_distance}
-        reach = np.where(echo, r + 3.0 * self.sigma_map, no_echo_reach.get(self.no_echo, 0.0))
-        cells = self._cells(centres, axis, np.where(mask, reach, 0.0))
+        return np.where(echo, ranges + 3.0 * self.sigma_map, no_echo_reach.get(self.no_echo, 0.0))
+
+    def _increment(self, ranges: FloatArray, cells: ConeCells) -> FloatArray:
         p = elfes_inverse_model(
-            r[cells.reading],
+            ranges,
             cells.rho,
             cells.theta,
             sigma=self.sigma_map,
@@ -251,8 +312,7 @@ class ElfesMapper(_LogOddsMapper):
             p_occ=self.p_occ,
             p_free=self.p_free,
         )
-        self._add(cells, log_odds(p))
-        self._clear_footprint(pose)
+        return log_odds(p)
 
 
 class ThrunMapper(_LogOddsMapper):
@@ -288,15 +348,12 @@ class ThrunMapper(_LogOddsMapper):
         self.l_occ = l_occ
         self.l_free = l_free
 
-    def integrate(
-        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
-    ) -> None:
-        """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
-        centres, axis, r, mask = self._prepare(pose, ranges, use)
-        reach = np.minimum(self.geometry.max_range, r + self.alpha / 2.0)
-        cells = self._cells(centres, axis, np.where(mask, reach, 0.0))
-        increment = thrun_inverse_model(
-            r[cells.reading],
+    def _reach(self, ranges: FloatArray) -> FloatArray:
+        return np.minimum(self.geometry.max_range, ranges + self.alpha / 2.0)
+
+    def _increment(self, ranges: FloatArray, cells: ConeCells) -> FloatArray:
+        return thrun_inverse_model(
+            ranges,
             cells.rho,
             cells.theta,
             z_max=self.geometry.max_range,
@@ -305,7 +362,6 @@ class ThrunMapper(_LogOddsMapper):
             l_occ=self.l_occ,
             l_free=self.l_free,
         )
-        self._add(cells, increment)
 
 
 class RosRangeLayerMapper(_ConeMapper):
@@ -340,11 +396,18 @@ class RosRangeLayerMapper(_ConeMapper):
         self.probability_: Grid = np.full(grid.shape, 127.0 / 254.0)
         self.touched_ = np.zeros(grid.shape, dtype=bool)
 
-    def integrate(
-        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+    def integrate_many(
+        self, poses: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
     ) -> None:
-        """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
-        centres, axis, r, mask = self._prepare(pose, ranges, use, clip=False)
+        """Add ``m`` rings in order: ``ranges`` ``(m, n)`` [m] at ``poses`` ``(m, 3)``."""
+        centres, axis, r, mask = self._prepare(poses, ranges, use, clip=False)
+        for i in range(len(r)):
+            self._integrate_ring(centres[i], axis[i], r[i], mask[i])
+
+    def _integrate_ring(
+        self, centres: FloatArray, axis: FloatArray, r: FloatArray, mask: np.ndarray
+    ) -> None:
+        """One ring, reading by reading, as the layer does."""
         mask = mask & (r <= self.geometry.max_range) & (r >= self.geometry.min_range)
         r = np.where(mask, r, 0.0)
         half = self.geometry.beam_width / 2.0

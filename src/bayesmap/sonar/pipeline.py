@@ -39,6 +39,10 @@ __all__ = [
 ]
 
 
+_RINGS_PER_BATCH = 100
+"""Rings :func:`map_log` hands to the filter and the mapper at once."""
+
+
 class RingMapper(Protocol):
     """What :func:`map_log` needs of a mapper (see :mod:`bayesmap.sonar.mapping`)."""
 
@@ -48,6 +52,11 @@ class RingMapper(Protocol):
         self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
     ) -> None:
         """Add one ring."""
+
+    def integrate_many(
+        self, poses: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+    ) -> None:
+        """Add rings in order (the map one-by-one integration gives)."""
 
     def probability(self) -> Grid:
         """Occupancy probability of each cell."""
@@ -162,7 +171,7 @@ def map_log(
         Count a ring that repeats the last one (:func:`repeats_last`) once: it takes the
         last ring's verdict and is neither filtered nor mapped again.
     progress
-        Optional ``progress(done, total)`` callback, called every 100 rings.
+        Optional ``progress(done, total)`` callback, called every 100 rings and at the end.
     """
     p = np.asarray(poses, dtype=np.float64)
     r = np.asarray(ranges, dtype=np.float64)
@@ -175,24 +184,34 @@ def map_log(
     repeat = np.zeros(len(p), dtype=bool)
     geometry: SonarGeometry | None = getattr(mapper, "geometry", None)
     last = -1
-    for i in range(len(p)):
-        if (
-            merge_repeats
-            and last >= 0
-            and geometry is not None
-            and repeats_last(p[last], r[last], p[i], r[i], geometry)
-        ):
-            repeat[i] = True
-            accepted[i], stage[i] = accepted[last], stage[last]
-        else:
-            last = i
+    # Rings go through in batches: which rings repeat the last one, the filter's
+    # trait-independent stages and the cone cells are computed for a batch at once.
+    for start in range(0, len(p), _RINGS_PER_BATCH):
+        stop = min(start + _RINGS_PER_BATCH, len(p))
+        fresh = []
+        for i in range(start, stop):
+            if (
+                merge_repeats
+                and last >= 0
+                and geometry is not None
+                and repeats_last(p[last], r[last], p[i], r[i], geometry)
+            ):
+                repeat[i] = True
+            else:
+                last = i
+                fresh.append(i)
+        if fresh:
             if filt is not None:
-                verdict = filt.process(p[i], r[i])
-                accepted[i] = verdict.accepted
-                stage[i] = verdict.stage
-            mapper.integrate(p[i], r[i], accepted[i])
-        if progress is not None and (i % 100 == 99 or i == len(p) - 1):
-            progress(i + 1, len(p))
+                verdict = filt.process_many(p[fresh], r[fresh])
+                accepted[fresh] = verdict.accepted
+                stage[fresh] = verdict.stage
+            mapper.integrate_many(p[fresh], r[fresh], accepted[fresh])
+        for i in range(start, stop):
+            if repeat[i]:
+                # A repeat takes the verdict of the ring before (a repeat or the one repeated).
+                accepted[i], stage[i] = accepted[i - 1], stage[i - 1]
+        if progress is not None:
+            progress(stop, len(p))
     mapper.sync()
     return MapRun(accepted=accepted, stage=stage, repeat=repeat)
 

@@ -46,13 +46,9 @@ class Traits(NamedTuple):
 
 def fit_line(points: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Total-least-squares line through ``points`` ``(n, 2)``: its centroid and unit direction."""
-    centroid = points.mean(axis=0)
+    centroid = points.sum(axis=0) / len(points)
     rel = points - centroid
-    sxx, syy, sxy = (
-        float(rel[:, 0] @ rel[:, 0]),
-        float(rel[:, 1] @ rel[:, 1]),
-        float(rel[:, 0] @ rel[:, 1]),
-    )
+    (sxx, sxy), (_, syy) = (rel.T @ rel).tolist()
     # The major axis of the 2x2 scatter matrix (its leading eigenvector), in closed form.
     angle = 0.5 * math.atan2(2.0 * sxy, sxx - syy)
     return centroid, np.array([math.cos(angle), math.sin(angle)])
@@ -140,22 +136,22 @@ def fit_traits(
         _split(pts, int(a), int(b), tolerance, pieces)
     pieces.sort()
     kept = [(a, b) for a, b in pieces if b - a >= min_points]
-    merged: list[tuple[int, int, list[int]]] = []
+    # Each merged piece: first and last index, its members and its line (centroid, direction).
+    merged: list[tuple[int, int, list[int], tuple[FloatArray, FloatArray]]] = []
     for a, b in kept:
         members = list(range(a, b))
         if merged:
-            pa, pb, prev = merged[-1]
+            pa, pb, prev, _ = merged[-1]
             joint = prev + members
-            gap_ok = float(np.hypot(*(pts[a] - pts[pb - 1]))) <= max_gap
-            centroid, direction = fit_line(pts[joint])
-            if gap_ok and _residuals(pts[joint], centroid, direction).max() <= tolerance:
-                merged[-1] = (pa, b, joint)
-                continue
-        merged.append((a, b, members))
+            if float(np.hypot(*(pts[a] - pts[pb - 1]))) <= max_gap:
+                line = fit_line(pts[joint])
+                if _residuals(pts[joint], *line).max() <= tolerance:
+                    merged[-1] = (pa, b, joint, line)
+                    continue
+        merged.append((a, b, members, fit_line(pts[members])))
     segments = []
-    for _, _, members in merged:
+    for _, _, members, (centroid, direction) in merged:
         sel = pts[members]
-        centroid, direction = fit_line(sel)
         t = np.sort((sel - centroid) @ direction)
         distinct = 1 + int(np.count_nonzero(np.diff(t) > min_spacing))
         if distinct < min_points or t[-1] - t[0] < min_length:
