@@ -117,6 +117,7 @@ def _time(job: Callable[[], None]) -> tuple[float, float]:
 
 def main() -> None:
     poses, ranges, geometry, (xmin, ymin, xmax, ymax) = _log()
+    load_start = " / ".join(f"{v:.1f}" for v in os.getloadavg())
 
     def grid() -> OccupancyGrid:
         return OccupancyGrid(
@@ -175,8 +176,9 @@ def main() -> None:
     table = [
         "## sonar_filter: ring readings per second, memory on a 50 MB log",
         "",
-        f"Machine: {machine()}; load average at the end {load} (the 2 cores were shared with "
-        f"other jobs, so these rates are lower bounds). Log: Pioneer 16-sonar ring, realistic "
+        f"Machine: {machine()}; load average (1 / 5 / 15 min) {load_start} at the start, {load} "
+        f"at the end (the cores were shared with other jobs, so these rates are lower bounds). "
+        f"Log: Pioneer 16-sonar ring, realistic "
         f"simulated laps of `{WORLD}` (people, stops, drift), grid {RESOLUTION} m; median of "
         f"{REPEATS} repeats, single process. Target: 10,000 readings/s through filter + map.",
         "",
@@ -189,7 +191,12 @@ def main() -> None:
         ),
         "",
         "Readings per CPU second is the rate the code reaches when it has a core to itself; "
-        "readings per wall second is what this run saw with the cores shared.",
+        "readings per wall second is what this run saw with the cores shared. The default "
+        "pipeline runs `map_log`, which hands the filter and the mapper 100 rings at a time: "
+        "the transducer positions, Acceptability, Agreeability, the cone cells and the eq. 1 "
+        "log-odds of a batch are computed at once, Trait Verification and the log-odds "
+        "additions ring by ring (same verdicts and map as ring by ring). The other "
+        "rows feed one ring at a time.",
         "",
         "The ROS layer updates one reading at a time (Bayes with cost quantisation), as the "
         "layer does; the log-odds models update a whole ring at once.",

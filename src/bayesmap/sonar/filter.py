@@ -1,9 +1,11 @@
 """The specular-reading filter of the ICINCO 2007 fragment as one stateful object.
 
-:class:`SpecularFilter` takes one ring of readings at a time and runs the switchable stages
-Acceptability → Agreeability → Trait Verification, recording every rejection with its
-stage and reason. Its accumulated state (the local view ``L``, the recent echo points, the
-path length, the rejection log) lives in attributes ending in ``_`` (DESIGN convention 6).
+:class:`SpecularFilter` takes rings one at a time (:meth:`~SpecularFilter.process`) or a
+batch of consecutive rings (:meth:`~SpecularFilter.process_many`, same verdicts) and runs
+the switchable stages Acceptability → Agreeability → Trait Verification, recording every
+rejection with its stage and reason. Its accumulated state (the local view ``L``, the recent
+echo points, the path length, the rejection log) lives in attributes ending in ``_`` (DESIGN
+convention 6).
 """
 
 from __future__ import annotations
