@@ -456,3 +456,46 @@ def test_map_log_reports_progress_every_100_rings_and_at_the_end() -> None:
     grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
     map_log(poses, ranges, ElfesMapper(grid, geometry), progress=lambda d, t: calls.append((d, t)))
     assert calls == [(100, 250), (200, 250), (250, 250)]
+
+
+class _RingByRingMapper:
+    """A user's own mapper: only the methods :class:`RingMapper` requires, no batch method."""
+
+    def __init__(self, inner: ElfesMapper) -> None:
+        self.inner, self.grid, self.rings = inner, inner.grid, 0
+
+    def integrate(self, pose: object, ranges: object, use: object = None) -> None:
+        self.rings += 1
+        self.inner.integrate(pose, ranges, use)  # type: ignore[arg-type]
+
+    def probability(self) -> np.ndarray:
+        return self.inner.probability()
+
+    def observed(self) -> np.ndarray:
+        return self.inner.observed()
+
+    def sync(self) -> OccupancyGrid:
+        return self.inner.sync()
+
+
+def test_map_log_feeds_a_mapper_without_integrate_many_ring_by_ring() -> None:
+    log = read_sonar_log(DATA / "example_log.txt", 16, units=LogUnits("mm", "mm", "deg"))
+    geometry = SonarGeometry(tuple(math.radians(22.5 * k) for k in range(16)), max_range=5.0)
+    pipeline = PIPELINES["default"]
+
+    def run(wrap: bool) -> tuple[np.ndarray, np.ndarray, int]:
+        grid = grid_for_poses(log.poses, geometry.max_range, 0.1)
+        inner = pipeline.make_mapper(grid, geometry)
+        assert isinstance(inner, ElfesMapper)
+        mapper = _RingByRingMapper(inner) if wrap else inner
+        out = map_log(
+            log.poses, log.ranges, mapper, pipeline.make_filter(geometry), merge_repeats=False
+        )
+        rings = mapper.rings if isinstance(mapper, _RingByRingMapper) else -1
+        return out.stage, mapper.probability(), rings
+
+    stage, prob, rings = run(wrap=True)
+    ref_stage, ref_prob, _ = run(wrap=False)
+    assert rings > 0
+    assert np.array_equal(stage, ref_stage)
+    assert np.array_equal(prob, ref_prob)

@@ -150,6 +150,23 @@ def test_case_b_discards_contradictions_and_flagged_uncertain_matches() -> None:
     assert reason.tolist() == [TVReason.KEPT] * 4
 
 
+def test_an_echo_that_lands_on_l_is_not_contradicted_by_a_trait_in_front() -> None:
+    # A second known trait at y = 1 (say an extended trait poking across the axes) lies in
+    # front of the wall y = 2: the echoes that land on the wall agree with L and stay; the
+    # phantom at 4 m (on no trait) and the silent reading still claim free space through it.
+    two_walls = np.array([[-1.0, 2.0, 5.0, 2.0], [-1.0, 1.0, 5.0, 1.0]])
+    reason = _reconcile(True, l_segments=two_walls)
+    assert reason.tolist() == [
+        TVReason.KEPT,
+        TVReason.CONTRADICTS_L,
+        TVReason.CONTRADICTS_L,
+        TVReason.KEPT,
+    ]
+    # Without the wall at y = 2 in L, the same echoes are contradicted by the trait at y = 1.
+    only_front = _reconcile(True, l_segments=two_walls[1:])
+    assert only_front.tolist() == [TVReason.CONTRADICTS_L] * 4
+
+
 def test_one_point_repeated_is_not_a_trait() -> None:
     # A standing robot: one echo point, jittering by a millimetre, six times.
     standing = np.array([[1.0, 2.0]] * 2 + [[1.001, 2.0]] * 2 + [[1.002, 2.0]] * 2)

@@ -44,7 +44,13 @@ _RINGS_PER_BATCH = 100
 
 
 class RingMapper(Protocol):
-    """What :func:`map_log` needs of a mapper (see :mod:`bayesmap.sonar.mapping`)."""
+    """What :func:`map_log` needs of a mapper (see :mod:`bayesmap.sonar.mapping`).
+
+    A mapper may also offer ``integrate_many(poses, ranges, use)``, adding ``m`` rings in
+    order with the map that ring-by-ring integration gives (the shipped mappers do, for
+    speed); :func:`map_log` uses it when present and otherwise calls :meth:`integrate`
+    ring by ring, so a user's own mapper needs only the methods below.
+    """
 
     grid: OccupancyGrid
 
@@ -52,11 +58,6 @@ class RingMapper(Protocol):
         self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
     ) -> None:
         """Add one ring."""
-
-    def integrate_many(
-        self, poses: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
-    ) -> None:
-        """Add rings in order (the map one-by-one integration gives)."""
 
     def probability(self) -> Grid:
         """Occupancy probability of each cell."""
@@ -183,6 +184,7 @@ def map_log(
     stage = np.zeros(r.shape, dtype=np.int64)
     repeat = np.zeros(len(p), dtype=bool)
     geometry: SonarGeometry | None = getattr(mapper, "geometry", None)
+    integrate_many: Callable[..., None] | None = getattr(mapper, "integrate_many", None)
     last = -1
     # Rings go through in batches: which rings repeat the last one, the filter's
     # trait-independent stages and the cone cells are computed for a batch at once.
@@ -205,7 +207,11 @@ def map_log(
                 verdict = filt.process_many(p[fresh], r[fresh])
                 accepted[fresh] = verdict.accepted
                 stage[fresh] = verdict.stage
-            mapper.integrate_many(p[fresh], r[fresh], accepted[fresh])
+            if integrate_many is not None:
+                integrate_many(p[fresh], r[fresh], accepted[fresh])
+            else:
+                for i in fresh:
+                    mapper.integrate(p[i], r[i], accepted[i])
         for i in range(start, stop):
             if repeat[i]:
                 # A repeat takes the verdict of the ring before (a repeat or the one repeated).

@@ -240,6 +240,6 @@ def reconcile(
     reason[unsupported_uncertain] = TVReason.UNSUPPORTED_UNCERTAIN
     if enough_state:
         reason[supported & flagged & uncertain] = TVReason.FLAGGED_UNCERTAIN
-        reason[contradicted] = TVReason.CONTRADICTS_L
+        reason[contradicted & ~(echo & supported)] = TVReason.CONTRADICTS_L
     reason[~candidate] = TVReason.KEPT
     return reason
