@@ -150,12 +150,14 @@ def test_case_b_discards_contradictions_and_flagged_uncertain_matches() -> None:
     assert reason.tolist() == [TVReason.KEPT] * 4
 
 
-def test_an_echo_that_lands_on_l_is_not_contradicted_by_a_trait_in_front() -> None:
+def test_an_echo_that_lands_on_l_can_be_kept_despite_a_trait_in_front() -> None:
     # A second known trait at y = 1 (say an extended trait poking across the axes) lies in
-    # front of the wall y = 2: the echoes that land on the wall agree with L and stay; the
+    # front of the wall y = 2: by default every reading through it is contradicted; with
+    # keep_supported_echoes the echoes that land on the wall agree with L and stay; the
     # phantom at 4 m (on no trait) and the silent reading still claim free space through it.
     two_walls = np.array([[-1.0, 2.0, 5.0, 2.0], [-1.0, 1.0, 5.0, 1.0]])
-    reason = _reconcile(True, l_segments=two_walls)
+    assert _reconcile(True, l_segments=two_walls).tolist() == [TVReason.CONTRADICTS_L] * 4
+    reason = _reconcile(True, l_segments=two_walls, keep_supported_echoes=True)
     assert reason.tolist() == [
         TVReason.KEPT,
         TVReason.CONTRADICTS_L,
@@ -163,7 +165,7 @@ def test_an_echo_that_lands_on_l_is_not_contradicted_by_a_trait_in_front() -> No
         TVReason.KEPT,
     ]
     # Without the wall at y = 2 in L, the same echoes are contradicted by the trait at y = 1.
-    only_front = _reconcile(True, l_segments=two_walls[1:])
+    only_front = _reconcile(True, l_segments=two_walls[1:], keep_supported_echoes=True)
     assert only_front.tolist() == [TVReason.CONTRADICTS_L] * 4
 
 

@@ -129,6 +129,9 @@ class SpecularFilter:
     no_echo_spread
         A no-echo reading contradicts ``L`` when a trait crosses its axis or the rays this far
         [rad] either side of it within the max range (0: the axis only).
+    keep_supported_echoes
+        An echo whose range agrees with ``L`` is not contradicted by another trait in front
+        of it (off by default: it raises rejection precision but lowers κ in walled worlds).
 
     Attributes
     ----------
@@ -170,6 +173,7 @@ class SpecularFilter:
         footprint: float = 0.25,
         pass_limit: int = 3,
         no_echo_spread: float = 0.0,
+        keep_supported_echoes: bool = False,
     ) -> None:
         if not 0.0 < critical_angle < math.pi / 2:
             raise ConfigError(f"critical_angle must be in (0, pi/2) rad, got {critical_angle}")
@@ -225,6 +229,7 @@ class SpecularFilter:
         self.footprint = footprint
         self.pass_limit = pass_limit
         self.no_echo_spread = no_echo_spread
+        self.keep_supported_echoes = keep_supported_echoes
         self.left, self.right = geometry.neighbours()
         self.rings_ = 0
         self.path_ = 0.0
@@ -419,6 +424,7 @@ class SpecularFilter:
             margin=self.margin,
             no_echo_spread=self.no_echo_spread,
             critical_angle=self.critical_angle,
+            keep_supported_echoes=self.keep_supported_echoes,
         )
         kept = candidate & (reason == TVReason.KEPT)
         rejected_traits = set(labels[candidate & ~kept & (labels >= 0)].tolist())

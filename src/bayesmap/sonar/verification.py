@@ -166,6 +166,7 @@ def reconcile(
     margin: float,
     no_echo_spread: float = 0.0,
     critical_angle: float | None = None,
+    keep_supported_echoes: bool = False,
 ) -> IntArray:
     """Reconcile the current readings' traits ``V`` with the local view ``L``.
 
@@ -192,6 +193,10 @@ def reconcile(
         If given [rad], a trait whose normal the axis of a no-echo reading meets within this
         angle does not contradict it: a wall there would have echoed, so the silence speaks
         against the trait (a person who walked on), not against the reading.
+    keep_supported_echoes
+        If true, an echo whose range agrees with ``L`` (supported) is not contradicted by
+        another trait in front of it. This raises rejection precision but lowers κ in the
+        walled worlds (docs/sonar.md, *Support / contradiction*), so it is off by default.
 
     Returns
     -------
@@ -240,6 +245,7 @@ def reconcile(
     reason[unsupported_uncertain] = TVReason.UNSUPPORTED_UNCERTAIN
     if enough_state:
         reason[supported & flagged & uncertain] = TVReason.FLAGGED_UNCERTAIN
-        reason[contradicted & ~(echo & supported)] = TVReason.CONTRADICTS_L
+        overruled = echo & supported if keep_supported_echoes else np.zeros(n, dtype=bool)
+        reason[contradicted & ~overruled] = TVReason.CONTRADICTS_L
     reason[~candidate] = TVReason.KEPT
     return reason
