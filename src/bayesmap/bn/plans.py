@@ -488,21 +488,27 @@ def elimination_rank(
     the evidence-free steps (with it, min-weight spreads the axis early and a batch costs
     30× more on alarm).
     """
-    neighbours: dict[int, set[int]] = {}
+    neighbours: dict[int, int] = {}  # bit masks of each label's current neighbours
     for scope in scopes:
-        variables = [u for u in scope if u >= 0]
-        for u in variables:
-            linked = neighbours.get(u)
-            if linked is None:
-                neighbours[u] = set(variables)
-            else:
-                linked.update(variables)
+        mask = 0
+        for u in scope:
+            if u >= 0:
+                mask |= 1 << u
+        for u in scope:
+            if u >= 0:
+                neighbours[u] = neighbours.get(u, 0) | mask
     kept = set(output)
     current: dict[int, int] = {}
     for u, linked in neighbours.items():
-        linked.discard(u)
+        linked &= ~(1 << u)
+        neighbours[u] = linked
         if u not in kept:
-            current[u] = card[u] * math.prod([card[w] for w in linked])
+            weight = card[u]
+            while linked:
+                low = linked & -linked
+                weight *= card[low.bit_length() - 1]
+                linked ^= low
+            current[u] = weight
     heap = [(w, u) for u, w in current.items()]
     heapq.heapify(heap)
     rank: dict[int, int] = {}
@@ -514,16 +520,21 @@ def elimination_rank(
         rank[u] = len(rank)
         around = neighbours.pop(u)
         size = card[u]
-        for x in around:
+        clear = ~(1 << u)
+        rest = around
+        while rest:
+            low = rest & -rest
+            rest ^= low
+            x = low.bit_length() - 1
             linked = neighbours[x]
-            linked.discard(u)
-            gained = around - linked
-            gained.discard(x)
-            linked |= gained
+            gained = around & ~linked & ~low
+            neighbours[x] = (linked | gained) & clear
             if x in current and x not in rank:
                 weight = current[x] // size
-                for y in gained:
-                    weight *= card[y]
+                while gained:
+                    bit = gained & -gained
+                    weight *= card[bit.bit_length() - 1]
+                    gained ^= bit
                 if weight != current[x]:
                     current[x] = weight
                     push(heap, (weight, x))
