@@ -436,9 +436,10 @@ def order_steps(
     path: list[tuple[int, ...]] = []
     kept_steps: list[tuple[int, ...]] = []
     total = 0
-    eliminate = [u for u in holders if u not in output]
-    eliminate.sort(key=lambda u: rank.get(u, len(rank)))  # labels not ranked go last
-    for u in eliminate:
+    # the ranked labels in rank order (``rank`` is filled in that order), then the labels
+    # not ranked (the case axis)
+    unranked = [u for u in holders if u < 0 and u not in output]
+    for u in (*rank, *unranked):
         chosen = tuple([k for k in holders[u] if alive[k]])
         if not chosen:
             continue
@@ -488,27 +489,21 @@ def elimination_rank(
     the evidence-free steps (with it, min-weight spreads the axis early and a batch costs
     30× more on alarm).
     """
-    neighbours: dict[int, int] = {}  # bit masks of each label's current neighbours
+    neighbours: dict[int, set[int]] = {}
     for scope in scopes:
-        mask = 0
-        for u in scope:
-            if u >= 0:
-                mask |= 1 << u
-        for u in scope:
-            if u >= 0:
-                neighbours[u] = neighbours.get(u, 0) | mask
+        variables = [u for u in scope if u >= 0]
+        for u in variables:
+            linked = neighbours.get(u)
+            if linked is None:
+                neighbours[u] = set(variables)
+            else:
+                linked.update(variables)
     kept = set(output)
     current: dict[int, int] = {}
     for u, linked in neighbours.items():
-        linked &= ~(1 << u)
-        neighbours[u] = linked
+        linked.discard(u)
         if u not in kept:
-            weight = card[u]
-            while linked:
-                low = linked & -linked
-                weight *= card[low.bit_length() - 1]
-                linked ^= low
-            current[u] = weight
+            current[u] = card[u] * math.prod([card[w] for w in linked])
     heap = [(w, u) for u, w in current.items()]
     heapq.heapify(heap)
     rank: dict[int, int] = {}
@@ -520,21 +515,16 @@ def elimination_rank(
         rank[u] = len(rank)
         around = neighbours.pop(u)
         size = card[u]
-        clear = ~(1 << u)
-        rest = around
-        while rest:
-            low = rest & -rest
-            rest ^= low
-            x = low.bit_length() - 1
+        for x in around:
             linked = neighbours[x]
-            gained = around & ~linked & ~low
-            neighbours[x] = (linked | gained) & clear
+            linked.discard(u)
+            gained = around - linked
+            gained.discard(x)
+            linked |= gained
             if x in current and x not in rank:
                 weight = current[x] // size
-                while gained:
-                    bit = gained & -gained
-                    weight *= card[bit.bit_length() - 1]
-                    gained ^= bit
+                for y in gained:
+                    weight *= card[y]
                 if weight != current[x]:
                     current[x] = weight
                     push(heap, (weight, x))
