@@ -12,10 +12,11 @@ a true joint maximisation, never per-variable arg-maxes of marginals.
 
 from __future__ import annotations
 
+import importlib
 import itertools
 import math
 from collections import Counter
-from collections.abc import Hashable, Iterable, Sequence
+from collections.abc import Callable, Hashable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any, Generic, NamedTuple, Protocol, TypeVar
 
@@ -198,6 +199,26 @@ def _align(algebra: Algebra[T], value: T, term: str, order: str, sizes: dict[str
     return algebra.rearrange(value, axes, shape)
 
 
+def _c_einsum() -> Callable[..., Any]:
+    """numpy's C ``einsum``: what :func:`numpy.einsum` calls when ``optimize`` is off, minus
+    its ``__array_function__`` dispatch, which costs 2–3 µs per call — more than the
+    arithmetic of most steps of a Bayesian-network contraction (a warm question makes
+    about seven calls). Same arguments, same results; :func:`numpy.einsum` itself if numpy
+    keeps the function elsewhere."""
+    for module in ("numpy._core.multiarray", "numpy.core.multiarray"):  # numpy 2, numpy 1
+        try:
+            found: Callable[..., Any] = importlib.import_module(module).c_einsum
+        except (ImportError, AttributeError):
+            continue
+        return found
+    return np.einsum
+
+
+einsum = _c_einsum()
+"""Sum-product in sub-list form (``einsum(a, [0, 1], b, [1, 2], [0, 2])``), as
+:func:`numpy.einsum` without ``optimize``."""
+
+
 _MAX_OPERANDS = 24
 """``np.einsum`` takes at most 32 operands: a step of more than this is contracted in groups."""
 
@@ -374,7 +395,7 @@ class SumProgram:
             args = template.copy()
             for slot, source in fills:
                 args[slot] = registers[source]
-            registers[out] = opt_einsum.contract(*args) if large else np.einsum(*args)
+            registers[out] = opt_einsum.contract(*args) if large else einsum(*args)
         value, source = self.result
         return np.asarray(value if source < 0 else registers[source])
 
@@ -449,4 +470,4 @@ def walk(
 
 
 def _call(args: list[Any], large: bool) -> FloatArray:
-    return np.asarray(opt_einsum.contract(*args) if large else np.einsum(*args))
+    return np.asarray(opt_einsum.contract(*args) if large else einsum(*args))

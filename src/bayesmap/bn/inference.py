@@ -148,7 +148,7 @@ class Engine:
             operands: list[Any] = [compiled.cpts[var], list(range(len(parents) + 1))]
             for axis, parent in enumerate(parents, start=1):
                 operands += [self.priors[parent], [axis]]
-            table = np.einsum(*operands, [0])
+            table = elimination.einsum(*operands, [0])
         else:
             plan = plans.build(compiled, QueryKind.MARGINAL, (var,), (), prior=self.prior)
             table, _ = contraction.single_program(plan, compiled, self.tuning)

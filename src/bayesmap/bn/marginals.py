@@ -28,7 +28,7 @@ import numpy as np
 import opt_einsum
 
 from bayesmap._typing import FloatArray
-from bayesmap.bn.elimination import walk
+from bayesmap.bn.elimination import einsum, walk
 from bayesmap.bn.tuning import TUNING, Tuning
 
 
@@ -66,13 +66,13 @@ def _sublist(
 
 def _run(args: list[Any], store: Sequence[Any], large: bool) -> Any:
     """Fill a :func:`_sublist` template from ``store`` and contract."""
-    einsum = opt_einsum.contract if large else np.einsum
+    contract = opt_einsum.contract if large else einsum
     if len(args) == 5:
-        return einsum(store[args[0]], args[1], store[args[2]], args[3], args[4])
+        return contract(store[args[0]], args[1], store[args[2]], args[3], args[4])
     if len(args) == 3:
-        return einsum(store[args[0]], args[1], args[2])
+        return contract(store[args[0]], args[1], args[2])
     filled = [store[a] if k % 2 == 0 and k < len(args) - 1 else a for k, a in enumerate(args)]
-    return einsum(*filled)
+    return contract(*filled)
 
 
 class TwoPass:

@@ -436,9 +436,10 @@ def order_steps(
     path: list[tuple[int, ...]] = []
     kept_steps: list[tuple[int, ...]] = []
     total = 0
-    eliminate = [u for u in holders if u not in output]
-    eliminate.sort(key=lambda u: rank.get(u, len(rank)))  # labels not ranked go last
-    for u in eliminate:
+    # the ranked labels in rank order (``rank`` is filled in that order), then the labels
+    # not ranked (the case axis)
+    unranked = [u for u in holders if u < 0 and u not in output]
+    for u in (*rank, *unranked):
         chosen = tuple([k for k in holders[u] if alive[k]])
         if not chosen:
             continue
