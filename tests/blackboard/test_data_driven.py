@@ -6,8 +6,16 @@ import math
 
 import numpy as np
 
-from bayesmap.blackboard.data_driven import LegVotes
-from bayesmap.sim.whisker_worlds import StressOptions, generate_world
+from bayesmap.blackboard.data_driven import LegVotes, polish_table, table_candidates
+from bayesmap.blackboard.sweep_model import (
+    ObjectType,
+    SweepModel,
+    arena_contains,
+    leg_centres,
+    wall_contact_density,
+)
+from bayesmap.experiments.fused_run import fused_params
+from bayesmap.sim.whisker_worlds import StressOptions, WorldFile, generate_world
 from bayesmap.sim.whiskers import condition, observe
 
 LEG_HALF = 0.05
@@ -84,3 +92,66 @@ def test_leg_peaks_of_a_whole_tour_sit_on_the_legs() -> None:
     errors = _peak_errors(5, "normal", 1.5)
     assert len(errors) >= 20
     assert errors.mean() < 0.025
+
+
+def test_a_table_pressed_into_a_corner_is_proposed_though_its_legs_are_found_across_the_walls() -> (
+    None
+):
+    """A desk turned 90° touching the floor and the right wall (1 mm gaps): its two inner
+    legs, found 1.5 cm too far towards the walls, imply a desk crossing both; the candidate
+    stands inside, against the walls, instead of being dropped."""
+    catalogue = (ObjectType("desk", 1.2, 0.8, 0.1),)
+    arena = (5.5, 6.0)
+    truth = np.array([5.5 - 0.401, 0.601, 0.5 * math.pi, 0.0])
+    legs = leg_centres(truth, catalogue)[0, :, :2]
+    found = legs[[0, 3]] + np.array([0.015, -0.015])  # the two legs off the floor
+    candidates, _ = table_candidates(np.column_stack([found, np.ones(2)]), catalogue, arena, 0.06)
+    assert arena_contains(candidates, catalogue, arena).all()
+    near = np.hypot(candidates[:, 0] - truth[0], candidates[:, 1] - truth[1]) < 0.03
+    assert near.any()
+
+
+def test_polish_keeps_a_desk_pressed_into_a_corner_where_it_stands() -> None:
+    """A desk touching the floor and the right wall (1 mm gaps), seen on a whole tour with
+    normal noise, its candidate 2–3 cm across both walls: polished, it stands inside the
+    arena within 1.5 cm and 0.01 rad of the truth (a table left across a wall has zero
+    prior, and the candidate would be lost)."""
+    arena = (5.5, 6.0)
+    truth = np.array([5.5 - 0.401, 0.601, 0.5 * math.pi, 0.0])
+    world_file = WorldFile(
+        arena, np.array([[*truth[:3], 1.2, 0.8, 0.1, 0.3]]), catalogue=(("desk", 1.2, 0.8, 0.1),)
+    )
+    catalogue = (ObjectType("desk", 1.2, 0.8, 0.1),)
+    world, sensor = world_file.world(), condition("normal")
+    params = fused_params(sensor)
+    model = SweepModel(
+        params.sigma_r,
+        params.sigma_perp,
+        params.sigma_phi,
+        params.clutter,
+        params.p_miss,
+        params.intensity,
+        params.log_overlap,
+        arena,
+        params.reach,
+    )
+    rng = np.random.default_rng(3)
+    rows = []
+    for pose in world_file.robot_poses():
+        sweeps = observe(world, pose, sensor, rng=rng).sweeps
+        hit = sweeps[np.isfinite(sweeps[:, 3])]
+        rows.append(np.column_stack([np.tile(pose[:2], (len(hit), 1)), hit[:, [1, 3, 4]]]))
+    contacts = np.concatenate(rows)
+    contacts = contacts[np.hypot(contacts[:, 0] - truth[0], contacts[:, 1] - truth[1]) < 2.0]
+    floor = np.maximum(
+        model.clutter,
+        wall_contact_density(
+            contacts[:, :2], contacts[:, 2], contacts[:, 3], contacts[:, 4], model
+        ),
+    )
+    counts = np.ones(len(contacts))
+    start = truth + np.array([0.02, -0.03, 0.04, 0.0])
+    out = polish_table(start, contacts, counts, floor, catalogue, model)
+    assert arena_contains(out, catalogue, arena)[0]
+    assert math.hypot(out[0] - truth[0], out[1] - truth[1]) < 0.015
+    assert abs(out[2] - truth[2]) < 0.01

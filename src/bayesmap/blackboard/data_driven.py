@@ -47,7 +47,7 @@ from bayesmap._typing import FloatArray
 from bayesmap.blackboard.sweep_model import (
     ObjectType,
     SweepModel,
-    arena_contains,
+    into_arena,
     leg_centres,
     leg_contact_density,
 )
@@ -185,7 +185,9 @@ def table_candidates(
 ) -> tuple[FloatArray, FloatArray]:
     """Tables ``(c, 4)`` ``x, y, θ, k`` implied by pairs of candidate legs, and their weights.
 
-    See the module docstring; tables crossing a wall are dropped (they have zero prior).
+    See the module docstring. A table that crosses a wall (zero prior) is moved inside when
+    that takes at most ``spacing_tol`` (legs found a centimetre or two off put a table
+    pressed against a wall across it), else dropped.
     """
     if len(legs) < 2:
         return np.zeros((0, 4)), np.zeros(0)
@@ -212,7 +214,8 @@ def table_candidates(
             found.append(np.column_stack([mid[ok], theta, np.full(ok.sum(), k)]))
     tables = np.concatenate(found) if found else np.zeros((0, 4))
     tables[:, 2] = np.mod(tables[:, 2], math.pi)
-    tables = tables[arena_contains(tables, catalogue, arena)]
+    tables, moved = into_arena(tables, catalogue, arena)
+    tables = tables[moved <= spacing_tol]
     if not len(tables):
         return np.zeros((0, 4)), np.zeros(0)
     corners = leg_centres(tables, catalogue)[..., :2]
@@ -361,41 +364,56 @@ def polish_table(
     objective is Σ n_i log(floor_i + max over the table's legs of ρ_leg(i)) (the contact
     term F2 of :mod:`~bayesmap.blackboard.sweep_model`, summed instead of maximised so it
     is smooth), maximised by Nelder–Mead once per factor of ``widen`` (the noise scales
-    σ_r, σ_⊥, σ_φ multiplied by it). Returns the polished ``(4,)`` table (θ in [0, π)).
+    σ_r, σ_⊥, σ_φ multiplied by it), over tables inside the arena (a position across a wall
+    counts as the nearest one inside: a table against a wall). Returns the polished ``(4,)``
+    table (θ in [0, π)), or the start (moved inside) if that fits its contacts better at
+    the model's noise scales.
     """
-    out = np.asarray(table, dtype=np.float64).copy()
+    start: FloatArray = into_arena(np.asarray(table, dtype=np.float64), catalogue, model.arena)[0][
+        0
+    ]
     if not len(contacts):
-        return out
-    k = out[3]
+        return start
+    k = start[3]
 
+    def placed(v: FloatArray) -> FloatArray:
+        """The table at ``v`` = (x, y, θ), moved inside the arena."""
+        inside: FloatArray = into_arena(np.array([v[0], v[1], v[2], k]), catalogue, model.arena)[0]
+        return np.asarray(inside[0], dtype=np.float64)
+
+    def negative(v: FloatArray, scaled: SweepModel) -> float:
+        table = placed(v)
+        legs = leg_centres(table, catalogue)[0]
+        rho = leg_contact_density(
+            contacts[:, :2],
+            contacts[:, 2],
+            contacts[:, 3],
+            contacts[:, 4],
+            legs,
+            np.full(4, table[2]),
+            scaled,
+        ).max(axis=1)
+        return -float((counts * np.log(floor + rho)).sum())
+
+    out = start.copy()
     for factor in widen:
         scaled = model._replace(
             sigma_r=model.sigma_r * factor,
             sigma_perp=model.sigma_perp * factor,
             sigma_phi=model.sigma_phi * factor,
         )
-
-        def negative(v: FloatArray, scaled: SweepModel = scaled) -> float:
-            legs = leg_centres(np.array([v[0], v[1], v[2], k]), catalogue)[0]
-            rho = leg_contact_density(
-                contacts[:, :2],
-                contacts[:, 2],
-                contacts[:, 3],
-                contacts[:, 4],
-                legs,
-                np.full(4, v[2]),
-                scaled,
-            ).max(axis=1)
-            return -float((counts * np.log(floor + rho)).sum())
-
         scale = np.array([0.02, 0.02, 0.03]) * factor
         simplex = out[:3] + np.vstack([np.zeros(3), np.diag(scale)])
         found = optimize.minimize(
             negative,
             out[:3],
+            args=(scaled,),
             method="Nelder-Mead",
             options={"initial_simplex": simplex, "maxfev": max_evals, "xatol": 1e-3, "fatol": 1e-2},
         )
-        out[:3] = found.x
+        out = placed(found.x)
     out[2] %= math.pi
-    return out
+    # the wide basin can lead off a table's best place (a table against a wall, whose wall
+    # contacts the widened legs also claim): never return worse than the start
+    better = negative(out[:3], model) <= negative(start[:3], model)
+    return np.asarray(out if better else start, dtype=np.float64)
