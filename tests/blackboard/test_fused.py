@@ -9,7 +9,6 @@ import pytest
 
 from bayesmap.blackboard.data_driven import (
     BirthProposal,
-    LegVotes,
     birth_density,
     draw_birth,
     draw_near,
@@ -389,21 +388,6 @@ def test_bad_catalogue_and_params_are_config_errors() -> None:
         FusedMapper((ObjectType("bad", 0.5, 0.8, 0.1),), ARENA)
     with pytest.raises(ConfigError, match="p_miss"):
         FusedParams(p_miss=1.5)
-
-
-def test_leg_votes_peak_where_bearings_cross() -> None:
-    """Noisy ranges (σ_r = 0.5 m) from three poses: the leg candidate lies where their
-    bearings cross, within a few cm of the leg, though every range is far off."""
-    votes = LegVotes((6.0, 6.0), 0.5, 0.05)
-    leg = np.array([3.0, 3.0])
-    roots = np.array([[2.2, 2.6], [3.6, 2.2], [3.1, 3.9]])
-    bearing = np.arctan2(leg[1] - roots[:, 1], leg[0] - roots[:, 0])
-    r_hat = np.hypot(*(leg - roots).T) - 0.05 + np.array([0.45, -0.4, 0.3])
-    votes.add(roots, bearing, r_hat, np.ones(3))
-    peaks = votes.peaks((0.0, 0.0, 6.0, 6.0), 2.0)
-    assert len(peaks) >= 1
-    best = peaks[np.argmax(peaks[:, 2])]
-    assert math.hypot(best[0] - leg[0], best[1] - leg[1]) < 0.06
 
 
 @pytest.mark.slow

@@ -5,20 +5,25 @@ proposals, which keep the probabilistic semantics once their density enters the
 reversible-jump ratio. Two detectors:
 
 1. **Legs (a Hough transform over leg centres).** Each contact votes for where the centre
-   of the leg it touched could be: along its whisker's bearing, half a leg beyond the
-   reported range, spread along the whisker by the range noise (a short blob when σ_r is a
-   few cm; a 3σ_r-long ridge in the noisy condition, where bearings from several poses
-   cross at the leg — the "intersection of bearings"). Smoothed local maxima of the vote
-   grid holding at least ``min_votes`` contacts' worth are leg candidates.
+   of the leg it touched could be. A whisker rotating about its root first meets a square
+   leg at a corner (the rest of the leg lies ahead of the shaft in the sweep), or where its
+   tip meets a face; it reports the normal n̂ of the face turned to the root. So the
+   centre lies h (−n̂ + t̂) from a corner contact, t̂ the face's direction ahead in the
+   sweep, and h n̂ behind a tip contact (h: half a leg's side), not half a leg along the
+   whisker (which put the peaks 4–9 cm off the legs). The vote is spread along the whisker
+   by the range noise (a short blob when σ_r is a few cm; a 3σ_r-long ridge in the noisy
+   condition, where bearings from several poses cross at the leg — the "intersection of
+   bearings"). Smoothed local maxima of the vote grid holding at least ``min_votes``
+   contacts' worth are leg candidates.
 2. **Tables (pairs and triples of legs).** Two candidate legs whose distance matches a
    type's long side, short side or diagonal (within ``spacing_tol``) fix two tables of that
    type; every such table gets a weight ``exp(support_gain × legs)``, legs the number of
    candidate legs within ``spacing_tol`` of its four corners, so a table seen by three or
    four legs is proposed far more often (a triple pins the table).
 
-3. **Polish (local optimisation).** The leg detector's peaks sit 5–10 cm off a leg whose
-   corner the whiskers touched, and a table born that far off fits its contacts worse than
-   walls and clutter do. :func:`polish_table` moves each candidate to a local maximum of
+3. **Polish (local optimisation).** Two leg peaks a few cm off make a table a few cm and
+   degrees off, and a table born that far off can fit its contacts worse than walls and
+   clutter do. :func:`polish_table` moves each candidate to a local maximum of
    its own contacts' likelihood, Σ n_i log(floor_i + max_legs ρ_leg(i)), by Nelder–Mead,
    first with the noise scales four times wider (a wide basin) and then at the model's.
    A candidate depends on the stored data only, never on the chain's state, so the birth
@@ -42,10 +47,11 @@ from bayesmap._typing import FloatArray
 from bayesmap.blackboard.sweep_model import (
     ObjectType,
     SweepModel,
-    arena_contains,
+    into_arena,
     leg_centres,
     leg_contact_density,
 )
+from bayesmap.geometry import wrap_angle
 
 __all__ = [
     "BirthProposal",
@@ -69,11 +75,12 @@ class LegVotes:
     sigma_r
         Range noise [m] that spreads each vote along its whisker.
     leg_half
-        Half a leg's side [m]: a leg's centre lies about this far beyond its contact.
+        Half a leg's side [m] (h of the module docstring).
     reach
-        Whisker length [m]: a vote lands only where the whisker could have touched (within
-        ``reach`` of its root, plus half a leg), so a noisy contact votes along the reachable
-        segment of its bearing, not past the tip.
+        Whisker length [m]: a vote's contact point lies where the whisker could have touched
+        (within ``reach`` of its root), so a noisy contact votes along the reachable segment
+        of its bearing, not past the tip; and a range near ``reach`` says the tip touched
+        (∞: every contact is taken for a corner).
     cell
         Grid resolution [m].
     """
@@ -103,17 +110,55 @@ class LegVotes:
         self.single_peak = float(ndimage.gaussian_filter(single, self.smooth).max())
 
     def add(
-        self, root: FloatArray, bearing: FloatArray, r_hat: FloatArray, counts: FloatArray
+        self,
+        root: FloatArray,
+        bearing: FloatArray,
+        r_hat: FloatArray,
+        counts: FloatArray,
+        start: FloatArray,
+        normal: FloatArray,
     ) -> None:
-        """Add the votes of contacts (``root`` (m, 2), ``bearing``, ``r̂``, ``counts`` (m,))."""
-        t = r_hat[:, None] + self.leg_half + self._offsets[None]
-        x = root[:, :1] + t * np.cos(bearing)[:, None]
-        y = root[:, 1:] + t * np.sin(bearing)[:, None]
-        i, j = np.round(y / self.cell).astype(np.int64), np.round(x / self.cell).astype(np.int64)
-        ok = (t >= 0) & (t <= self.reach + self.leg_half)
-        ok &= (i >= 0) & (i < self.shape[0]) & (j >= 0) & (j < self.shape[1])
-        w = (counts[:, None] * self._weights[None]) * ok
-        np.add.at(self.votes_, (i[ok], j[ok]), w[ok])
+        """Add the votes of contacts: ``root`` (m, 2), stop ``bearing``, ``r̂``, ``counts``,
+        sweep ``start`` angle and reported ``normal`` φ̂ (all (m,), angles [rad]).
+
+        Where the leg's centre lies relative to the contact point P = root + r̂ (cos ψ, sin ψ)
+        follows from the whisking geometry (:mod:`bayesmap.sim.whiskers`): a rotating shaft
+        first meets a square leg at its corner nearest in the sweep (the rest of the leg lies
+        ahead of the shaft), on the face turned to the root, of outward normal n̂. So the
+        centre is P + h (−n̂ + t̂), with t̂ the face's direction that points ahead in the sweep.
+        When the tip meets a face instead (r̂ at the whisker's length), the centre is
+        P − h n̂, give or take h along the face. The two cases are weighed by how likely r̂ is
+        under each: N(r̂; reach, σ_r) for a tip contact, uniform over the reach for a corner.
+        """
+        ahead = np.sign(wrap_angle(bearing - start))
+        ahead = np.where(ahead == 0, 1.0, ahead)
+        nx, ny = np.cos(normal), np.sin(normal)
+        # the face tangent (−n_y, n_x) or its opposite, whichever points ahead in the sweep
+        # (ahead of the shaft is ahead · (−sin ψ, cos ψ))
+        side = np.sign(-ny * -np.sin(bearing) + nx * np.cos(bearing)) * ahead
+        side = np.where(side == 0, 1.0, side)
+        tx, ty = -ny * side, nx * side
+        if math.isfinite(self.reach):
+            tip = np.exp(-0.5 * ((r_hat - self.reach) / self.sigma_r) ** 2) / (
+                math.sqrt(2.0 * math.pi) * self.sigma_r
+            )
+            share_tip = tip / (tip + 1.0 / self.reach)
+        else:
+            share_tip = np.zeros(len(r_hat))
+        h = self.leg_half
+        for shift_x, shift_y, share in (
+            (h * (tx - nx), h * (ty - ny), 1.0 - share_tip),
+            (-h * nx, -h * ny, share_tip),
+        ):
+            t = r_hat[:, None] + self._offsets[None]
+            x = root[:, :1] + t * np.cos(bearing)[:, None] + shift_x[:, None]
+            y = root[:, 1:] + t * np.sin(bearing)[:, None] + shift_y[:, None]
+            i = np.round(y / self.cell).astype(np.int64)
+            j = np.round(x / self.cell).astype(np.int64)
+            ok = (t >= 0) & (t <= self.reach)
+            ok &= (i >= 0) & (i < self.shape[0]) & (j >= 0) & (j < self.shape[1])
+            w = ((counts * share)[:, None] * self._weights[None]) * ok
+            np.add.at(self.votes_, (i[ok], j[ok]), w[ok])
 
     def peaks(self, box: tuple[float, float, float, float], min_votes: float) -> FloatArray:
         """``(p, 3)`` leg candidates ``x, y, votes`` in ``box`` = ``(x0, y0, x1, y1)`` [m]."""
@@ -140,7 +185,9 @@ def table_candidates(
 ) -> tuple[FloatArray, FloatArray]:
     """Tables ``(c, 4)`` ``x, y, θ, k`` implied by pairs of candidate legs, and their weights.
 
-    See the module docstring; tables crossing a wall are dropped (they have zero prior).
+    See the module docstring. A table that crosses a wall (zero prior) is moved inside when
+    that takes at most ``spacing_tol`` (legs found a centimetre or two off put a table
+    pressed against a wall across it), else dropped.
     """
     if len(legs) < 2:
         return np.zeros((0, 4)), np.zeros(0)
@@ -167,7 +214,8 @@ def table_candidates(
             found.append(np.column_stack([mid[ok], theta, np.full(ok.sum(), k)]))
     tables = np.concatenate(found) if found else np.zeros((0, 4))
     tables[:, 2] = np.mod(tables[:, 2], math.pi)
-    tables = tables[arena_contains(tables, catalogue, arena)]
+    tables, moved = into_arena(tables, catalogue, arena)
+    tables = tables[moved <= spacing_tol]
     if not len(tables):
         return np.zeros((0, 4)), np.zeros(0)
     corners = leg_centres(tables, catalogue)[..., :2]
@@ -316,41 +364,56 @@ def polish_table(
     objective is Σ n_i log(floor_i + max over the table's legs of ρ_leg(i)) (the contact
     term F2 of :mod:`~bayesmap.blackboard.sweep_model`, summed instead of maximised so it
     is smooth), maximised by Nelder–Mead once per factor of ``widen`` (the noise scales
-    σ_r, σ_⊥, σ_φ multiplied by it). Returns the polished ``(4,)`` table (θ in [0, π)).
+    σ_r, σ_⊥, σ_φ multiplied by it), over tables inside the arena (a position across a wall
+    counts as the nearest one inside: a table against a wall). Returns the polished ``(4,)``
+    table (θ in [0, π)), or the start (moved inside) if that fits its contacts better at
+    the model's noise scales.
     """
-    out = np.asarray(table, dtype=np.float64).copy()
+    start: FloatArray = into_arena(np.asarray(table, dtype=np.float64), catalogue, model.arena)[0][
+        0
+    ]
     if not len(contacts):
-        return out
-    k = out[3]
+        return start
+    k = start[3]
 
+    def placed(v: FloatArray) -> FloatArray:
+        """The table at ``v`` = (x, y, θ), moved inside the arena."""
+        inside: FloatArray = into_arena(np.array([v[0], v[1], v[2], k]), catalogue, model.arena)[0]
+        return np.asarray(inside[0], dtype=np.float64)
+
+    def negative(v: FloatArray, scaled: SweepModel) -> float:
+        table = placed(v)
+        legs = leg_centres(table, catalogue)[0]
+        rho = leg_contact_density(
+            contacts[:, :2],
+            contacts[:, 2],
+            contacts[:, 3],
+            contacts[:, 4],
+            legs,
+            np.full(4, table[2]),
+            scaled,
+        ).max(axis=1)
+        return -float((counts * np.log(floor + rho)).sum())
+
+    out = start.copy()
     for factor in widen:
         scaled = model._replace(
             sigma_r=model.sigma_r * factor,
             sigma_perp=model.sigma_perp * factor,
             sigma_phi=model.sigma_phi * factor,
         )
-
-        def negative(v: FloatArray, scaled: SweepModel = scaled) -> float:
-            legs = leg_centres(np.array([v[0], v[1], v[2], k]), catalogue)[0]
-            rho = leg_contact_density(
-                contacts[:, :2],
-                contacts[:, 2],
-                contacts[:, 3],
-                contacts[:, 4],
-                legs,
-                np.full(4, v[2]),
-                scaled,
-            ).max(axis=1)
-            return -float((counts * np.log(floor + rho)).sum())
-
         scale = np.array([0.02, 0.02, 0.03]) * factor
         simplex = out[:3] + np.vstack([np.zeros(3), np.diag(scale)])
         found = optimize.minimize(
             negative,
             out[:3],
+            args=(scaled,),
             method="Nelder-Mead",
             options={"initial_simplex": simplex, "maxfev": max_evals, "xatol": 1e-3, "fatol": 1e-2},
         )
-        out[:3] = found.x
+        out = placed(found.x)
     out[2] %= math.pi
-    return out
+    # the wide basin can lead off a table's best place (a table against a wall, whose wall
+    # contacts the widened legs also claim): never return worse than the start
+    better = negative(out[:3], model) <= negative(start[:3], model)
+    return np.asarray(out if better else start, dtype=np.float64)

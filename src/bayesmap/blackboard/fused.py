@@ -382,6 +382,8 @@ class FusedMapper:
                 contacts[:, 1],
                 contacts[:, 3],
                 np.ones(len(contacts)),
+                contacts[:, 0],
+                contacts[:, 4],
             )
         self._ctx.update_near(self.state_, ids, float(pose[0]), float(pose[1]))
         reach = self._ctx.reach + self._ctx.half_diagonal

@@ -56,6 +56,7 @@ __all__ = [
     "SweepModel",
     "arena_contains",
     "contact_cutoff",
+    "into_arena",
     "leg_centres",
     "leg_contact_density",
     "legs_swept",
@@ -321,22 +322,48 @@ def legs_swept(
     return np.asarray(inside & (rel >= gamma) & (rel <= extent - gamma), dtype=np.float64)
 
 
+def _extents(
+    tables: FloatArray, catalogue: tuple[ObjectType, ...]
+) -> tuple[FloatArray, FloatArray]:
+    """``(n,)`` half extents [m] of each table's outline along x and along y."""
+    kinds = tables[:, 3].astype(np.int64)
+    half_l = np.array([0.5 * t.length for t in catalogue])[kinds]
+    half_w = np.array([0.5 * t.width for t in catalogue])[kinds]
+    c, s = np.abs(np.cos(tables[:, 2])), np.abs(np.sin(tables[:, 2]))
+    return half_l * c + half_w * s, half_l * s + half_w * c
+
+
 def arena_contains(
     tables: FloatArray, catalogue: tuple[ObjectType, ...], arena: tuple[float, float]
 ) -> BoolArray:
     """``(n,)`` whether each table's outline lies inside the arena (tables may not cross walls)."""
     tables = np.asarray(tables, dtype=np.float64).reshape(-1, 4)
-    kinds = tables[:, 3].astype(np.int64)
-    half_l = np.array([0.5 * t.length for t in catalogue])[kinds]
-    half_w = np.array([0.5 * t.width for t in catalogue])[kinds]
-    c, s = np.abs(np.cos(tables[:, 2])), np.abs(np.sin(tables[:, 2]))
-    ex, ey = half_l * c + half_w * s, half_l * s + half_w * c
+    ex, ey = _extents(tables, catalogue)
     return np.asarray(
         (tables[:, 0] - ex >= 0)
         & (tables[:, 0] + ex <= arena[0])
         & (tables[:, 1] - ey >= 0)
         & (tables[:, 1] + ey <= arena[1])
     )
+
+
+def into_arena(
+    tables: FloatArray, catalogue: tuple[ObjectType, ...], arena: tuple[float, float]
+) -> tuple[FloatArray, FloatArray]:
+    """``(n, 4)`` tables moved (without turning) the least distance that puts each outline
+    inside the arena, and ``(n,)`` how far each moved [m] (∞ where it cannot fit at its angle).
+
+    A table pressed against a wall is estimated a centimetre or two across it as often as
+    not; this is where it can stand.
+    """
+    tables = np.asarray(tables, dtype=np.float64).reshape(-1, 4)
+    ex, ey = _extents(tables, catalogue)
+    out = tables.copy()
+    out[:, 0] = np.clip(tables[:, 0], ex, np.maximum(ex, arena[0] - ex))
+    out[:, 1] = np.clip(tables[:, 1], ey, np.maximum(ey, arena[1] - ey))
+    moved = np.hypot(out[:, 0] - tables[:, 0], out[:, 1] - tables[:, 1])
+    fits = (2.0 * ex <= arena[0]) & (2.0 * ey <= arena[1])
+    return out, np.where(fits, moved, np.inf)
 
 
 def tables_overlap(p: FloatArray, q: FloatArray, catalogue: tuple[ObjectType, ...]) -> BoolArray:
