@@ -9,8 +9,9 @@ name (``rover-field-empty-v1`` / ``rover-field-obstacles-v1``).
 
 Given a world file (``Config.world``, the ``WORLD.json`` of :mod:`bayesmap.sim.rover_worlds`
 that ``bayesmap rover run --world`` reads), every run drives in that world instead, from its
-start, on its resolution, with ``max_steps`` cycles per 400 m² of its area (the paper's field);
-the runs are then named by their entropy initialisation, ``flat`` and ``random``.
+start, on its resolution, with the world's step budget (:func:`world_budget`, the same as
+``bayesmap rover run``) unless ``max_steps`` is given; the runs are then named by their entropy
+initialisation, ``flat`` and ``random``.
 """
 
 from __future__ import annotations
@@ -178,6 +179,14 @@ def step_budget(observable_area: float, params: RoverParams) -> int:
         params.sensor_offset + informative_range(r_max=params.r_max, beta_b=params.beta_b)
     )
     return max(math.ceil(SWEEPS * observable_area / (swath * params.speed * params.dt)), 1)
+
+
+def world_budget(spec: rover_worlds.WorldSpec) -> int:
+    """The step budget of a world file (:func:`step_budget` over its observable area)."""
+    params = Config.model_validate({}).rover_params()
+    grid = OccupancyGrid(spec.world.width, spec.world.height, spec.resolution)
+    observable = observable_mask(spec.world, grid, params, spec.start)
+    return step_budget(float(observable.sum()) * spec.resolution**2, params)
 
 
 def coverage(grid: OccupancyGrid, observable: BoolArray, h_desired: float) -> float:
@@ -433,13 +442,9 @@ def _run(
         plan = [(name, box_world(RUNS[name][0]), RUNS[name][1]) for name in config.runs]
         field_name = "20 m x 20 m field"
     else:
-        area = spec.world.width * spec.world.height
+        steps = config.max_steps if "max_steps" in config.model_fields_set else world_budget(spec)
         config = config.model_copy(
-            update={
-                "resolution": spec.resolution,
-                "start": spec.start,
-                "max_steps": max(round(config.max_steps * area / 400.0), 1),
-            }
+            update={"resolution": spec.resolution, "start": spec.start, "max_steps": steps}
         )
         inits = dict.fromkeys(RUNS[name][1] for name in config.runs)
         plan = [("random" if r else "flat", spec.world, r) for r in inits]
