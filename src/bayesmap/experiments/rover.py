@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,7 +42,7 @@ from bayesmap.experiments._common import (
 )
 from bayesmap.grid import OccupancyGrid
 from bayesmap.grid.ros import write_ros_map
-from bayesmap.rover.explorer import Explorer
+from bayesmap.rover.explorer import Decision, Explorer
 from bayesmap.rover.network import DecisionNetwork
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.targets import EntropyTarget, FrontierTarget, TargetRule
@@ -108,6 +109,10 @@ class Config(ExperimentConfig):
         return sim_rover.SimulatedRoverParams(
             gps_sigma=self.gps_sigma, compass_sigma=math.radians(self.compass_sigma_deg)
         )
+
+
+CycleObserver = Callable[[int, FloatArray, Decision, bool], None]
+"""Called each cycle with the step, the estimated pose, the decision and whether it stalled."""
 
 
 @dataclass
@@ -235,12 +240,16 @@ def simulate(
     randomised: bool,
     progress: ProgressHook,
     stage: str,
+    observer: CycleObserver | None = None,
 ) -> Trace:
     """Drive one run: sense → map → decide → move, until the stop rule or the step budget.
 
     Besides the path it counts, on the true pose, collisions, the smallest clearance, the
     cycles off the mapped area, and the *stalled* cycles: those that neither lower the
-    number of uncertain cells nor shorten the path to an unchanged target.
+    number of uncertain cells nor shorten the path still to go to an unchanged target
+    (:meth:`~bayesmap.rover.planning.LocalPlan.remaining`, measured from the rover's
+    position). ``observer`` is told every cycle's estimated pose, decision and whether the
+    cycle stalled (for diagnosis, e.g. ``benchmarks/rover_stalls.py``).
     """
     init_rng, sensor_rng, drive_rng = spawn(config.seed, 3)
     params = config.rover_params()
@@ -266,7 +275,10 @@ def simulate(
         trace.steps = step + 1
         n_uncertain = trace.explorer.mapper_.n_uncertain_
         progressed = decision.target == previous[0] and decision.target_cost < previous[1] - 1e-6
-        trace.stalled_cycles += int(n_uncertain >= previous[2] >= 0 and not progressed)
+        stalled = n_uncertain >= previous[2] >= 0 and not progressed
+        trace.stalled_cycles += int(stalled)
+        if observer is not None:
+            observer(step, observation.pose, decision, stalled)
         previous = (decision.target, decision.target_cost, n_uncertain)
         if trace.explorer.done or decision.target is None:
             break
