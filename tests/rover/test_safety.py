@@ -9,7 +9,6 @@ import pytest
 
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.safety import (
-    _sweeps_new_cells,
     drive_command,
     footprint_safety,
     hazard_cells,
@@ -141,20 +140,3 @@ def test_backing_off_is_allowed_only_away_from_obstacles() -> None:
         PARAMS,
     )
     assert not boxed.back_clear
-
-
-@pytest.mark.parametrize("resolution", [0.25, 0.5, 1.0])
-def test_unseen_cell_lookup_matches_the_distance_to_every_cell(resolution: float) -> None:
-    # the raster lookup must flag exactly the paths a distance to every cell flags
-    rng = np.random.default_rng(int(resolution * 100))
-    for _ in range(40):
-        pose = (rng.uniform(0, 10), rng.uniform(0, 10), rng.uniform(-3, 3))
-        centres = predicted_centres(pose, THETA, PARAMS)
-        cells = (rng.integers(-2, 30, size=(int(rng.integers(1, 200)), 2)) + 0.5) * resolution
-        d = square_distance(
-            centres[..., 0:1], centres[..., 1:2], cells[:, 0], cells[:, 1], resolution / 2
-        )
-        near = d < PARAMS.footprint_radius
-        expected = (near & ~near[0, 0, :]).any(axis=-1)
-        got = _sweeps_new_cells(centres, cells, resolution, PARAMS.footprint_radius)
-        np.testing.assert_array_equal(got, expected)

@@ -225,8 +225,11 @@ def footprint_safety(
     safe = (clearance >= params.safety_margin) & ~leaves
     unknown = np.zeros((0, 2)) if unknown_cells is None else np.asarray(unknown_cells)
     if unknown.size:
-        unseen = _sweeps_new_cells(centres, unknown, resolution, params.footprint_radius)
-        safe &= ~unseen[:, 1:].any(axis=1)
+        half = resolution / 2
+        distance = square_distance(px, py, unknown[:, 0], unknown[:, 1], half)
+        unseen = distance[:, 1:, :] < params.footprint_radius  # (M, K - 1, u)
+        under = distance[0, 0, :] < params.footprint_radius  # already beneath the body
+        safe &= ~(unseen & ~under).any(axis=(1, 2))
     points = np.concatenate([cells, hits])
     ahead, back_clear = False, True
     if points.size:
@@ -241,37 +244,6 @@ def footprint_safety(
         )
         back_clear = bool(back - params.footprint_radius >= gap[0, 0])
     return Safety(np.asarray(safe), np.asarray(clearance), float(gap[0, 0]), ahead, back_clear)
-
-
-def _sweeps_new_cells(
-    centres: FloatArray, cells: FloatArray, resolution: float, radius: float
-) -> BoolArray:
-    """``(M, K)`` flags: the body at ``centres`` overlaps one of ``cells`` (squares of side
-    ``resolution`` centred on the grid's lattice) that it does not overlap at ``centres[0, 0]``.
-
-    The cells are rasterised, and each centre is tested only against the cells of the few
-    lattice positions that can lie within ``radius`` of it, exactly as against all of them.
-    """
-    half = resolution / 2
-    origin = cells.min(axis=0)
-    index = np.rint((cells - origin) / resolution).astype(np.int64)
-    k = math.ceil((radius + half) / resolution + 0.5)
-    raster = np.zeros(tuple(index.max(axis=0) + 1 + 2 * k), dtype=bool)
-    raster[index[:, 0] + k, index[:, 1] + k] = True
-    base = np.rint((centres - origin) / resolution).astype(np.int64)
-    x0, y0 = centres[0, 0]
-    out = np.zeros(centres.shape[:2], dtype=bool)
-    for di in range(-k, k + 1):
-        for dj in range(-k, k + 1):
-            ci, cj = base[..., 0] + di, base[..., 1] + dj
-            inside = (ci >= -k) & (cj >= -k)
-            inside &= (ci < raster.shape[0] - k) & (cj < raster.shape[1] - k)
-            listed = raster[np.where(inside, ci + k, 0), np.where(inside, cj + k, 0)] & inside
-            cx, cy = origin[0] + ci * resolution, origin[1] + cj * resolution
-            near = square_distance(centres[..., 0], centres[..., 1], cx, cy, half) < radius
-            under = square_distance(x0, y0, cx, cy, half) < radius
-            out |= listed & near & ~under
-    return out
 
 
 def hazard_cells(probability: npt.ArrayLike, params: RoverParams) -> BoolArray:
