@@ -42,7 +42,6 @@ from bayesmap.experiments import rover  # noqa: E402
 from bayesmap.experiments.rover import SWEEPS  # noqa: E402
 from bayesmap.experiments.rover_world import (  # noqa: E402
     EXPLORER_RULES,
-    default_steps,
     run_spec,
 )
 from bayesmap.sim.rover_worlds import generate_world  # noqa: E402
@@ -89,7 +88,7 @@ def one_run(job: Job, out: Path) -> dict[str, Any]:
             SeedSequence([world_seed, world]), size=size, name=f"{GENERATOR}{fresh}-{world:02d}"
         )
         metrics = run_spec(spec, None, explorer=explorer, entropy_init=init, seed=seed)
-        metrics["budget"] = default_steps(spec)
+        metrics["budget"] = rover.world_budget(spec)
         metrics["boxes"] = len(spec.world.boxes)
         metrics["area_m"] = spec.world.width
     metrics.update({"kind": kind, "world_index": world, "wall_s": time.perf_counter() - started})

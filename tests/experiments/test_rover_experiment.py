@@ -151,7 +151,7 @@ def test_a_world_file_replaces_the_field_and_names_the_runs_by_their_init(tmp_pa
     metrics = json.loads((result.out_dir / "metrics.json").read_text())
     assert list(metrics) == ["flat"]  # both runs are the world's flat-init run: driven once
     assert {m["world"] for m in metrics["flat"].values()} == {spec.world.name}
-    assert metrics["flat"]["entropy"]["steps"] <= 20  # 20 cycles per 400 m² of a 20 m world
+    assert metrics["flat"]["entropy"]["steps"] <= 20  # the budget given overrides the world's
     assert f"20 m x 20 m world {spec.world.name}" in (result.out_dir / "summary.md").read_text()
     assert [(r["unit"], r["method"]) for r in rover.metric_rows(result)] == [
         ("flat", "entropy"),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.sparse import coo_matrix
@@ -89,3 +90,31 @@ def test_paths_keep_the_margin_the_footprint_check_demands() -> None:
     behind = (5.6, 7.75)  # seen only from beyond the wall (view_range 1 m)
     assert np.isinf(plan_through(2).cost_to(*behind))  # 1.0 m mapped gap: body + 2 margins
     assert np.isfinite(plan_through(3).cost_to(*behind))
+
+
+def test_a_corridor_lined_with_doubtful_cells_is_planned_through_at_a_price() -> None:
+    # two walls 2 cells apart (mapped gap 1.0 m plus the walls' cells), the cells along
+    # them still doubtful (p = 0.3): the plan may enter, paying for it; likely cells close it
+    grid = OccupancyGrid(12.0, 12.0, 0.5, prior=0.2)
+    grid.probability[:] = 0.01
+    grid.probability[4:20, 9] = 0.95  # walls at x = 4.5..5.0 and x = 6.5..7.0
+    grid.probability[4:20, 13] = 0.95
+    grid.probability[4:20, 10:13] = 0.3  # the corridor between them, not yet seen free
+    plan = local_plan(grid, 5.75, 1.0, PARAMS)
+    inside = (5.75, 4.5)  # 2.5 m into the corridor
+    assert np.isfinite(plan.cost_to(*inside))
+    assert plan.cost_to(*inside) > 2 * (4.5 - 1.0 - PARAMS.view_range)  # it pays to enter
+    grid.probability[4:20, 10:13] = 0.95  # the same corridor mapped as obstacle: closed
+    assert np.isinf(local_plan(grid, 5.75, 1.0, PARAMS).cost_to(*inside))
+
+
+def test_remaining_path_shrinks_as_the_rover_drives_within_its_cell() -> None:
+    grid = OccupancyGrid(12.0, 12.0, 0.5, prior=0.2)
+    grid.probability[:] = 0.01
+    target = (6.75, 6.25)
+    before = local_plan(grid, 3.1, 6.25, PARAMS)
+    after = local_plan(grid, 3.2, 6.25, PARAMS)  # the same cell, 0.1 m closer
+    assert before.cost_to(*target) == after.cost_to(*target)  # cell-centred: no change
+    assert after.remaining(3.2, 6.25, target) < before.remaining(3.1, 6.25, target)
+    assert before.remaining(3.1, 6.25, target) == pytest.approx(6.75 - 3.1 - 1.0, abs=0.26)
+    assert before.path_length(target) == pytest.approx(before.cost_to(*target))

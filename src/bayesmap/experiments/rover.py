@@ -9,8 +9,9 @@ name (``rover-field-empty-v1`` / ``rover-field-obstacles-v1``).
 
 Given a world file (``Config.world``, the ``WORLD.json`` of :mod:`bayesmap.sim.rover_worlds`
 that ``bayesmap rover run --world`` reads), every run drives in that world instead, from its
-start, on its resolution, with ``max_steps`` cycles per 400 m² of its area (the paper's field);
-the runs are then named by their entropy initialisation, ``flat`` and ``random``.
+start, on its resolution, with the world's step budget (:func:`world_budget`, the same as
+``bayesmap rover run``) unless ``max_steps`` is given; the runs are then named by their entropy
+initialisation, ``flat`` and ``random``.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -40,7 +42,7 @@ from bayesmap.experiments._common import (
 )
 from bayesmap.grid import OccupancyGrid
 from bayesmap.grid.ros import write_ros_map
-from bayesmap.rover.explorer import Explorer
+from bayesmap.rover.explorer import Decision, Explorer
 from bayesmap.rover.network import DecisionNetwork
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.targets import EntropyTarget, FrontierTarget, TargetRule
@@ -107,6 +109,10 @@ class Config(ExperimentConfig):
         return sim_rover.SimulatedRoverParams(
             gps_sigma=self.gps_sigma, compass_sigma=math.radians(self.compass_sigma_deg)
         )
+
+
+CycleObserver = Callable[[int, FloatArray, Decision, bool], None]
+"""Called each cycle with the step, the estimated pose, the decision and whether it stalled."""
 
 
 @dataclass
@@ -180,6 +186,14 @@ def step_budget(observable_area: float, params: RoverParams) -> int:
     return max(math.ceil(SWEEPS * observable_area / (swath * params.speed * params.dt)), 1)
 
 
+def world_budget(spec: rover_worlds.WorldSpec) -> int:
+    """The step budget of a world file (:func:`step_budget` over its observable area)."""
+    params = Config.model_validate({}).rover_params()
+    grid = OccupancyGrid(spec.world.width, spec.world.height, spec.resolution)
+    observable = observable_mask(spec.world, grid, params, spec.start)
+    return step_budget(float(observable.sum()) * spec.resolution**2, params)
+
+
 def coverage(grid: OccupancyGrid, observable: BoolArray, h_desired: float) -> float:
     """Fraction of the observable cells whose entropy is below ``h_desired``."""
     if not observable.any():
@@ -226,12 +240,16 @@ def simulate(
     randomised: bool,
     progress: ProgressHook,
     stage: str,
+    observer: CycleObserver | None = None,
 ) -> Trace:
     """Drive one run: sense → map → decide → move, until the stop rule or the step budget.
 
     Besides the path it counts, on the true pose, collisions, the smallest clearance, the
     cycles off the mapped area, and the *stalled* cycles: those that neither lower the
-    number of uncertain cells nor shorten the path to an unchanged target.
+    number of uncertain cells nor shorten the path still to go to an unchanged target
+    (:meth:`~bayesmap.rover.planning.LocalPlan.remaining`, measured from the rover's
+    position). ``observer`` is told every cycle's estimated pose, decision and whether the
+    cycle stalled (for diagnosis, e.g. ``benchmarks/rover_stalls.py``).
     """
     init_rng, sensor_rng, drive_rng = spawn(config.seed, 3)
     params = config.rover_params()
@@ -257,7 +275,10 @@ def simulate(
         trace.steps = step + 1
         n_uncertain = trace.explorer.mapper_.n_uncertain_
         progressed = decision.target == previous[0] and decision.target_cost < previous[1] - 1e-6
-        trace.stalled_cycles += int(n_uncertain >= previous[2] >= 0 and not progressed)
+        stalled = n_uncertain >= previous[2] >= 0 and not progressed
+        trace.stalled_cycles += int(stalled)
+        if observer is not None:
+            observer(step, observation.pose, decision, stalled)
         previous = (decision.target, decision.target_cost, n_uncertain)
         if trace.explorer.done or decision.target is None:
             break
@@ -433,13 +454,9 @@ def _run(
         plan = [(name, box_world(RUNS[name][0]), RUNS[name][1]) for name in config.runs]
         field_name = "20 m x 20 m field"
     else:
-        area = spec.world.width * spec.world.height
+        steps = config.max_steps if "max_steps" in config.model_fields_set else world_budget(spec)
         config = config.model_copy(
-            update={
-                "resolution": spec.resolution,
-                "start": spec.start,
-                "max_steps": max(round(config.max_steps * area / 400.0), 1),
-            }
+            update={"resolution": spec.resolution, "start": spec.start, "max_steps": steps}
         )
         inits = dict.fromkeys(RUNS[name][1] for name in config.runs)
         plan = [("random" if r else "flat", spec.world, r) for r in inits]

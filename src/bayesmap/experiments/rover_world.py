@@ -4,7 +4,7 @@ The world (:mod:`bayesmap.sim.rover_worlds`) gives the area, the obstacles, the 
 and the start; the run uses the paper's §5 parameters (:class:`bayesmap.experiments.rover.Config`)
 with the chosen explorer, entropy initialisation and seed, and writes ``metrics.json``,
 the figures and the ROS map to its folder. The default step budget grows with the area the
-rover can observe (:func:`bayesmap.experiments.rover.step_budget`).
+rover can observe (:func:`bayesmap.experiments.rover.world_budget`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,6 @@ from bayesmap.experiments._common import (
     no_progress,
     run_in_folder,
 )
-from bayesmap.grid import OccupancyGrid
 from bayesmap.sim.rover_worlds import WorldSpec, load_world
 
 __all__ = ["Config", "run", "run_spec"]
@@ -43,15 +42,6 @@ class Config(ExperimentConfig):
     max_steps: int | None = Field(None, ge=1)
 
 
-def default_steps(spec: WorldSpec) -> int:
-    """The step budget for a world (:func:`bayesmap.experiments.rover.step_budget`) over its
-    observable area (:func:`bayesmap.experiments.rover.observable_mask`)."""
-    params = rover.Config.model_validate({}).rover_params()
-    grid = OccupancyGrid(spec.world.width, spec.world.height, spec.resolution)
-    observable = rover.observable_mask(spec.world, grid, params, spec.start)
-    return rover.step_budget(float(observable.sum()) * spec.resolution**2, params)
-
-
 def run_spec(
     spec: WorldSpec,
     out_dir: Path | None,
@@ -63,7 +53,7 @@ def run_spec(
     progress: ProgressHook | None = None,
 ) -> dict[str, object]:
     """Run the rover on ``spec``; write figures, map and metrics to ``out_dir`` if given."""
-    steps = default_steps(spec) if max_steps is None else max_steps
+    steps = rover.world_budget(spec) if max_steps is None else max_steps
     config = rover.Config.model_validate(
         {"seed": seed, "resolution": spec.resolution, "max_steps": steps, "start": spec.start}
     )

@@ -54,8 +54,9 @@ class Decision:
     safety
         The footprint check of the headings (:mod:`bayesmap.rover.safety`).
     target_cost
-        Path length [m] to the target over the local map (straight-line distance when the
-        target lies beyond it; ``nan`` without a target).
+        Path cost [m] still to go from the rover's position to the target's viewpoint over
+        the local map, plus the straight line beyond it (:meth:`LocalPlan.remaining`);
+        ``inf`` when unreachable, ``nan`` without a target.
     """
 
     command: tuple[float, float]
@@ -156,11 +157,7 @@ class Explorer:
         index, p_move = self.network_.decide(inputs)
         heading = float(self._theta[index])
         command = (0.0, 0.0) if target is None else self._drive(heading, psi, safety, index)
-        cost = math.nan
-        if target is not None:
-            cost = plan.cost_to(*target)
-            if math.isnan(cost):
-                cost = math.hypot(target[0] - x, target[1] - y)
+        cost = math.nan if target is None else plan.remaining(x, y, target)
         return Decision(command, heading, target, p_move, p_o, safety, cost)
 
     def _target(

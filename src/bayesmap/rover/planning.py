@@ -37,7 +37,15 @@ _WAYPOINT_AHEAD = 1.5
 """Path length [m] from the rover to the waypoint it steers toward."""
 
 _NEAR_COST = 5.0
-"""Cost per metre of crossing a cell within the safety margin of a hazard (1 elsewhere)."""
+"""Cost per metre of crossing a cell within one cell beyond the safety margin of a hazard."""
+
+_DOUBTFUL_COST = 25.0
+"""Cost per metre of crossing a cell within the safety margin of a doubtful cell only.
+
+A doubtful cell (an uncertain neighbour of a likely obstacle) may be free: a corridor
+1.2–2.5 m wide is mapped as likely walls lined with doubtful cells until the rover has
+looked into it, so the plan may lead there, at a price, and the footprint check decides
+on the spot, once the rangers have resolved the doubt."""
 
 
 def footprint_kernel(radius: float, resolution: float) -> BoolArray:
@@ -64,17 +72,20 @@ def crossing_costs(
     :mod:`bayesmap.rover.safety` lets the rover's centre be, so a path never leads
     through a gap the drive would refuse.
     """
+    likely = np.asarray(probability) >= params.p_block
     hazard = hazard_cells(probability, params)
     body = ndimage.binary_dilation(
-        hazard | ~np.asarray(on_map, dtype=bool),
+        likely | ~np.asarray(on_map, dtype=bool),
         structure=footprint_kernel(params.footprint_radius, resolution),
     )
     keep_off = params.footprint_radius + params.safety_margin
-    margin = ndimage.binary_dilation(hazard, structure=footprint_kernel(keep_off, resolution))
+    margin = ndimage.binary_dilation(likely, structure=footprint_kernel(keep_off, resolution))
+    doubtful = ndimage.binary_dilation(hazard, structure=footprint_kernel(keep_off, resolution))
     near = ndimage.binary_dilation(
         hazard, structure=footprint_kernel(keep_off + resolution, resolution)
     )
     costs = np.where(near, _NEAR_COST, 1.0)
+    costs[doubtful] = _DOUBTFUL_COST
     costs[margin] = np.inf
     if rover is not None:
         i, j = rover
@@ -130,35 +141,77 @@ class LocalPlan:
         index = self._index(x, y)
         return math.nan if index is None else float(self.view[index])
 
-    def waypoint(self, target: tuple[float, float]) -> tuple[float, float] | None:
-        """The point to steer toward on the way to ``target``, or ``None`` if unreachable.
+    def _viewpoint(self, target: tuple[float, float]) -> tuple[int, int] | None:
+        """The patch cell the rover heads for on the way to ``target``, or ``None``.
 
-        Inside the patch the rover heads for the cheapest reachable cell within
-        ``view_range`` of the target (its viewpoint): the cell ``1.5 m`` along the shortest
-        path to it, or, once there, the target itself, so that the rover turns to look at
-        it. Outside: the same along the path to the patch cell that minimises path cost
-        plus straight-line distance to the target.
+        Inside the patch: the cheapest reachable cell within ``view_range`` of the target.
+        Outside: the patch cell that minimises path cost plus straight-line distance to it.
         """
         index = self._index(*target)
         if index is None:
             remaining = self.cost + np.hypot(self.xc - target[0], self.yc - target[1])
-            flat = int(np.argmin(remaining))
-            if not np.isfinite(remaining.flat[flat]):
-                return None
-            index = (flat // self.cost.shape[1], flat % self.cost.shape[1])
         else:
             if not np.isfinite(self.view[index]):
                 return None
             within = np.hypot(self.xc - target[0], self.yc - target[1]) <= self.view_range + 1e-9
-            flat = int(np.argmin(np.where(within, self.cost, np.inf)))
-            index = (flat // self.cost.shape[1], flat % self.cost.shape[1])
-            if self.cost[index] <= self.resolution:
-                return target
+            remaining = np.where(within, self.cost, np.inf)
+        flat = int(np.argmin(remaining))
+        if not np.isfinite(remaining.flat[flat]):
+            return None
+        return flat // self.cost.shape[1], flat % self.cost.shape[1]
+
+    def waypoint(self, target: tuple[float, float]) -> tuple[float, float] | None:
+        """The point to steer toward on the way to ``target``, or ``None`` if unreachable.
+
+        The cell ``1.5 m`` along the shortest path to the viewpoint (:meth:`_viewpoint`),
+        or, once there, the target itself, so that the rover turns to look at it.
+        """
+        index = self._viewpoint(target)
+        if index is None:
+            return None
+        if self._index(*target) is not None and self.cost[index] <= self.resolution:
+            return target
         path = self._solver.traceback(index)
         lengths = np.array([self.cost[cell] for cell in path])
         ahead = int(np.searchsorted(lengths, _WAYPOINT_AHEAD))
         i, j = path[min(ahead, len(path) - 1)]
         return float(self.xc[i, j]), float(self.yc[i, j])
+
+    def path_length(self, target: tuple[float, float]) -> float:
+        """Length [m] of the shortest path to ``target``'s viewpoint (cells counted at their
+        length, whatever they cost), plus the straight line beyond the patch; ``inf`` if
+        unreachable."""
+        index = self._viewpoint(target)
+        if index is None:
+            return math.inf
+        beyond = 0.0
+        if self._index(*target) is None:
+            beyond = math.hypot(self.xc[index] - target[0], self.yc[index] - target[1])
+        steps = np.diff(np.asarray(self._solver.traceback(index), dtype=np.float64), axis=0)
+        return float(np.hypot(steps[:, 0], steps[:, 1]).sum()) * self.resolution + beyond
+
+    def remaining(self, x: float, y: float, target: tuple[float, float]) -> float:
+        """Path cost [m] still to go from the rover's exact position ``(x, y)`` to ``target``.
+
+        :meth:`cost_to` counts from the centre of the rover's cell, so it changes only when
+        the rover crosses into another cell (every five cycles at full speed on 0.5 m
+        cells). Here the first step is measured from ``(x, y)`` to the next cell of the
+        shortest path, so that driving along the path lowers the cost every cycle. Beyond
+        the patch the plan's cost to its edge is added to the straight line from there.
+        ``inf`` if the target is unreachable; 0 at the viewpoint.
+        """
+        index = self._viewpoint(target)
+        if index is None:
+            return math.inf
+        beyond = 0.0
+        if self._index(*target) is None:
+            beyond = math.hypot(self.xc[index] - target[0], self.yc[index] - target[1])
+        path = self._solver.traceback(index)
+        if len(path) < 2:
+            return beyond
+        step = path[1]
+        first = math.hypot(x - float(self.xc[step]), y - float(self.yc[step]))
+        return first + float(self.cost[index] - self.cost[step]) + beyond
 
 
 def local_plan(grid: OccupancyGrid, x: float, y: float, params: RoverParams) -> LocalPlan:

@@ -42,6 +42,16 @@ class TargetRule(Protocol):
         ...
 
 
+def _look_cycles(params: RoverParams) -> int:
+    """Cycles a full turn in place takes: how long the rover looks at a target from its viewpoint.
+
+    A target still uncertain after the rover has looked at it this long from its viewpoint
+    will not become certain by looking longer from there (its readings keep contradicting
+    each other, as in front of an obstacle's face), so it is given up.
+    """
+    return math.ceil(2.0 * math.pi / (params.pivot_rate * params.dt))
+
+
 def clear_of_obstacles(
     probability: npt.ArrayLike, params: RoverParams, resolution: float
 ) -> npt.NDArray[np.bool_]:
@@ -70,10 +80,11 @@ class EntropyTarget:
     largest entropy and eq. 39 the nearest by path length within ``delta_h`` of it. Cells
     beside an obstacle qualify: the rover looks at them from its viewpoint. A target is
     kept (hysteresis) until its entropy falls below ``h_desired`` or it times out: a target
-    still uncertain after ``target_timeout`` cycles plus twice the cycles its path cost
-    needs is blacklisted with the uncertain cells within ``d_min`` of it, and one the
-    planner finds unreachable is blacklisted alone. When nothing local qualifies, the
-    nearest uncertain cell of the whole map is taken, found block by block
+    still uncertain after the rover has stood at its viewpoint for a full turn's cycles
+    is blacklisted; one still uncertain after ``target_timeout`` cycles plus twice the
+    cycles its path length needs is blacklisted with the uncertain cells within ``d_min`` of
+    it, and one the planner finds unreachable is blacklisted alone. When nothing local
+    qualifies, the nearest uncertain cell of the whole map is taken, found block by block
     (:class:`~bayesmap.rover.mapping.UncertainBlocks`), so that the search does not grow
     with the map. ``None`` when no such cell is left.
 
@@ -90,6 +101,7 @@ class EntropyTarget:
         self.target_: tuple[float, float] | None = None
         self.blacklist_: set[tuple[float, float]] = set()
         self._age = 0
+        self._looked = 0
         self._deadline = 0
 
     def reject(self, target: tuple[float, float]) -> None:
@@ -110,17 +122,20 @@ class EntropyTarget:
             self._age += 1
             cell = grid.world_to_cell(*self.target_)
             kept = grid.entropy[int(cell[0]), int(cell[1])] >= p.h_desired
-            if kept and self._age > self._deadline:
+            self._looked += int(plan.cost_to(*self.target_) <= grid.resolution)
+            if kept and self._looked > _look_cycles(p):
+                self.reject(self.target_)
+            elif kept and self._age > self._deadline:
                 self._give_up_around(grid, self.target_)
             elif kept:
                 return self.target_
         self.target_ = self._local(grid, plan, x, y) or self._global(grid, x, y, uncertain)
-        self._age = 0
+        self._age = self._looked = 0
         if self.target_ is not None:
-            cost = plan.cost_to(*self.target_)
-            if not math.isfinite(cost):
-                cost = math.hypot(self.target_[0] - x, self.target_[1] - y)
-            self._deadline = p.target_timeout + int(2.0 * cost / (p.speed * p.dt))
+            length = plan.path_length(self.target_)
+            if not math.isfinite(length):
+                length = math.hypot(self.target_[0] - x, self.target_[1] - y)
+            self._deadline = p.target_timeout + int(2.0 * length / (p.speed * p.dt))
         return self.target_
 
     def _give_up_around(self, grid: OccupancyGrid, target: tuple[float, float]) -> None:
