@@ -145,14 +145,29 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def write(rows: list[dict[str, Any]]) -> None:
+    """The runs so far into both documents' sections."""
+    note = (
+        f"{machine()}. CPU seconds of this process (`time.process_time`), whole run and, in "
+        "brackets, the final pass; per-pose times are wall clock of each step, so a loaded "
+        "machine inflates them (the load average at each run's start and end is listed). "
+        f"Targets: whole run under {TARGET_RUN_S:.0f} s, median pose under "
+        f"{TARGET_POSE_MS:.0f} ms. `python benchmarks/blackboard_speed.py`"
+    )
+    update_section(
+        "blackboard_speed", f"### Fused mapper speed (issue 9)\n\n{note}\n\n{table(rows)}\n"
+    )
+    update_section("blackboard-speed", f"{note}\n\n{table(rows)}\n", RESULTS_DOC)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", type=int, nargs="*", default=[9317, 4])
     parser.add_argument("--conditions", nargs="*", default=["normal", "noisy"])
     parser.add_argument("--shipped", nargs="*", default=["normal", "noiseless", "noisy"])
     args = parser.parse_args()
-    rows = [
-        measure("whisker-tables-v1", condition, lambda c=condition: shipped_run(c))
+    runs: list[tuple[str, str, Any]] = [
+        ("whisker-tables-v1", condition, lambda c=condition: shipped_run(c))
         for condition in args.shipped
     ]
     for seed in args.worlds:
@@ -162,23 +177,18 @@ def main() -> None:
             f"{world.arena[0]:.1f} × {world.arena[1]:.1f} m)"
         )
         for condition in args.conditions:
-            rows.append(
-                measure(
+            runs.append(
+                (
                     name,
                     condition,
                     lambda w=world, c=condition, n=name: fused_world_run(w, c, 0, name=n)[1:],
                 )
             )
-    note = (
-        f"{machine()}. CPU seconds of this process (`time.process_time`), whole run and, in "
-        "brackets, the final pass; per-pose times are wall clock of each step, so a loaded "
-        "machine inflates them (the load average at each run's start and end is listed). "
-        f"Targets: whole run under {TARGET_RUN_S:.0f} s, median pose under "
-        f"{TARGET_POSE_MS:.0f} ms. `python benchmarks/blackboard_speed.py`"
-    )
-    markdown = f"### Fused mapper speed (issue 9)\n\n{note}\n\n{table(rows)}\n"
-    update_section("blackboard_speed", markdown)
-    update_section("blackboard-speed", f"{note}\n\n{table(rows)}\n", RESULTS_DOC)
+    runs.sort(key=lambda run: run[1] == "noisy")  # the slow noisy runs last
+    rows: list[dict[str, Any]] = []
+    for name, condition, runner in runs:
+        rows.append(measure(name, condition, runner))
+        write(rows)  # every finished run is on record, even if a later one is stopped
 
 
 if __name__ == "__main__":
