@@ -21,6 +21,7 @@ from bayesmap.blackboard.fused import FusedMapper, FusedParams
 from bayesmap.blackboard.rjmcmc import (
     ChainState,
     Context,
+    Move,
     MoveKind,
     MoveRates,
     apply,
@@ -501,9 +502,32 @@ def test_a_candidate_that_cannot_pay_alone_never_raises_the_posterior() -> None:
         )
         if not arena_contains(table, CATALOGUE, ARENA)[0]:
             continue
-        alone = mapper._gain_alone(table)
+        alone = ctx.gain_alone(table)
         assert alone == pytest.approx(_joint(ctx, table[None]) - empty, abs=1e-6)
         for others in (truth[:1], truth[1:], truth):
             with_it = _joint(ctx, np.vstack([others, table]))
             if math.isfinite(with_it):
                 assert with_it - _joint(ctx, others) <= alone + 1e-6
+
+
+def test_kept_table_terms_are_forgotten_when_sweeps_arrive() -> None:
+    """The context keeps each table's contact and free-space terms while the store is
+    unchanged; a move evaluated before and after more sweeps arrive matches the joint both
+    times (stale terms would give the first answer again)."""
+    full, truth = _store(seed=2)
+    store = EvidenceStore()
+    ctx = _context(store)
+    state = ChainState()
+    birth = Move(MoveKind.BIRTH, (), (truth[0],))
+    deltas = []
+    for start in (0, len(full) // 2):
+        for row, count in zip(full.rows_[start:], full.counts_[start:], strict=True):
+            if start == 0 and row[0] > 2.5:
+                continue
+            store.add(np.array([row[0], row[1], 0.0]), np.repeat(row[None, 2:], int(count), 0))
+        ctx.refresh(state)
+        delta, _ = evaluate(state, ctx, birth)
+        assert evaluate(state, ctx, birth)[0] == delta  # read from the kept terms
+        assert delta == pytest.approx(_joint(ctx, truth[:1]) - _joint(ctx, state.tables), abs=1e-6)
+        deltas.append(delta)
+    assert deltas[0] != pytest.approx(deltas[1])

@@ -85,6 +85,9 @@ class EvidenceStore:
         ``(m, 8)`` stored sweeps ``root x, root y, start, stop, length, r̂, φ̂, τ̂``.
     counts_
         ``(m,)`` how many sweeps each row stands for.
+    version_
+        How many times :meth:`add` has run: caches of terms computed from the store hold
+        while it is unchanged.
     """
 
     def __init__(self, cell: float = 1.0) -> None:
@@ -96,6 +99,7 @@ class EvidenceStore:
         self._normal_sum = np.zeros((64, 2))
         self._points = np.zeros((64, 2))
         self._size = 0
+        self.version_ = 0
         self._keys: dict[tuple[int, int, int, int, bool], int] = {}
         self._grid: dict[tuple[int, int], list[int]] = {}
         self._contact_grid: dict[tuple[int, int], list[int]] = {}
@@ -124,6 +128,7 @@ class EvidenceStore:
     def add(self, pose: FloatArray, sweeps: FloatArray) -> IntArray:
         """Store one pose's sweeps; return the indices of the rows they went to (new or merged)."""
         pose, sweeps = check_sweeps(pose, sweeps)
+        self.version_ += 1
         touched = []
         for row in sweeps:
             hit = bool(np.isfinite(row[3]))

@@ -282,10 +282,11 @@ class FusedMapper:
         more than the whole run); the result depends on the stored data alone, never on the
         chain, as a proposal must. Polished candidates that land on the same grid point are
         merged again, and a candidate that cannot pay for itself even alone — its log π gain
-        over an empty room (:meth:`_gain_alone`) is not positive — is dropped: with other
-        tables present its gain is no larger (each contact takes its best cause), so it can
-        never be a MAP table, and the noisy condition's hundreds of crossings of bearings
-        that fit no table stop costing the greedy ascent a trial each.
+        over an empty room (:meth:`~bayesmap.blackboard.rjmcmc.Context.gain_alone`) is not
+        positive — is dropped: with other tables present its gain is no larger (each contact
+        takes its best cause), so it can never be a MAP table, and the noisy condition's
+        hundreds of crossings of bearings that fit no table stop costing the greedy ascent a
+        trial each.
         """
         if not len(tables):
             return tables, weights
@@ -303,24 +304,8 @@ class FusedMapper:
                 self.catalogue,
                 self.model,
             )
-        pays = np.array([self._gain_alone(table) for table in out]) > 0
+        pays = np.array([ctx.gain_alone(table) for table in out]) > 0
         return _merge_coincident(out[pays], summed[pays])
-
-    def _gain_alone(self, table: FloatArray) -> float:
-        """Δlog π of adding ``table`` to an empty room: prior, its contacts against walls and
-        clutter, its free space (−∞ across a wall)."""
-        if not arena_contains(table, self.catalogue, self.arena)[0]:
-            return -math.inf
-        ctx, store = self._ctx, self.store_
-        gain = ctx.log_intensity + ctx.table_free_space(table)
-        ids = store.contacts_near(table[0], table[1], ctx.contact_radius)
-        if len(ids):
-            density = ctx.tables_density(table[None], ids)[:, 0]
-            floor = ctx.floor[ids]
-            gain += float(
-                (store.counts_[ids] * (np.log(np.maximum(floor, density)) - np.log(floor))).sum()
-            )
-        return gain
 
     def _proposal(
         self, box: tuple[float, float, float, float], *, polish: bool = False

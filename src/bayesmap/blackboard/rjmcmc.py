@@ -130,6 +130,10 @@ class ChainState:
     log_pi: float = 0.0
 
 
+_TERMS_KEPT = 200_000
+"""Per-table terms :class:`Context` keeps before it starts afresh (bounds its memory)."""
+
+
 class Context:
     """What every move needs: catalogue, model, evidence, the walls' density per contact."""
 
@@ -146,6 +150,36 @@ class Context:
         self.log_intensity = math.log(model.intensity)
         self.floor = np.zeros(0)
         """Per stored sweep, max(κ, ρ_wall): what explains a contact without tables."""
+        self._terms_version = -1
+        self._contact_terms: dict[bytes, tuple[IntArray, FloatArray]] = {}
+        self._free_terms: dict[bytes, float] = {}
+
+    def _fresh_terms(self) -> None:
+        """Forget the per-table terms when the store changed since they were computed (or
+        when too many are kept)."""
+        size = len(self._contact_terms) + len(self._free_terms)
+        if self._terms_version != self.store.version_ or size > _TERMS_KEPT:
+            self._contact_terms.clear()
+            self._free_terms.clear()
+            self._terms_version = self.store.version_
+
+    def table_contacts(self, table: FloatArray) -> tuple[IntArray, FloatArray]:
+        """One table's contacts: the sorted ids of the stored contacts within
+        :attr:`contact_radius` of its centre, and for each the max over its legs of ρ_leg
+        (beyond that radius every ρ_leg is 0).
+
+        Kept per table (its exact ``x, y, θ, k``) while the store is unchanged: a chain and
+        a greedy ascent visit the same tables again and again (every neighbour of a moved
+        table, every candidate a refill tries).
+        """
+        self._fresh_terms()
+        key = table.tobytes()
+        found = self._contact_terms.get(key)
+        if found is None:
+            ids = np.sort(self.store.contacts_near(table[0], table[1], self.contact_radius))
+            found = (ids, self.tables_density(table[None], ids)[:, 0])
+            self._contact_terms[key] = found
+        return found
 
     def tables_density(self, tables: FloatArray, ids: IntArray) -> FloatArray:
         """``(len(ids), n)``: for each of ``tables`` (n, 4), max over its legs of ρ_leg."""
@@ -168,8 +202,38 @@ class Context:
         out[near] = density.reshape(len(near), len(tables), 4).max(axis=2)
         return out
 
+    def gain_alone(self, table: FloatArray) -> float:
+        """Δlog π of adding ``table`` to an empty room: prior, its contacts against walls and
+        clutter, its free space (−∞ across a wall).
+
+        An upper bound on its gain in any map: with other tables present each contact
+        already has a cause at least as likely as walls and clutter, and overlaps only cost
+        (so a table whose gain alone is not positive is never needed in a MAP map).
+        """
+        if not arena_contains(table, self.catalogue, self.model.arena)[0]:
+            return -math.inf
+        gain = self.log_intensity + self.table_free_space(table)
+        ids, density = self.table_contacts(table)
+        if len(ids):
+            floor = self.floor[ids]
+            gain += float(
+                (
+                    self.store.counts_[ids] * (np.log(np.maximum(floor, density)) - np.log(floor))
+                ).sum()
+            )
+        return gain
+
     def table_free_space(self, table: FloatArray) -> float:
-        """Term F3 of one table."""
+        """Term F3 of one table (kept per table while the store and reach are unchanged)."""
+        self._fresh_terms()
+        key = table.tobytes()
+        found = self._free_terms.get(key)
+        if found is None:
+            found = self._free_space(table)
+            self._free_terms[key] = found
+        return found
+
+    def _free_space(self, table: FloatArray) -> float:
         ids = self.store.near(table[0], table[1], self.reach + self.half_diagonal + 0.05)
         if not len(ids):
             return 0.0
@@ -195,6 +259,7 @@ class Context:
         """Recompute every cached term and log π from scratch."""
         store = self.store
         self.reach = float(store.rows_[:, 4].max()) if len(store) else 1.0
+        self._free_terms.clear()
         self._extend_floor(np.arange(len(store)))
         state.free_space = np.array([self.table_free_space(t) for t in state.tables])
         state.log_pi = log_posterior(
@@ -204,6 +269,7 @@ class Context:
     def update_near(self, state: ChainState, new_ids: IntArray, x: float, y: float) -> None:
         """Bring the caches up to date after sweeps ``new_ids`` were stored around ``(x, y)``."""
         self.reach = max(self.reach, float(self.store.rows_[new_ids, 4].max()))
+        self._free_terms.clear()
         self._extend_floor(new_ids)
         radius = self.reach + self.half_diagonal + 0.1
         for i, table in enumerate(state.tables):
@@ -391,13 +457,29 @@ def propose(
 
 
 def _overlaps(tables: tuple[FloatArray, ...], others: FloatArray, ctx: Context) -> int:
-    """Overlapping pairs among ``tables`` and between them and ``others``."""
+    """Overlapping pairs among ``tables`` and between them and ``others`` (only tables whose
+    centres lie within two half diagonals can overlap; the exact test runs on those)."""
     count = 0
+    reach = 2.0 * ctx.half_diagonal
     for i, table in enumerate(tables):
         rest = np.vstack([others, *[t[None] for t in tables[i + 1 :]]])
         if len(rest):
+            rest = rest[(rest[:, 0] - table[0]) ** 2 + (rest[:, 1] - table[1]) ** 2 < reach**2]
+        if len(rest):
             count += int(tables_overlap(table, rest, ctx.catalogue).sum())
     return count
+
+
+def _spread(found: tuple[IntArray, FloatArray], ids: IntArray) -> FloatArray:
+    """A table's ρ (:meth:`Context.table_contacts`) on the sorted contacts ``ids`` (0 where
+    it has none)."""
+    own, density = found
+    out = np.zeros(len(ids))
+    at = np.searchsorted(ids, own)
+    ok = at < len(ids)
+    ok[ok] = ids[at[ok]] == own[ok]
+    out[at[ok]] = density[ok]
+    return out
 
 
 def evaluate(state: ChainState, ctx: Context, move: Move) -> tuple[float, FloatArray]:
@@ -414,23 +496,21 @@ def evaluate(state: ChainState, ctx: Context, move: Move) -> tuple[float, FloatA
     overlaps = _overlaps(added, others, ctx) - _overlaps(removed, others, ctx)
     changed = [*removed, *added]
     radius = ctx.contact_radius
-    ids = np.unique(np.concatenate([ctx.store.contacts_near(t[0], t[1], radius) for t in changed]))
+    own = [ctx.table_contacts(t) for t in changed]
+    ids = np.unique(np.concatenate([found[0] for found in own]))
     delta = 0.0
     if len(ids):
         centre = np.mean([t[:2] for t in changed], axis=0)
         spread = max(math.hypot(*(t[:2] - centre)) for t in changed)
         close = np.hypot(others[:, 0] - centre[0], others[:, 1] - centre[1]) <= 2 * radius + spread
-        group = np.vstack([others[close], *[t[None] for t in changed]])
-        density = ctx.tables_density(group, ids)
-        n_others, n_removed = int(close.sum()), len(removed)
         base = ctx.floor[ids]
-        if n_others:
-            base = np.maximum(base, density[:, :n_others].max(axis=1))
+        for other in others[close]:
+            base = np.maximum(base, _spread(ctx.table_contacts(other), ids))
         before, after = base, base
-        if n_removed:
-            before = np.maximum(base, density[:, n_others : n_others + n_removed].max(axis=1))
-        if added:
-            after = np.maximum(base, density[:, n_others + n_removed :].max(axis=1))
+        for found in own[: len(removed)]:
+            before = np.maximum(before, _spread(found, ids))
+        for found in own[len(removed) :]:
+            after = np.maximum(after, _spread(found, ids))
         delta = float((ctx.store.counts_[ids] * (np.log(after) - np.log(before))).sum())
     free_new = np.array([ctx.table_free_space(t) for t in added])
     delta += float(free_new.sum() - state.free_space[list(move.removed)].sum())
@@ -534,6 +614,11 @@ def _try(state: ChainState, ctx: Context, move: Move) -> float:
     return delta
 
 
+_BOUND_SLACK = 1e-6
+"""Margin [nats] by which a bound on a trial's gain must stay below the keep threshold
+before the greedy ascent skips the trial (rounding of the two sums it compares)."""
+
+
 def greedy_ascent(
     state: ChainState, ctx: Context, candidates: FloatArray, *, passes: int = 2
 ) -> dict[str, int]:
@@ -548,9 +633,15 @@ def greedy_ascent(
     (and back) that the chain reaches only through much worse maps. Repeats until a pass
     changes nothing (at most ``passes``). Modifies ``state``;
     returns counters ``greedy_tried``, ``greedy_kept``.
+
+    A refill is skipped when it cannot make the exchange pay: each refilled candidate gains
+    at most its gain alone (:meth:`Context.gain_alone`; tables only compete for contacts),
+    so when the exchange's loss exceeds the sum of the positive ones, no refill keeps it.
+    The result is the same as trying every refill.
     """
     info = {"greedy_tried": 0, "greedy_kept": 0}
     reach = ctx.half_diagonal
+    refill_gain = np.array([max(ctx.gain_alone(c), 0.0) for c in candidates])
     for _ in range(passes):
         changed = False
         for c in candidates:
@@ -575,6 +666,8 @@ def greedy_ascent(
                     ).min(axis=1)
                     <= reach
                 )
+                if gain + refill_gain[near].sum() < -_BOUND_SLACK:
+                    continue  # even every refill at its gain alone could not pay for it
                 for other in candidates[near]:
                     if _holds(trial.tables, other):
                         continue
