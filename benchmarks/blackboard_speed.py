@@ -37,12 +37,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks._report import machine, update_section  # noqa: E402
 
 from bayesmap.blackboard.fused import FusedMapper  # noqa: E402
-from bayesmap.blackboard.sweep_model import ObjectType  # noqa: E402
 from bayesmap.experiments import blackboard  # noqa: E402
 from bayesmap.experiments.blackboard_world import fused_world_run  # noqa: E402
-from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused  # noqa: E402
-from bayesmap.experiments.table_metrics import MatchTolerance  # noqa: E402
-from bayesmap.sim.tables_world import initial, pose_sequence, world_params  # noqa: E402
 from bayesmap.sim.whisker_worlds import generate_world  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -77,28 +73,7 @@ class _CpuClock:
 
 def shipped_run(condition: str) -> tuple[dict[str, Any], dict[str, Any]]:
     """The fused run of ``reproduce blackboard`` for one condition (its world and streams)."""
-    config = blackboard.Config.model_validate({})
-    seeds = np.random.SeedSequence(config.seed).spawn(1 + 3 * len(blackboard.CONDITIONS))
-    world = initial(
-        world_params(config.scenario), rng=np.random.default_rng(seeds[0]), name=config.scenario
-    )
-    poses = pose_sequence(world.params)[: config.poses]
-    p = world.params
-    catalogue = (ObjectType("table", p.table_length, p.table_width, p.leg_width),)
-    k = list(blackboard.CONDITIONS).index(condition)
-    sensor = blackboard._sensor(config, condition)
-    result = run_fused(
-        world,
-        poses,
-        catalogue,
-        sensor,
-        fused_params(sensor, config.fused_mapper),
-        np.random.default_rng(seeds[1 + 2 * k]),
-        np.random.default_rng(seeds[1 + 2 * len(blackboard.CONDITIONS) + k]),
-        label=condition,
-    )
-    tol = MatchTolerance(config.position_tol, config.angle_tol, p.table_length / 2, config.gospa_c)
-    return result, fused_metrics(result, world, tol)
+    return blackboard.fused_condition(condition)
 
 
 def measure(name: str, condition: str, runner: Any) -> dict[str, Any]:

@@ -7,9 +7,9 @@ import math
 import numpy as np
 
 from bayesmap.blackboard.data_driven import LegVotes, polish_table, table_candidates
+from bayesmap.blackboard.fused import FusedMapper
 from bayesmap.blackboard.sweep_model import (
     ObjectType,
-    SweepModel,
     arena_contains,
     leg_centres,
     wall_contact_density,
@@ -123,18 +123,7 @@ def test_polish_keeps_a_desk_pressed_into_a_corner_where_it_stands() -> None:
     )
     catalogue = (ObjectType("desk", 1.2, 0.8, 0.1),)
     world, sensor = world_file.world(), condition("normal")
-    params = fused_params(sensor)
-    model = SweepModel(
-        params.sigma_r,
-        params.sigma_perp,
-        params.sigma_phi,
-        params.clutter,
-        params.p_miss,
-        params.intensity,
-        params.log_overlap,
-        arena,
-        params.reach,
-    )
+    model = FusedMapper(catalogue, arena, fused_params(sensor)).model  # the mapper's own model
     rng = np.random.default_rng(3)
     rows = []
     for pose in world_file.robot_poses():

@@ -94,6 +94,18 @@ def test_same_seed_same_result_and_independent_streams(reduced, tmp_path):
     assert _scores(tmp_path, "noisy") == _scores(out, "noisy")
 
 
+@pytest.mark.slow
+def test_fused_condition_is_the_experiments_fused_run(reduced):
+    out, _, _ = reduced
+    config = blackboard.Config(poses=POSES, fused_mapper=QUICK)
+    run, scores = blackboard.fused_condition("normal", config)
+    kept = json.loads((out / "normal" / "metrics.json").read_text())
+    assert len(run["step_ms"]) == POSES
+    assert json.dumps(scores, sort_keys=True) == json.dumps(
+        {k: kept[k] for k in scores}, sort_keys=True
+    )
+
+
 def test_bad_config():
     with pytest.raises(ConfigError, match="conditions"):
         blackboard.Config(conditions=("foggy",))

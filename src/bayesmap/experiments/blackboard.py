@@ -423,16 +423,9 @@ def _run(
     """
     progress = progress or no_progress
     out_dir = Path(out_dir)
-    seeds = np.random.SeedSequence(config.seed).spawn(1 + 3 * len(CONDITIONS))
+    seeds = _streams(config)
     if world_file is None:
-        world = initial(
-            world_params(config.scenario), rng=np.random.default_rng(seeds[0]), name=config.scenario
-        )
-        poses = pose_sequence(world.params)[: config.poses]
-        p = world.params
-        catalogue: tuple[ObjectType, ...] = (
-            ObjectType("table", p.table_length, p.table_width, p.leg_width),
-        )
+        world, poses, catalogue = _shipped_world(config, seeds)
     else:
         world = world_file.world(name=Path(str(config.world)).stem)
         poses = world_file.robot_poses()[: config.poses]
@@ -500,6 +493,68 @@ def _run(
     return ExperimentResult("blackboard", out_dir, tuple(figures), tuple(metric_files), headline)
 
 
+def _streams(config: Config) -> list[np.random.SeedSequence]:
+    """The run's random streams: the world, then per condition its sensor noise and per-pose
+    chain, then per condition its fused chain — so a condition's numbers do not depend on
+    which other conditions run."""
+    return np.random.SeedSequence(config.seed).spawn(1 + 3 * len(CONDITIONS))
+
+
+def _shipped_world(
+    config: Config, seeds: list[np.random.SeedSequence]
+) -> tuple[TablesWorld, np.ndarray, tuple[ObjectType, ...]]:
+    """The scenario's world drawn from the world stream, its pose tour and its one table type."""
+    world = initial(
+        world_params(config.scenario), rng=np.random.default_rng(seeds[0]), name=config.scenario
+    )
+    p = world.params
+    catalogue = (ObjectType("table", p.table_length, p.table_width, p.leg_width),)
+    return world, pose_sequence(p)[: config.poses], catalogue
+
+
+def fused_condition(
+    name: str,
+    config: Config | None = None,
+    *,
+    progress: ProgressHook = no_progress,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The fused run of condition ``name`` on the scenario's world, exactly as ``run`` makes it
+    (same world, sensor noise and chain): the run (:func:`run_fused`) and its fused metrics."""
+    config = Config.model_validate({}) if config is None else config
+    seeds = _streams(config)
+    world, poses, catalogue = _shipped_world(config, seeds)
+    return _fused_run(name, config, world, catalogue, poses, seeds, progress)
+
+
+def _fused_run(
+    name: str,
+    config: Config,
+    world: TablesWorld,
+    catalogue: tuple[ObjectType, ...],
+    poses: np.ndarray,
+    seeds: list[np.random.SeedSequence],
+    progress: ProgressHook,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The fused mapper on condition ``name``'s readings, from the condition's own sensor and
+    fused-chain streams, and its fused metrics (``fused_precision``, ``fused_recall``, …)."""
+    k = list(CONDITIONS).index(name)
+    sensor = _sensor(config, name)
+    result = run_fused(
+        world,
+        poses,
+        catalogue,
+        sensor,
+        fused_params(sensor, config.fused_mapper),
+        np.random.default_rng(seeds[1 + 2 * k]),
+        np.random.default_rng(seeds[1 + 2 * len(CONDITIONS) + k]),
+        label=f"{name} fused",
+        progress=progress,
+    )
+    p = world.params
+    tol = MatchTolerance(config.position_tol, config.angle_tol, p.table_length / 2, config.gospa_c)
+    return result, fused_metrics(result, world, tol)
+
+
 def _fused_condition(
     name: str,
     config: Config,
@@ -512,22 +567,8 @@ def _fused_condition(
     out_dir: Path,
 ) -> Path:
     """The fused mapper on the condition's readings: metrics into ``metrics[name]``, figure."""
-    k = list(CONDITIONS).index(name)
-    sensor = _sensor(config, name)
-    p = world.params
-    result = run_fused(
-        world,
-        poses,
-        catalogue,
-        sensor,
-        fused_params(sensor, config.fused_mapper),
-        np.random.default_rng(seeds[1 + 2 * k]),
-        np.random.default_rng(seeds[1 + 2 * len(CONDITIONS) + k]),
-        label=f"{name} fused",
-        progress=progress,
-    )
-    tol = MatchTolerance(config.position_tol, config.angle_tol, p.table_length / 2, config.gospa_c)
-    metrics[name].update(fused_metrics(result, world, tol))
+    result, scores = _fused_run(name, config, world, catalogue, poses, seeds, progress)
+    metrics[name].update(scores)
     metrics[name].update(
         {
             "fused_per_pose_ms_median": float(np.median(result["step_ms"])),

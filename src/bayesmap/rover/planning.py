@@ -177,6 +177,13 @@ class LocalPlan:
         i, j = path[min(ahead, len(path) - 1)]
         return float(self.xc[i, j]), float(self.yc[i, j])
 
+    def _beyond(self, index: tuple[int, int], target: tuple[float, float]) -> float:
+        """Straight-line distance [m] from viewpoint cell ``index`` to a ``target`` outside the
+        patch; 0 for a target inside it."""
+        if self._index(*target) is not None:
+            return 0.0
+        return math.hypot(self.xc[index] - target[0], self.yc[index] - target[1])
+
     def path_length(self, target: tuple[float, float]) -> float:
         """Length [m] of the shortest path to ``target``'s viewpoint (cells counted at their
         length, whatever they cost), plus the straight line beyond the patch; ``inf`` if
@@ -184,9 +191,7 @@ class LocalPlan:
         index = self._viewpoint(target)
         if index is None:
             return math.inf
-        beyond = 0.0
-        if self._index(*target) is None:
-            beyond = math.hypot(self.xc[index] - target[0], self.yc[index] - target[1])
+        beyond = self._beyond(index, target)
         steps = np.diff(np.asarray(self._solver.traceback(index), dtype=np.float64), axis=0)
         return float(np.hypot(steps[:, 0], steps[:, 1]).sum()) * self.resolution + beyond
 
@@ -203,9 +208,7 @@ class LocalPlan:
         index = self._viewpoint(target)
         if index is None:
             return math.inf
-        beyond = 0.0
-        if self._index(*target) is None:
-            beyond = math.hypot(self.xc[index] - target[0], self.yc[index] - target[1])
+        beyond = self._beyond(index, target)
         path = self._solver.traceback(index)
         if len(path) < 2:
             return beyond

@@ -255,12 +255,7 @@ class SpecularFilter:
         -------
         :class:`RingVerdict`; the rejections are also appended to ``rejections_``.
         """
-        p = np.asarray(pose, dtype=np.float64)
-        r = np.asarray(ranges, dtype=np.float64)
-        if p.shape != (3,):
-            raise InputError(f"a pose must be 3 numbers (x, y, heading), got shape {p.shape}")
-        if r.shape != (self.geometry.n,):
-            raise InputError(f"a ring has {self.geometry.n} readings, got shape {r.shape}")
+        p, r = self.geometry.one_ring(pose, ranges)
         verdict = self.process_many(p[None], r[None])
         return RingVerdict(verdict.accepted[0], verdict.flagged[0], verdict.stage[0])
 

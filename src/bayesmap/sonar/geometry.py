@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from bayesmap._typing import FloatArray, IntArray
 from bayesmap.errors import ConfigError, InputError
@@ -104,6 +105,17 @@ class SonarGeometry:
             return left % self.n, right % self.n
         right[-1] = -1
         return left, right
+
+    def one_ring(self, pose: npt.ArrayLike, ranges: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """``pose`` ``(x, y, heading)`` and one ring of ``ranges`` as float arrays of shapes
+        (3,) and (n,); :class:`InputError` naming the wrong shape otherwise."""
+        p = np.asarray(pose, dtype=np.float64)
+        r = np.asarray(ranges, dtype=np.float64)
+        if p.shape != (3,):
+            raise InputError(f"a pose must be 3 numbers (x, y, heading), got shape {p.shape}")
+        if r.shape != (self.n,):
+            raise InputError(f"a ring has {self.n} readings, got shape {r.shape}")
+        return p, r
 
     def sensors(self, pose: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Transducer positions ``(n, 2)`` [m] and axis bearings ``(n,)`` [rad] at ``pose``."""

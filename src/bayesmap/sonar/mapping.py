@@ -73,12 +73,7 @@ class _ConeMapper:
         self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
     ) -> None:
         """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
-        p = np.asarray(pose, dtype=np.float64)
-        r = np.asarray(ranges, dtype=np.float64)
-        if p.shape != (3,):
-            raise InputError(f"a pose must be 3 numbers (x, y, heading), got shape {p.shape}")
-        if r.shape != (self.geometry.n,):
-            raise InputError(f"a ring has {self.geometry.n} readings, got shape {r.shape}")
+        p, r = self.geometry.one_ring(pose, ranges)
         self.integrate_many(p[None], r[None], None if use is None else np.asarray(use)[None])
 
     def integrate_many(
