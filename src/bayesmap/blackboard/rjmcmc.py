@@ -212,16 +212,28 @@ class Context:
         """
         if not arena_contains(table, self.catalogue, self.model.arena)[0]:
             return -math.inf
-        gain = self.log_intensity + self.table_free_space(table)
-        ids, density = self.table_contacts(table)
-        if len(ids):
-            floor = self.floor[ids]
-            gain += float(
-                (
-                    self.store.counts_[ids] * (np.log(np.maximum(floor, density)) - np.log(floor))
-                ).sum()
-            )
-        return gain
+        return self.log_intensity + self.table_free_space(table) + self.contact_gain(table[None])
+
+    def contact_gain(self, tables: FloatArray) -> float:
+        """The contact term's gain when ``tables`` (n, 4) join an empty room: Σ_i n_i
+        [log max(floor_i, max over the tables of ρ(i)) − log floor_i] over their contacts.
+
+        It grows with the set, and bounds the contact gain of any of its subsets added to
+        any map (a contact's best cause there is at least its floor).
+        """
+        found = [self.table_contacts(table) for table in tables]
+        if len(found) == 1:
+            ids, density = found[0]
+        else:
+            ids, at = np.unique(np.concatenate([f[0] for f in found]), return_inverse=True)
+            density = np.zeros(len(ids))
+            np.maximum.at(density, at.reshape(-1), np.concatenate([f[1] for f in found]))
+        if not len(ids):
+            return 0.0
+        floor = self.floor[ids]
+        return float(
+            (self.store.counts_[ids] * (np.log(np.maximum(floor, density)) - np.log(floor))).sum()
+        )
 
     def table_free_space(self, table: FloatArray) -> float:
         """Term F3 of one table (kept per table while the store and reach are unchanged)."""
@@ -677,14 +689,19 @@ def greedy_ascent(
     tables only compete for contacts, overlaps only cost), and removing the set H that c
     overlaps costs at least the sum of its tables' removal costs (:func:`removal_costs`,
     super-additive). So an exchange gains at most gain_alone(c) + Σ max(gain_alone(r), 0)
-    over its possible refills r − Σ_{h ∈ H} cost(h), and is *ruled out* untried when that
-    is below zero. Once tried, a refill is skipped when the exchange's actual loss exceeds
-    the sum of the refills' positive gains alone.
+    over its possible refills r − Σ_{h ∈ H} cost(h); or, tighter where the refills crowd the
+    same contacts, the prior and free-space terms of c (and any positive ones of the r) plus
+    the contact gain of c and all its possible refills together
+    (:meth:`Context.contact_gain`, each contact counted once at its best cause among them)
+    − Σ_{h ∈ H} cost(h). An exchange is *ruled out* untried when the smaller is below
+    zero. Once tried, a refill is skipped when the exchange's actual loss exceeds the sum
+    of the refills' positive gains alone.
     """
     info = {"greedy_tried": 0, "greedy_kept": 0, "greedy_ruled_out": 0}
     reach = ctx.half_diagonal
     alone = np.array([ctx.gain_alone(c) for c in candidates])
     refill_gain = np.maximum(alone, 0.0)
+    own = np.array([ctx.log_intensity + ctx.table_free_space(c) for c in candidates])
     for _ in range(passes):
         changed = False
         costs = removal_costs(state, ctx)
@@ -707,7 +724,11 @@ def greedy_ascent(
                     <= reach
                 )
                 near[j] = False  # c is in the map before any refill
-            if alone[j] + refill_gain[near].sum() - costs[hit].sum() < -_BOUND_SLACK:
+            bound = alone[j] + refill_gain[near].sum()
+            if near.any():  # the refills compete with c and each other for contacts
+                together = ctx.contact_gain(np.vstack([c, candidates[near]]))
+                bound = min(bound, own[j] + np.maximum(own[near], 0.0).sum() + together)
+            if bound - costs[hit].sum() < -_BOUND_SLACK:
                 info["greedy_ruled_out"] += 1
                 continue  # no exchange through c can raise log π
             trial = _copy(state)
