@@ -27,6 +27,7 @@ from bayesmap.blackboard.rjmcmc import (
     apply,
     evaluate,
     propose,
+    removal_costs,
     run,
 )
 from bayesmap.blackboard.sweep_model import (
@@ -531,3 +532,54 @@ def test_kept_table_terms_are_forgotten_when_sweeps_arrive() -> None:
         assert delta == pytest.approx(_joint(ctx, truth[:1]) - _joint(ctx, state.tables), abs=1e-6)
         deltas.append(delta)
     assert deltas[0] != pytest.approx(deltas[1])
+
+
+@pytest.mark.parametrize("name", ["normal", "noisy"])
+def test_an_exchange_never_gains_more_than_its_bound(name: str) -> None:
+    """The greedy ascent's exchange bound against the joint: on random maps X, removing a
+    random subset H and adding random tables A never gains more than the sum of A's gains
+    alone — or than their prior and free-space terms plus their contact gain together —
+    minus the sum of H's removal costs (so an exchange the bound rules out could not have
+    raised log π); removal costs are super-additive; and the bound is tight enough to rule
+    some exchanges out."""
+    store, truth = _store(sensor=condition(name))
+    ctx = _context(store, MODEL if name == "normal" else NOISY_MODEL)
+    rng = np.random.default_rng(11)
+
+    def table_near(centre: np.ndarray) -> np.ndarray:
+        return np.array(
+            [
+                np.clip(centre[0] + rng.normal(0, 0.15), 0.7, 4.3),
+                np.clip(centre[1] + rng.normal(0, 0.15), 0.7, 3.3),
+                rng.uniform(0, math.pi),
+                float(rng.integers(2)),
+            ]
+        )
+
+    ruled_out = checked = 0
+    while checked < 60:
+        tables = np.array([table_near(t) if rng.uniform() < 0.5 else t for t in truth])
+        tables = np.vstack([tables, [table_near(truth[rng.integers(2)])]][: 2 + rng.integers(2)])
+        if not arena_contains(tables, CATALOGUE, ARENA).all():
+            continue
+        state = _state(ctx, tables)
+        costs = removal_costs(state, ctx)
+        for index, cost in enumerate(costs):
+            assert cost == pytest.approx(
+                state.log_pi - _joint(ctx, np.delete(tables, index, axis=0)), abs=1e-6
+            )
+        removed = np.flatnonzero(rng.uniform(size=len(tables)) < 0.6)
+        rest = np.delete(tables, removed, axis=0)
+        assert state.log_pi - _joint(ctx, rest) >= costs[removed].sum() - 1e-6
+        added = np.array([table_near(truth[rng.integers(2)]) for _ in range(1 + rng.integers(3))])
+        if not arena_contains(added, CATALOGUE, ARENA).all():
+            continue
+        after = _joint(ctx, np.vstack([rest, added]))
+        bound = sum(ctx.gain_alone(t) for t in added) - costs[removed].sum()
+        assert after - state.log_pi <= bound + 1e-6
+        terms = [ctx.log_intensity + ctx.table_free_space(t) for t in added]
+        together = terms[0] + sum(max(v, 0.0) for v in terms[1:]) + ctx.contact_gain(added)
+        assert after - state.log_pi <= together - costs[removed].sum() + 1e-6
+        ruled_out += min(bound, together) < costs[removed].sum()
+        checked += 1
+    assert 0 < ruled_out < checked

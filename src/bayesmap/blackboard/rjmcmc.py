@@ -212,16 +212,28 @@ class Context:
         """
         if not arena_contains(table, self.catalogue, self.model.arena)[0]:
             return -math.inf
-        gain = self.log_intensity + self.table_free_space(table)
-        ids, density = self.table_contacts(table)
-        if len(ids):
-            floor = self.floor[ids]
-            gain += float(
-                (
-                    self.store.counts_[ids] * (np.log(np.maximum(floor, density)) - np.log(floor))
-                ).sum()
-            )
-        return gain
+        return self.log_intensity + self.table_free_space(table) + self.contact_gain(table[None])
+
+    def contact_gain(self, tables: FloatArray) -> float:
+        """The contact term's gain when ``tables`` (n, 4) join an empty room: Σ_i n_i
+        [log max(floor_i, max over the tables of ρ(i)) − log floor_i] over their contacts.
+
+        It grows with the set, and bounds the contact gain of any of its subsets added to
+        any map (a contact's best cause there is at least its floor).
+        """
+        found = [self.table_contacts(table) for table in tables]
+        if len(found) == 1:
+            ids, density = found[0]
+        else:
+            ids, at = np.unique(np.concatenate([f[0] for f in found]), return_inverse=True)
+            density = np.zeros(len(ids))
+            np.maximum.at(density, at.reshape(-1), np.concatenate([f[1] for f in found]))
+        if not len(ids):
+            return 0.0
+        floor = self.floor[ids]
+        return float(
+            (self.store.counts_[ids] * (np.log(np.maximum(floor, density)) - np.log(floor))).sum()
+        )
 
     def table_free_space(self, table: FloatArray) -> float:
         """Term F3 of one table (kept per table while the store and reach are unchanged)."""
@@ -619,6 +631,44 @@ _BOUND_SLACK = 1e-6
 before the greedy ascent skips the trial (rounding of the two sums it compares)."""
 
 
+def removal_costs(state: ChainState, ctx: Context) -> FloatArray:
+    """``(n,)`` each table's removal cost: log π(X) − log π(X without it), the rest kept.
+
+    The costs are super-additive: removing a set H of tables together costs at least the
+    sum of their costs ::
+
+        log π(X) − log π(X ∖ H)  ≥  Σ_{h ∈ H} [log π(X) − log π(X ∖ {h})].
+
+    Proof, term by term of the joint (:func:`~bayesmap.blackboard.sweep_model.log_posterior`):
+
+    - *prior* (log λ per table) and *free space* (F3, each table's own missed sweeps): a
+      sum over tables, so removing H costs exactly the sum of the single costs;
+    - *contacts*: contact i contributes n_i log max(b_i, ρ_1, …, ρ_m), b_i the best of walls,
+      clutter and the tables outside H, ρ_h the best leg of h ∈ H. Only the table with the
+      largest ρ can cost anything alone, and it costs n_i [log M − log max(b_i, second
+      largest ρ)] ≤ n_i [log M − log b_i], M = max(b_i, ρ_1, …, ρ_m): the joint cost of H on
+      that contact. Tables compete for contacts (each takes its best cause), so what a
+      contact loses when several of its explanations go at once is at least the sum of
+      what it loses when each goes alone;
+    - *overlap* (log ε < 0 per overlapping pair, paper eq. 16): a pair inside H counts
+      once in the joint cost and twice in the sum, a pair between H and the rest once in
+      each; as log ε < 0 the sum is the smaller.
+
+    It would fail for any term that rewards tables together: a positive pair factor
+    (log ε > 0, refused by the model), a contact explained only by two tables jointly, or
+    free space shared between tables (a whisker stopped by one table's leg cannot sweep
+    through a leg behind it, so removing the front table would *add* the rear one's
+    free-space cost — a term this model does not have: each table's F3 counts its own
+    legs' sweeps, whatever else stands there). The test
+    ``test_an_exchange_never_gains_more_than_its_bound`` checks the resulting bound against
+    the joint on random configurations.
+    """
+    costs = np.empty(len(state.tables))
+    for index in range(len(state.tables)):
+        costs[index] = -evaluate(state, ctx, Move(MoveKind.DEATH, (index,), ()))[0]
+    return costs
+
+
 def greedy_ascent(
     state: ChainState, ctx: Context, candidates: FloatArray, *, passes: int = 2
 ) -> dict[str, int]:
@@ -632,19 +682,30 @@ def greedy_ascent(
     whose death raises log π. This reaches, in one step, the one-table-for-two exchanges
     (and back) that the chain reaches only through much worse maps. Repeats until a pass
     changes nothing (at most ``passes``). Modifies ``state``;
-    returns counters ``greedy_tried``, ``greedy_kept``.
+    returns counters ``greedy_tried``, ``greedy_kept``, ``greedy_ruled_out``.
 
-    A refill is skipped when it cannot make the exchange pay: each refilled candidate gains
-    at most its gain alone (:meth:`Context.gain_alone`; tables only compete for contacts),
-    so when the exchange's loss exceeds the sum of the positive ones, no refill keeps it.
-    The result is the same as trying every refill.
+    Two bounds skip work that cannot pay; the result is the same as trying everything.
+    Adding tables gains at most the sum of their gains alone (:meth:`Context.gain_alone`:
+    tables only compete for contacts, overlaps only cost), and removing the set H that c
+    overlaps costs at least the sum of its tables' removal costs (:func:`removal_costs`,
+    super-additive). So an exchange gains at most gain_alone(c) + Σ max(gain_alone(r), 0)
+    over its possible refills r − Σ_{h ∈ H} cost(h); or, tighter where the refills crowd the
+    same contacts, the prior and free-space terms of c (and any positive ones of the r) plus
+    the contact gain of c and all its possible refills together
+    (:meth:`Context.contact_gain`, each contact counted once at its best cause among them)
+    − Σ_{h ∈ H} cost(h). An exchange is *ruled out* untried when the smaller is below
+    zero. Once tried, a refill is skipped when the exchange's actual loss exceeds the sum
+    of the refills' positive gains alone.
     """
-    info = {"greedy_tried": 0, "greedy_kept": 0}
+    info = {"greedy_tried": 0, "greedy_kept": 0, "greedy_ruled_out": 0}
     reach = ctx.half_diagonal
-    refill_gain = np.array([max(ctx.gain_alone(c), 0.0) for c in candidates])
+    alone = np.array([ctx.gain_alone(c) for c in candidates])
+    refill_gain = np.maximum(alone, 0.0)
+    own = np.array([ctx.log_intensity + ctx.table_free_space(c) for c in candidates])
     for _ in range(passes):
         changed = False
-        for c in candidates:
+        costs = removal_costs(state, ctx)
+        for j, c in enumerate(candidates):
             if _holds(state.tables, c):
                 continue
             hit = (
@@ -652,11 +713,7 @@ def greedy_ascent(
                 if len(state.tables)
                 else np.zeros(0, dtype=np.int64)
             )
-            trial = _copy(state)
-            info["greedy_tried"] += 1
-            gain = _try(trial, ctx, Move(MoveKind.SWITCH, tuple(hit.tolist()), (c,)))
-            if not math.isfinite(gain):
-                continue
+            near = np.zeros(len(candidates), dtype=bool)
             if len(hit):
                 centres = state.tables[hit, :2]
                 near = (
@@ -666,6 +723,20 @@ def greedy_ascent(
                     ).min(axis=1)
                     <= reach
                 )
+                near[j] = False  # c is in the map before any refill
+            bound = alone[j] + refill_gain[near].sum()
+            if near.any():  # the refills compete with c and each other for contacts
+                together = ctx.contact_gain(np.vstack([c, candidates[near]]))
+                bound = min(bound, own[j] + np.maximum(own[near], 0.0).sum() + together)
+            if bound - costs[hit].sum() < -_BOUND_SLACK:
+                info["greedy_ruled_out"] += 1
+                continue  # no exchange through c can raise log π
+            trial = _copy(state)
+            info["greedy_tried"] += 1
+            gain = _try(trial, ctx, Move(MoveKind.SWITCH, tuple(hit.tolist()), (c,)))
+            if not math.isfinite(gain):
+                continue
+            if len(hit):
                 if gain + refill_gain[near].sum() < -_BOUND_SLACK:
                     continue  # even every refill at its gain alone could not pay for it
                 for other in candidates[near]:
@@ -684,6 +755,7 @@ def greedy_ascent(
                 )
                 info["greedy_kept"] += 1
                 changed = True
+                costs = removal_costs(state, ctx)
         index = 0
         while index < len(state.tables):
             trial = _copy(state)
