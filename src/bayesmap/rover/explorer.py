@@ -27,6 +27,7 @@ from bayesmap.rover.safety import (
     footprint_safety,
     hazard_cells,
     reading_points,
+    retreat_command,
 )
 from bayesmap.rover.targets import TargetRule
 from bayesmap.sensing.ir import ranger_poses
@@ -203,10 +204,11 @@ class Explorer:
         )
 
     def _drive(self, heading: float, psi: float, safety: Safety, index: int) -> tuple[float, float]:
-        """Drive toward a safe heading; otherwise stop and turn in place, or back off."""
+        """Drive toward a safe heading (or retreat along it); otherwise stop and turn in place,
+        or back off."""
         p = self.params
         if safety.safe[index]:
-            return drive_command(heading, psi, p)
+            return (retreat_command if safety.retreat else drive_command)(heading, psi, p)
         if safety.here < p.safety_margin and safety.ahead and safety.back_clear:
             return (-p.speed, 0.0)
         error = math.remainder(heading - psi, 2.0 * math.pi)
