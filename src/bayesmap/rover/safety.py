@@ -17,8 +17,8 @@ included, against
 - the edge of the mapped area (a path may not end farther outside than it starts).
 
 The footprint must keep ``safety_margin = margin_sigmas * position_sigma`` [m] from them,
-so the margin grows with the position uncertainty. When no heading keeps the margin (the
-rover hemmed in, e.g. in a corridor narrower than its margin on the map), the retreats
+so the margin grows with the position uncertainty. When the rover stands inside the margin
+and no heading keeps it (hemmed in, e.g. in a corridor narrower than its margin), retreats
 are allowed instead: pivot onto a heading, then drive straight along it, where the
 footprint never comes closer to a hazard than it is now. The result is the evidence of the
 decision network's ``Footprint`` node (:mod:`bayesmap.rover.network`). All of this is an
@@ -192,9 +192,10 @@ class Safety:
     back_clear
         Whether backing off one cycle keeps the footprint at least as clear as it is now.
     retreat
-        Whether no heading kept the margin, so that ``safe`` lists the retreats instead:
-        headings the rover can pivot onto and drive straight along without the footprint
-        coming closer to a hazard than ``here`` (:func:`retreat_command`).
+        Whether the rover stands inside the margin and no heading keeps it, so that
+        ``safe`` lists the retreats instead: headings the rover can pivot onto and drive
+        straight along without the footprint coming closer to a hazard than ``here``
+        (:func:`retreat_command`).
     """
 
     safe: BoolArray
@@ -251,11 +252,11 @@ def footprint_safety(
     gap, clearance, allowed = check(predicted_centres(pose, headings, params))
     here = float(gap[0, 0])
     safe = (clearance >= params.safety_margin) & allowed
-    # Hemmed in (no heading keeps the margin): a retreat pivots onto a heading, which keeps
-    # a round body's clearance, then drives straight; it is allowed when the smallest
+    # Hemmed in (inside the margin, no heading keeps it): a retreat pivots onto a heading,
+    # which keeps a round body's clearance, then drives straight; it is allowed when the smallest
     # clearance along the straight path is the clearance here (its first sample), so it
     # never brings the body closer to a hazard than it is now.
-    retreat = not safe.any()
+    retreat = here < params.safety_margin and not safe.any()
     if retreat:
         _, clearance, allowed = check(straight_centres(pose, headings, params))
         safe = (clearance >= here - _ROUNDING) & allowed
