@@ -7,8 +7,10 @@ path still to go to an unchanged target (``stalled_cycles`` in the run metrics,
 observer on every cycle, writes the per-cycle log to ``OUT/<run>.csv`` and the map with the
 path to ``OUT/<run>.png``, and splits the stalled cycles by what the rover was doing:
 
-- *no safe heading*: the footprint check refused every heading (the rover stops, pivots or
-  backs off);
+- *no safe heading*: the footprint check refused every heading, retreats included (the
+  rover stops, pivots or backs off);
+- *retreating*: hemmed in (inside the margin, no heading keeps it), backing out along a
+  retreat that never lowers the clearance;
 - *at the viewpoint*: the path still to go is at most a cell: the rover stands where it
   looks at its target and turns to face it;
 - *pivoting*: turning in place toward a heading more than 90° off (a new target behind it);
@@ -46,13 +48,22 @@ from bayesmap.rover.explorer import Decision  # noqa: E402
 from bayesmap.sim.rover_worlds import generate_world  # noqa: E402
 from bayesmap.viz.rover import maps_pair_figure  # noqa: E402
 
-CATEGORIES = ("no safe heading", "at the viewpoint", "pivoting", "driving", "new target")
+CATEGORIES = (
+    "no safe heading",
+    "retreating",
+    "at the viewpoint",
+    "pivoting",
+    "driving",
+    "new target",
+)
 
 
 def category(row: dict[str, Any], resolution: float) -> str:
     """What a stalled cycle was doing (the module docstring's categories, first match)."""
     if not row["any_safe"]:
         return "no safe heading"
+    if row["retreat"]:
+        return "retreating"
     if row["new_target"]:
         return "new target"
     if row["to_go"] <= resolution:
@@ -99,6 +110,7 @@ def main() -> None:
             "speed": decision.command[0],
             "yaw_rate": decision.command[1],
             "any_safe": bool(decision.safety.safe.any()),
+            "retreat": decision.safety.retreat,
             "new_target": decision.target != previous[0],
             "stalled": stalled,
         }

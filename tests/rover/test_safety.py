@@ -14,6 +14,7 @@ from bayesmap.rover.safety import (
     hazard_cells,
     predicted_centres,
     reading_points,
+    retreat_command,
     square_distance,
 )
 from bayesmap.sensing.ir import ranger_poses
@@ -140,3 +141,54 @@ def test_backing_off_is_allowed_only_away_from_obstacles() -> None:
         PARAMS,
     )
     assert not boxed.back_clear
+
+
+def _corridor(lower: float, upper: float, x_end: float) -> np.ndarray:
+    """Wall cells (0.5 m squares) along y = ``lower`` and ``upper`` from x = -3.5 to
+    ``x_end``, closed at ``x_end``: a dead end opening toward -x."""
+    xs = np.arange(-3.5, x_end + 1e-9, 0.5)
+    walls = [(x, y) for x in xs for y in (lower, upper)]
+    return np.array(walls + [(x_end + 0.5, y) for y in np.arange(lower, upper + 1e-9, 0.5)])
+
+
+@pytest.mark.parametrize(("lower", "y0", "psi0"), [(-0.7, 0.0, 0.0), (-0.8, 0.02, 0.3)])
+def test_hemmed_in_a_corridor_narrower_than_the_margin_it_backs_out(
+    lower: float, y0: float, psi0: float
+) -> None:
+    """No heading keeps the margin: only retreats that never lose clearance are allowed, and
+    following them (the goal lies behind, outside) the rover backs out of the dead end."""
+    walls = _corridor(lower, 0.7, 1.5)  # wall edges 0.45-0.55 m from the axis: gap < margin
+    pose = np.array([1.0, y0, psi0])  # deep inside, facing the dead end
+    start = footprint_safety(tuple(pose), THETA, walls, 0.5, np.zeros((0, 2)), FIELD, PARAMS)
+    assert start.retreat and start.here < PARAMS.safety_margin
+    assert not start.safe[0]  # driving on toward the dead end would lose clearance
+    here, safety = start.here, start
+    for _ in range(100):
+        safety = footprint_safety(tuple(pose), THETA, walls, 0.5, np.zeros((0, 2)), FIELD, PARAMS)
+        assert safety.here >= here - 1e-9  # the clearance never shrinks
+        here = safety.here
+        if not safety.retreat:
+            break
+        assert safety.safe.any()
+        assert (safety.clearance[safety.safe] >= safety.here - 1e-9).all()
+        allowed = np.flatnonzero(safety.safe)  # the one nearest the goal's direction, -x
+        k = allowed[np.argmin(np.abs(np.angle(np.exp(1j * (THETA[allowed] - math.pi)))))]
+        v, w = retreat_command(float(THETA[k]), float(pose[2]), PARAMS)
+        pose[2] += w * PARAMS.dt
+        pose[:2] += v * PARAMS.dt * np.array([math.cos(pose[2]), math.sin(pose[2])])
+    assert not safety.retreat, "the rover stayed hemmed in"
+    assert pose[0] < -3.0  # out past the corridor's mouth
+    assert (safety.clearance[safety.safe] >= PARAMS.safety_margin).all()
+
+
+def test_a_retreat_is_offered_only_when_no_heading_keeps_the_margin() -> None:
+    free = _safety([(3.0, 0.0)])
+    assert not free.retreat and (free.clearance[free.safe] >= PARAMS.safety_margin).all()
+
+
+def test_a_retreat_pivots_onto_its_heading_then_drives_straight() -> None:
+    v, w = retreat_command(math.pi, 0.1, PARAMS)
+    assert v == 0.0 and abs(w) == PARAMS.pivot_rate
+    v, w = retreat_command(0.2, 0.1, PARAMS)  # lands exactly on it
+    assert v == 0.0 and 0.1 + w * PARAMS.dt == pytest.approx(0.2, abs=1e-12)
+    assert retreat_command(0.2, 0.2, PARAMS) == (PARAMS.speed, 0.0)

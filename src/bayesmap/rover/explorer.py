@@ -27,6 +27,7 @@ from bayesmap.rover.safety import (
     footprint_safety,
     hazard_cells,
     reading_points,
+    retreat_command,
 )
 from bayesmap.rover.targets import TargetRule
 from bayesmap.sensing.ir import ranger_poses
@@ -114,6 +115,7 @@ class Explorer:
         self.network_ = DecisionNetwork(params, evaluator)
         self.recent_hits_: deque[FloatArray] = deque(maxlen=params.hit_memory)
         self._theta = np.asarray(params.headings)
+        self._retreat: int | None = None
 
     @property
     def grid(self) -> OccupancyGrid:
@@ -135,6 +137,9 @@ class Explorer:
         target, waypoint = self._target(plan, (x, y, psi))
         theta_t = psi if waypoint is None else math.atan2(waypoint[1] - y, waypoint[0] - x)
         safety = self._safety((x, y, psi))
+        safe = safety.safe
+        if safety.retreat and self._retreat is not None and safe[self._retreat]:
+            safe = np.arange(safe.size) == self._retreat  # a retreat once begun is kept
         xc, yc, prob = local_patch(self.grid, self.grid.probability, x, y, p.d_max, p.prior)
         p_o = collision_probability(
             prob,
@@ -152,9 +157,10 @@ class Explorer:
             p_t=navigation_goal(self._theta, theta_t),
             p_o=p_o,
             heading=psi,
-            safe=safety.safe,
+            safe=safe,
         )
         index, p_move = self.network_.decide(inputs)
+        self._retreat = index if safety.retreat and safe[index] else None
         heading = float(self._theta[index])
         command = (0.0, 0.0) if target is None else self._drive(heading, psi, safety, index)
         cost = math.nan if target is None else plan.remaining(x, y, target)
@@ -203,11 +209,14 @@ class Explorer:
         )
 
     def _drive(self, heading: float, psi: float, safety: Safety, index: int) -> tuple[float, float]:
-        """Drive toward a safe heading; otherwise stop and turn in place, or back off."""
+        """Drive toward a safe heading; otherwise back off, retreat along the heading when
+        it is a retreat (:attr:`Safety.retreat`), or stop and turn in place."""
         p = self.params
-        if safety.safe[index]:
+        if safety.safe[index] and not safety.retreat:
             return drive_command(heading, psi, p)
         if safety.here < p.safety_margin and safety.ahead and safety.back_clear:
             return (-p.speed, 0.0)
+        if safety.safe[index]:
+            return retreat_command(heading, psi, p)
         error = math.remainder(heading - psi, 2.0 * math.pi)
         return (0.0, math.copysign(p.pivot_rate, error if error != 0 else 1.0))

@@ -17,7 +17,10 @@ included, against
 - the edge of the mapped area (a path may not end farther outside than it starts).
 
 The footprint must keep ``safety_margin = margin_sigmas * position_sigma`` [m] from them,
-so the margin grows with the position uncertainty. The result is the evidence of the
+so the margin grows with the position uncertainty. When the rover stands inside the margin
+and no heading keeps it (hemmed in, e.g. in a corridor narrower than its margin), retreats
+are allowed instead: pivot onto a heading, then drive straight along it, where the
+footprint never comes closer to a hazard than it is now. The result is the evidence of the
 decision network's ``Footprint`` node (:mod:`bayesmap.rover.network`). All of this is an
 addition to the paper.
 """
@@ -53,6 +56,24 @@ def drive_command(heading: float, psi: float, params: RoverParams) -> tuple[floa
     limit = params.speed / params.min_turn_radius
     return (params.speed, float(np.clip(2.0 * error, -limit, limit)))
 
+
+def retreat_command(heading: float, psi: float, params: RoverParams) -> tuple[float, float]:
+    """``(speed, yaw rate)`` of a retreat (:attr:`Safety.retreat`): turn in place until the
+    rover faces ``heading`` exactly, then drive straight along it.
+
+    The pivot slows to land on ``heading``: a round body keeps its clearance while it
+    pivots, and a straight path is what the footprint check cleared, whereas the drive
+    law's arcs (:func:`drive_command`) would sweep the body toward a wall of a corridor
+    narrower than the margin.
+    """
+    error = float(wrap_angle(heading - psi))
+    if abs(error) > 1e-9:
+        return (0.0, math.copysign(min(params.pivot_rate, abs(error) / params.dt), error))
+    return (params.speed, 0.0)
+
+
+_ROUNDING = 1e-9
+"""Clearance [m] a retreat may lose to rounding (``sin(pi)`` is not 0 in floating point)."""
 
 _TEMPLATE_STEP = math.radians(0.5)
 """Spacing of the precomputed turning errors [rad]: paths are looked up, not integrated."""
@@ -161,7 +182,8 @@ class Safety:
         ``(M,)`` headings whose predicted path keeps the footprint clear.
     clearance
         ``(M,)`` smallest distance [m] between the footprint's edge and a likely obstacle
-        along each path (negative: overlap).
+        along each path (negative: overlap); along the retreats' straight paths when
+        ``retreat``.
     here
         Clearance [m] of the footprint where it stands now.
     ahead
@@ -169,6 +191,11 @@ class Safety:
         so that backing off moves away from it.
     back_clear
         Whether backing off one cycle keeps the footprint at least as clear as it is now.
+    retreat
+        Whether the rover stands inside the margin and no heading keeps it, so that
+        ``safe`` lists the retreats instead: headings the rover can pivot onto and drive
+        straight along without the footprint coming closer to a hazard than ``here``
+        (:func:`retreat_command`).
     """
 
     safe: BoolArray
@@ -176,6 +203,7 @@ class Safety:
     here: float
     ahead: bool
     back_clear: bool
+    retreat: bool = False
 
 
 def footprint_safety(
@@ -209,27 +237,29 @@ def footprint_safety(
     unknown_cells
         ``(u, 2)`` centres [m] of the cells near the rover never observed.
     """
-    centres = predicted_centres(pose, headings, params)
-    px, py = centres[..., 0:1], centres[..., 1:2]
     cells = np.asarray(obstacle_cells, dtype=np.float64).reshape(-1, 2)
     hits = np.asarray(reading_hits, dtype=np.float64).reshape(-1, 2)
-    gaps = [np.full(centres.shape[:2], np.inf)]
-    if cells.size:
-        gaps.append(square_distance(px, py, cells[:, 0], cells[:, 1], resolution / 2).min(axis=-1))
-    if hits.size:
-        gaps.append(np.hypot(px - hits[:, 0], py - hits[:, 1]).min(axis=-1))
-    gap = np.minimum.reduce(gaps) - params.footprint_radius
-    clearance = gap.min(axis=1)
-    outside = outside_distance(centres[..., 0], centres[..., 1], extent)
-    leaves = (outside > outside[:, :1] + 1e-9).any(axis=1)
-    safe = (clearance >= params.safety_margin) & ~leaves
     unknown = np.zeros((0, 2)) if unknown_cells is None else np.asarray(unknown_cells)
-    if unknown.size:
-        half = resolution / 2
-        distance = square_distance(px, py, unknown[:, 0], unknown[:, 1], half)
-        unseen = distance[:, 1:, :] < params.footprint_radius  # (M, K - 1, u)
-        under = distance[0, 0, :] < params.footprint_radius  # already beneath the body
-        safe &= ~(unseen & ~under).any(axis=(1, 2))
+    check = functools.partial(
+        _swept_clearance,
+        cells=cells,
+        hits=hits,
+        unknown=unknown,
+        resolution=resolution,
+        extent=extent,
+        radius=params.footprint_radius,
+    )
+    gap, clearance, allowed = check(predicted_centres(pose, headings, params))
+    here = float(gap[0, 0])
+    safe = (clearance >= params.safety_margin) & allowed
+    # Hemmed in (inside the margin, no heading keeps it): a retreat pivots onto a heading,
+    # which keeps a round body's clearance, then drives straight; it is allowed when the smallest
+    # clearance along the straight path is the clearance here (its first sample), so it
+    # never brings the body closer to a hazard than it is now.
+    retreat = here < params.safety_margin and not safe.any()
+    if retreat:
+        _, clearance, allowed = check(straight_centres(pose, headings, params))
+        safe = (clearance >= here - _ROUNDING) & allowed
     points = np.concatenate([cells, hits])
     ahead, back_clear = False, True
     if points.size:
@@ -242,8 +272,52 @@ def footprint_safety(
             square_distance(bx, by, cells[:, 0], cells[:, 1], resolution / 2).min(initial=np.inf),
             np.hypot(hits[:, 0] - bx, hits[:, 1] - by).min(initial=np.inf),
         )
-        back_clear = bool(back - params.footprint_radius >= gap[0, 0])
-    return Safety(np.asarray(safe), np.asarray(clearance), float(gap[0, 0]), ahead, back_clear)
+        back_clear = bool(back - params.footprint_radius >= here)
+    return Safety(np.asarray(safe), np.asarray(clearance), here, ahead, back_clear, retreat)
+
+
+def straight_centres(
+    pose: tuple[float, float, float], headings: npt.ArrayLike, params: RoverParams
+) -> FloatArray:
+    """``(M, K, 2)`` centre positions [m] of a retreat: straight along each heading for
+    ``lookahead`` metres (after a pivot in place onto it, which does not move the centre)."""
+    theta = np.asarray(headings, dtype=np.float64).ravel()
+    s = np.linspace(
+        0.0, params.lookahead, int(math.ceil(params.lookahead / (params.speed * _SUBSTEP))) + 1
+    )
+    x = pose[0] + s[None, :] * np.cos(theta)[:, None]
+    y = pose[1] + s[None, :] * np.sin(theta)[:, None]
+    return np.stack([x, y], axis=-1)
+
+
+def _swept_clearance(
+    centres: FloatArray,
+    *,
+    cells: FloatArray,
+    hits: FloatArray,
+    unknown: FloatArray,
+    resolution: float,
+    extent: tuple[float, float, float, float],
+    radius: float,
+) -> tuple[FloatArray, FloatArray, BoolArray]:
+    """Gap [m] between the footprint and the nearest hazard at every ``(M, K)`` centre, its
+    minimum along each path, and whether a path stays on the map as far as it starts and
+    off cells never observed (unless already beneath the body)."""
+    px, py = centres[..., 0:1], centres[..., 1:2]
+    gaps = [np.full(centres.shape[:2], np.inf)]
+    if cells.size:
+        gaps.append(square_distance(px, py, cells[:, 0], cells[:, 1], resolution / 2).min(axis=-1))
+    if hits.size:
+        gaps.append(np.hypot(px - hits[:, 0], py - hits[:, 1]).min(axis=-1))
+    gap = np.minimum.reduce(gaps) - radius
+    outside = outside_distance(centres[..., 0], centres[..., 1], extent)
+    allowed = ~(outside > outside[:, :1] + 1e-9).any(axis=1)
+    if unknown.size:
+        distance = square_distance(px, py, unknown[:, 0], unknown[:, 1], resolution / 2)
+        unseen = distance[:, 1:, :] < radius  # (M, K - 1, u)
+        under = distance[0, 0, :] < radius  # already beneath the body
+        allowed &= ~(unseen & ~under).any(axis=(1, 2))
+    return np.asarray(gap), np.asarray(gap.min(axis=1)), np.asarray(allowed)
 
 
 def hazard_cells(probability: npt.ArrayLike, params: RoverParams) -> BoolArray:
