@@ -178,10 +178,14 @@ def test_abandoned_temporaries_are_swept_and_live_ones_kept(tmp_path):
     assert _leftovers(tmp_path) == [".out.run-live.tmp", ".x.txt.partial-fresh.tmp"]
 
 
+# The child gets Ctrl-C as at a terminal: a shell's background job (`cmd &` without job
+# control, as a CI runner may start the suite) begins with SIGINT ignored, and Python then
+# never raises KeyboardInterrupt.
 _INTERRUPTED = """
-import sys, time
+import signal, sys, time
 from pathlib import Path
 from bayesmap._io import run_folder, terminate_as_exit, write_text
+signal.signal(signal.SIGINT, signal.default_int_handler)
 target = Path(sys.argv[1])
 with terminate_as_exit(), run_folder(target, command="t", configuration={}, seed=1) as folder:
     write_text(folder.path / "metrics.json", "new")
