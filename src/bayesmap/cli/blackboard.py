@@ -69,10 +69,8 @@ def world_command(
     ] = True,
 ) -> None:
     """Generate a world: 4–10 tables of mixed sizes at any angle in a 4–10 m arena."""
-    import numpy as np
-
     from bayesmap.sim.whisker_worlds import StressOptions, generate_world, save_world
 
     options = StressOptions() if stress else StressOptions(near_wall=0.0, close_pairs=0.0)
-    save_world(generate_world(np.random.default_rng(seed), options), out)
+    save_world(generate_world(seed, options), out)
     print_note(f"wrote {out}", out=console)

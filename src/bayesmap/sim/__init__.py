@@ -3,7 +3,17 @@
 Every world is registered under a versioned name in :mod:`~bayesmap.sim.scenarios`
 (:func:`scenario` looks one up). Every simulator has the functional shape
 ``h(world, pose, params)`` (noiseless) beside ``observe(world, pose, params, *, rng)``
-(noisy); reach those through their modules:
+(noisy); reach those through their modules.
+
+Randomness: a function that draws a whole world or a whole log (``generate_world``,
+``random_building``, ``simulate_log``, the sonar's ``observe`` over a trajectory) is an
+entry point and takes ``rng`` as a seed or a generator (:mod:`bayesmap._rng`). A per-step
+model (``initial``, ``transition``, the one-pose ``observe`` of the rover, its IR rangers
+and the whiskers) is a building block of the caller's loop and takes the loop's
+``numpy.random.Generator``, so that a seed cannot silently repeat the same noise at every
+step.
+
+The modules:
 
 - :mod:`~bayesmap.sim.world2d`, :mod:`~bayesmap.sim.rover`, :mod:`~bayesmap.sim.ir`: the
   micro-rover with IR rangers among boxes (Post et al. 2016); :mod:`~bayesmap.sim.rover_worlds`:

@@ -276,11 +276,11 @@ def generate_world(
     name
         Versioned name recorded by results.
     """
-    gen = as_generator(rng)
-    side = float(gen.uniform(20.0, 60.0)) if size is None else float(size)
+    generator = as_generator(rng)
+    side = float(generator.uniform(20.0, 60.0)) if size is None else float(size)
     wanted = max(int(side * side / 40.0), 3) if n_groups is None else n_groups
     kinds = ("wall", "l-shape", "corridor", "passage", "box", "tilted")
-    start = (1.0, 1.0, float(gen.uniform(-math.pi, math.pi)))
+    start = (1.0, 1.0, float(generator.uniform(-math.pi, math.pi)))
     groups: list[Group] = []
     shapes: list[shapely.Geometry] = []
     area = shapely.box(passage, passage, side - passage, side - passage)
@@ -288,8 +288,8 @@ def generate_world(
     for _ in range(wanted * 20):
         if len(groups) == wanted:
             break
-        x, y = gen.uniform(passage, side - passage, size=2)
-        group = _group(gen, str(gen.choice(kinds)), float(x), float(y), passage)
+        x, y = generator.uniform(passage, side - passage, size=2)
+        group = _group(generator, str(generator.choice(kinds)), float(x), float(y), passage)
         shape = _shape(group)
         inside = area.contains(shape)
         apart = all(shapely.distance(shape, other) >= passage for other in shapes)

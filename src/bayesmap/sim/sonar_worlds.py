@@ -24,6 +24,7 @@ import numpy as np
 from shapely.geometry import Polygon
 
 from bayesmap._io import write_json
+from bayesmap._rng import RNGLike, as_generator
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.sim.polygons import PolygonWorld, _make, random_building
 from bayesmap.sim.world_files import check_schema, read_document
@@ -105,15 +106,17 @@ def save_world(world: PolygonWorld, path: str | Path) -> Path:
     return write_json(path, to_json(world))
 
 
-def generate_world(rng: np.random.Generator) -> PolygonWorld:
-    """A random building (:func:`~bayesmap.sim.polygons.random_building`) drawn from ``rng``.
+def generate_world(rng: RNGLike = None) -> PolygonWorld:
+    """A random building (:func:`~bayesmap.sim.polygons.random_building`) drawn from ``rng``
+    (a seed or a generator).
 
     A draw whose rooms do not join the corridor is drawn again from the same generator,
     up to :data:`GENERATOR_ATTEMPTS` times.
     """
+    generator = as_generator(rng)
     for _ in range(GENERATOR_ATTEMPTS - 1):
         try:
-            return random_building(rng)
+            return random_building(generator)
         except ConfigError:
             continue
-    return random_building(rng)
+    return random_building(generator)

@@ -37,6 +37,7 @@ import numpy as np
 import shapely
 
 from bayesmap._io import write_json
+from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray, Poses
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.sim.tables_world import TablesWorld, build_mixed, rectangle_corners
@@ -389,9 +390,10 @@ def _distance_to_walls(polygon: shapely.Polygon, arena: tuple[float, float]) -> 
 
 
 def generate_world(
-    rng: np.random.Generator, options: StressOptions = StressOptions(), *, grid: int = 10
+    rng: RNGLike = None, options: StressOptions = StressOptions(), *, grid: int = 10
 ) -> WorldFile:
-    """Draw a stress world: tables of mixed sizes at any angle, some hugging walls, some in pairs.
+    """Draw a stress world from ``rng`` (a seed or a generator): tables of mixed sizes at
+    any angle, some hugging walls, some in pairs.
 
     The arena's sides are drawn in ``options.arena_range``, the number of tables in
     ``options.tables_range`` (capped by the area). Each table gets a size from
@@ -402,26 +404,27 @@ def generate_world(
     poses: a ``grid`` × ``grid`` × 4 grid 0.45 m from the walls (positions blocked by a
     table are skipped when the file is read).
     """
+    generator = as_generator(rng)
     arena = (
-        round(float(rng.uniform(*options.arena_range)), 2),
-        round(float(rng.uniform(*options.arena_range)), 2),
+        round(float(generator.uniform(*options.arena_range)), 2),
+        round(float(generator.uniform(*options.arena_range)), 2),
     )
     fit = int(arena[0] * arena[1] // options.area_per_table)
     high = max(min(options.tables_range[1], fit), options.tables_range[0])
-    n_tables = int(rng.integers(options.tables_range[0], high + 1))
+    n_tables = int(generator.integers(options.tables_range[0], high + 1))
     rows: list[list[float]] = []
     polygons: list[shapely.Polygon] = []
     for _ in range(_ATTEMPTS):
         if len(rows) == n_tables:
             break
-        length, width, leg = options.sizes[int(rng.integers(len(options.sizes)))]
-        theta = float(rng.uniform(0.0, math.pi))
-        x, y = float(rng.uniform(0, arena[0])), float(rng.uniform(0, arena[1]))
-        mode = rng.uniform()
+        length, width, leg = options.sizes[int(generator.integers(len(options.sizes)))]
+        theta = float(generator.uniform(0.0, math.pi))
+        x, y = float(generator.uniform(0, arena[0])), float(generator.uniform(0, arena[1]))
+        mode = generator.uniform()
         if mode < options.near_wall:
-            x, y = _against_wall(rng, x, y, theta, length, width, arena, options.wall_gap)
+            x, y = _against_wall(generator, x, y, theta, length, width, arena, options.wall_gap)
         elif mode < options.near_wall + options.close_pairs and polygons:
-            x, y = _beside(rng, rows, theta, length, width, options.pair_gap)
+            x, y = _beside(generator, rows, theta, length, width, options.pair_gap)
         polygon = _table_polygons(np.array([[x, y, theta, length, width]]))[0]
         if _distance_to_walls(polygon, arena) < options.min_gap:
             continue
