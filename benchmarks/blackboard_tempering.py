@@ -4,15 +4,15 @@ For each run (the shipped world ``whisker-tables-v1`` of ``reproduce blackboard`
 streams, and generated stress worlds, generator seeds ``--worlds``, default 9317 and 4, run
 seed 0, as ``bayesmap blackboard run --world`` runs them) the 400 steps run once; at
 :meth:`~bayesmap.blackboard.fused.FusedMapper.finish` the mapper and its chain's generator are
-copied, and the final pass runs twice from the same stored evidence and chain state: once with
-``replicas = 1`` (the β = 1 chain alone, as before tempering) and once with the defaults
-(parallel tempering). Reported per run and variant: the CPU seconds of ``finish``
-(``time.process_time``; a loaded machine inflates them, the load average is listed), fused
-precision and recall, the existence probabilities of mapped objects that match a true table
-(lowest and mean) and of those that match none (highest), and the swap acceptance between each
-pair of neighbouring replicas. The table goes to docs/benchmarks.md (section
-``blackboard_tempering``). Run from the repository root as
-``python benchmarks/blackboard_tempering.py``.
+copied, and the final pass runs twice from the same stored evidence and chain state: once
+*before* (``replicas = 1, samples = 1500``: the β = 1 chain alone, as the mapper ran it
+before tempering) and once with the defaults (parallel tempering). Reported per run and
+variant: the CPU seconds of ``finish`` (``time.process_time``; a loaded machine inflates
+them, the load average is listed), fused precision and recall, the existence probabilities
+of mapped objects that match a true table (lowest and mean) and of those that match none
+(highest), and the swap acceptance between each pair of neighbouring replicas. The table
+goes to docs/benchmarks.md (section ``blackboard_tempering``). Run from the repository root
+as ``python benchmarks/blackboard_tempering.py``.
 """
 
 from __future__ import annotations
@@ -38,10 +38,13 @@ from bayesmap.experiments import blackboard, blackboard_world  # noqa: E402
 from bayesmap.experiments.fused_run import fused_metrics  # noqa: E402
 from bayesmap.sim.whisker_worlds import generate_world  # noqa: E402
 
+BEFORE = {"replicas": 1, "samples": 1500}
+"""The existence chain before tempering: 1500 moves of the β = 1 chain alone."""
+
 
 class _BothFinishes:
     """While alive, each ``FusedMapper.finish`` also runs, first, on a copy of the mapper and
-    its generator with ``replicas = 1``; the experiments' metrics are computed for both maps."""
+    its generator with :data:`BEFORE`; the experiments' metrics are computed for both maps."""
 
     def __init__(self) -> None:
         self.maps: dict[str, FusedMap] = {}
@@ -55,7 +58,7 @@ class _BothFinishes:
 
         def both(mapper: FusedMapper, *, rng: Any = None) -> FusedMap:
             alone = copy.deepcopy(mapper)
-            alone.params = dataclasses.replace(mapper.params, replicas=1)
+            alone.params = dataclasses.replace(mapper.params, **BEFORE)
             tic = time.process_time()
             record.maps["alone"] = finish(alone, rng=copy.deepcopy(rng))
             record.cpu["alone"] = time.process_time() - tic
@@ -161,7 +164,8 @@ def write(rows: list[dict[str, Any]]) -> None:
     note = (
         f"{machine()}. Each tour runs once; its final pass (`FusedMapper.finish`) then runs "
         "twice from the same stored evidence and chain state: *alone* is the β = 1 "
-        f"existence chain by itself (`replicas=1`), *tempered* the default ladder β = {ladder} "
+        f"existence chain by itself as before tempering ({BEFORE['samples']} moves), "
+        f"*tempered* the default ladder β = {ladder} "
         f"({p.samples} moves per replica, exchanges every {p.swap_every} moves). CPU seconds "
         "of this process (`time.process_time`); a loaded machine inflates them (load "
         "average listed). `python benchmarks/blackboard_tempering.py`"
