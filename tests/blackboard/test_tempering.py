@@ -11,6 +11,7 @@ import pytest
 from bayesmap.blackboard import tempering
 from bayesmap.blackboard.data_driven import BirthProposal
 from bayesmap.blackboard.evidence import EvidenceStore
+from bayesmap.blackboard.fused import FusedParams
 from bayesmap.blackboard.rjmcmc import ChainState, Context, MoveRates, holding, run
 from bayesmap.blackboard.sweep_model import ObjectType, SweepModel, log_posterior
 from bayesmap.blackboard.tempering import (
@@ -150,7 +151,7 @@ def _two_modes() -> tuple[Context, BirthProposal, np.ndarray, np.ndarray, float]
     whiskers are symmetric about the line, so the posterior near B is the posterior near A
     reflected, except for one whisker that swept through A's two far legs and touched
     nothing: each costs p_miss. The odds A : B are exactly p_miss², P(A | A or B) =
-    p²/(1 + p²) (the empty room is e⁻²⁵ as likely; a small λ makes extra tables elsewhere,
+    p²/(1 + p²) (the empty room is e⁻¹⁴ as likely; a small λ makes extra tables elsewhere,
     which could favour one side through overlaps, negligible).
     """
     arena = (4.0, 4.0)
@@ -158,7 +159,7 @@ def _two_modes() -> tuple[Context, BirthProposal, np.ndarray, np.ndarray, float]
     model = SweepModel(0.02, 0.01, 0.1, 0.05, p_miss, 1e-3, -math.inf, arena)
     store = EvidenceStore()
     # zero-extent sweeps along the line itself, onto the legs' outer faces (normals along it)
-    store.add(np.array([1.0, 2.0, 0.0]), np.array([[0.0, 0.0, 0.6, 0.4, math.pi, 0.3]] * 2))
+    store.add(np.array([1.0, 2.0, 0.0]), np.array([[0.0, 0.0, 0.6, 0.4, math.pi, 0.3]]))
     store.add(np.array([3.0, 2.0, math.pi]), np.array([[math.pi, math.pi, 0.6, 0.4, 0.0, 0.3]]))
     # a whisker above the line sweeps through A's far legs and touches nothing
     down = -0.5 * math.pi
@@ -205,7 +206,7 @@ def _visits(samples: list[np.ndarray], table: np.ndarray) -> float:
 
 
 def test_the_beta_one_chain_alone_stays_in_the_mode_it_starts_in() -> None:
-    """Started at A, the untempered chain never reaches B: leaving A costs its death (25 nats
+    """Started at A, the untempered chain never reaches B: leaving A costs its death (14 nats
     at β = 1), and B overlaps A so it cannot be born beside it."""
     ctx, birth, above, below, _ = _two_modes()
     state = ChainState(above[None].copy())
@@ -213,26 +214,35 @@ def test_the_beta_one_chain_alone_stays_in_the_mode_it_starts_in() -> None:
     _, _, samples, _ = run(
         np.random.default_rng(1), state, ctx, birth, _NO_JUMPS, np.ones(800), record_every=1
     )
-    assert _visits(samples, above) == 1.0
     assert _visits(samples, below) == 0.0
+    assert _visits(samples, above) > 0.99  # at most a death and rebirth of A in place
 
 
 @pytest.mark.slow
 def test_tempered_visits_match_the_exact_odds_of_two_separated_modes() -> None:
-    """From the same start, the tempered chain's β = 1 visit frequencies match the exact
-    P(A) = p²/(1 + p²) = 0.2 to within 0.08 (after a burn-in of 1000 moves; the estimate's
-    spread, measured over 500-move blocks, is about 0.03), and it visits B most of the time."""
+    """From A, the mapper's default ladder (4 replicas, β down to 0.3) reaches B, and the
+    β = 1 replica's visit frequency of A, pooled over three seeds (2,500 moves per replica
+    each, the first 500 dropped), matches the exact P(A) = p²/(1 + p²) = 0.2 within 0.08.
+
+    The tolerance is about three times the spread of such pooled estimates: five single runs
+    of 3,000 moves (seeds 0–4) read 0.14–0.24, mean 0.17, their 500-move blocks 0.03–0.56;
+    the β = 1 chain changes mode only when exchanges bring the other placement down the
+    ladder, so its samples are strongly correlated.
+    """
     ctx, birth, above, below, exact = _two_modes()
-    betas = geometric_ladder(6, 0.2)
-    states = _replicas(ctx, betas, above[None])
-    samples, info = tempered_run(
-        np.random.default_rng(1), states, ctx, birth, _NO_JUMPS, betas, moves=6000, every=1
-    )
-    kept = samples[1000:]
+    params = FusedParams()
+    betas = geometric_ladder(params.replicas, params.beta_min)
+    kept: list[np.ndarray] = []
+    for seed in range(3):
+        states = _replicas(ctx, betas, above[None])
+        samples, info = tempered_run(
+            np.random.default_rng(seed), states, ctx, birth, _NO_JUMPS, betas, moves=2500, every=1
+        )
+        kept += samples[500:]
+        assert all(info[f"swaps_accepted_{r}"] > 0 for r in range(len(betas) - 1))
     p_above, p_below = _visits(kept, above), _visits(kept, below)
     assert p_above == pytest.approx(exact, abs=0.08)
     assert p_above + p_below == pytest.approx(1.0, abs=0.01)
-    assert all(info[f"swaps_accepted_{r}"] > 0 for r in range(len(betas) - 1))
 
 
 def test_same_seed_same_numbers_and_one_replica_is_the_plain_chain() -> None:
@@ -275,3 +285,11 @@ def test_bad_ladders_are_config_errors() -> None:
         tempered_run(
             np.random.default_rng(0), states, ctx, birth, MoveRates(), np.ones(2), moves=5, every=0
         )
+
+
+@pytest.mark.parametrize(
+    "bad", [{"replicas": 0}, {"beta_min": 0.0}, {"beta_min": 1.5}, {"swap_every": 0}]
+)
+def test_bad_tempering_params_are_config_errors(bad: dict[str, float]) -> None:
+    with pytest.raises(ConfigError, match="replicas >= 1"):
+        FusedParams(**bad)  # type: ignore[arg-type]

@@ -94,8 +94,8 @@ class FusedParams:
         Search moves of :meth:`FusedMapper.finish`: tempered burn-in (β rising from
         ``beta_start`` to 1), a stretch at β = 1, annealing (β from 1 to ``beta_end``).
     samples
-        Moves of the β = 1 chain started at the MAP whose states (one per move) give the
-        existence probabilities.
+        Moves of each replica of the existence chain, started at the MAP; the β = 1
+        replica's states (one per move) give the existence probabilities.
     replicas, beta_min, swap_every
         Parallel tempering of that chain (:mod:`~bayesmap.blackboard.tempering`): replicas
         at a geometric ladder of inverse temperatures from 1 down to ``beta_min``, each
