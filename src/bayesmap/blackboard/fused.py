@@ -10,9 +10,10 @@ chain a little inside a window around the robot (data-driven births from the leg
 there); :meth:`FusedMapper.finish` runs the chain over the whole arena: a tempered
 burn-in, a stretch at β = 1, then annealing and a greedy ascent through the polished
 data-driven candidates (:func:`~bayesmap.blackboard.rjmcmc.greedy_ascent`) only to read off
-the MAP map; finally the chain, restarted at the MAP, samples at β = 1 and each MAP object's
-existence probability is the fraction of those samples holding it (to the tolerance of the
-map's metric, 0.2 m and 15°). See docs/blackboard.md.
+the MAP map; finally the chain, restarted at the MAP as the coldest replica of a
+parallel-tempering ladder (:mod:`~bayesmap.blackboard.tempering`), samples at β = 1 and each
+MAP object's existence probability is the fraction of those samples holding it (to the
+tolerance of the map's metric, 0.2 m and 15°). See docs/blackboard.md.
 
 Examples
 --------
@@ -57,6 +58,7 @@ from bayesmap.blackboard.sweep_model import (
     arena_contains,
     check_catalogue,
 )
+from bayesmap.blackboard.tempering import geometric_ladder, tempered_run
 from bayesmap.errors import ConfigError, InputError
 
 __all__ = ["FusedMap", "FusedMapper", "FusedParams", "FusedStep"]
@@ -92,8 +94,13 @@ class FusedParams:
         Search moves of :meth:`FusedMapper.finish`: tempered burn-in (β rising from
         ``beta_start`` to 1), a stretch at β = 1, annealing (β from 1 to ``beta_end``).
     samples
-        Moves of the β = 1 chain started at the MAP whose states (one per move) give the
-        existence probabilities.
+        Moves of each replica of the existence chain, started at the MAP; the β = 1
+        replica's states (one per move) give the existence probabilities.
+    replicas, beta_min, swap_every
+        Parallel tempering of that chain (:mod:`~bayesmap.blackboard.tempering`): replicas
+        at a geometric ladder of inverse temperatures from 1 down to ``beta_min``, each
+        making ``samples`` moves, neighbours exchanging their maps every ``swap_every``
+        moves (``replicas = 1``: the β = 1 chain alone).
     beta_start, beta_end
         Inverse temperatures at the start of the burn-in and the end of annealing.
     match_xy, match_theta
@@ -122,7 +129,10 @@ class FusedParams:
     burn_in: int = 800
     explore: int = 1500
     anneal: int = 500
-    samples: int = 1500
+    samples: int = 750
+    replicas: int = 4
+    beta_min: float = 0.3
+    swap_every: int = 2
     beta_start: float = 0.2
     beta_end: float = 10.0
     match_xy: float = 0.2
@@ -147,6 +157,11 @@ class FusedParams:
                 raise ConfigError(f"FusedParams.{name} must be >= 0, got {getattr(self, name)}")
         if not self.beta_start <= 1.0 <= self.beta_end:
             raise ConfigError("FusedParams: need beta_start <= 1 <= beta_end")
+        if self.replicas < 1 or self.swap_every < 1 or not 0 < self.beta_min <= 1:
+            raise ConfigError(
+                "FusedParams: need replicas >= 1, swap_every >= 1 and 0 < beta_min <= 1, got "
+                f"{self.replicas}, {self.swap_every} and {self.beta_min}"
+            )
 
 
 @dataclass(frozen=True)
@@ -167,8 +182,9 @@ class FusedMap:
         ``(n, 4)`` MAP objects ``x, y`` [m], ``θ`` [rad] in [0, π), type index.
     existence
         ``(n,)`` each object's existence probability: the fraction of the states of a β = 1
-        chain started at the MAP that hold an object of its type within ``match_xy`` and
-        ``match_theta`` (NaN when ``samples`` is 0).
+        chain started at the MAP (the coldest replica of the tempering ladder) that hold an
+        object of its type within ``match_xy`` and ``match_theta`` (NaN when ``samples`` is
+        0).
     catalogue
         The object types the indices refer to.
     log_posterior
@@ -429,8 +445,12 @@ class FusedMapper:
         before the chain starts, so it is a valid Metropolis–Hastings proposal): an object
         the data support weakly dies and is born again at the rate its posterior odds
         allow, which the search's candidates alone (pairs of legs) could not offer for an
-        object seen by one leg. Returns the probabilities and the chain's move counters
-        (prefixed ``sampling_``).
+        object seen by one leg. With ``replicas`` > 1 the β = 1 chain is the coldest of a
+        parallel-tempering ladder (:func:`~bayesmap.blackboard.tempering.tempered_run`),
+        every replica started at ``start``: hotter replicas cross the barriers between
+        layouts that the β = 1 chain alone would not, and exchanges bring what they find
+        down to β = 1. Returns the probabilities and the counters (the β = 1 chain's moves
+        prefixed ``sampling_``, the exchanges ``tempering_``).
         """
         p = self.params
         weight = float(proposal.weights.mean()) if len(proposal.weights) else 1.0
@@ -439,9 +459,24 @@ class FusedMapper:
             weights=np.concatenate([proposal.weights, np.full(len(start.tables), weight)]),
         )
         reference = start.tables.copy()
-        _, _, samples, visits = run(
-            generator, start, self._ctx, births, p.rates, np.ones(p.samples), record_every=1
+        betas = geometric_ladder(p.replicas, p.beta_min)
+        states = [start] + [
+            ChainState(start.tables.copy(), start.free_space.copy(), start.log_pi)
+            for _ in betas[1:]
+        ]
+        samples, visits = tempered_run(
+            generator,
+            states,
+            self._ctx,
+            births,
+            p.rates,
+            betas,
+            moves=p.samples,
+            every=p.swap_every,
         )
         periods = np.array([_symmetry(self.catalogue[int(k)]) for k in reference[:, 3]])
         existence = visit_frequencies(samples, reference, p.match_xy, p.match_theta, periods)
-        return existence, {f"sampling_{key}": value for key, value in visits.items()}
+        return existence, {
+            (f"tempering_{key}" if key.startswith("swaps_") else f"sampling_{key}"): value
+            for key, value in visits.items()
+        }
