@@ -42,7 +42,7 @@ class TargetRule(Protocol):
         ...
 
 
-def _look_cycles(params: RoverParams) -> int:
+def look_cycles(params: RoverParams) -> int:
     """Cycles a full turn in place takes: how long the rover looks at a target from its viewpoint.
 
     A target still uncertain after the rover has looked at it this long from its viewpoint
@@ -123,8 +123,8 @@ class EntropyTarget:
             cell = grid.world_to_cell(*self.target_)
             kept = grid.entropy[int(cell[0]), int(cell[1])] >= p.h_desired
             self._looked += int(plan.cost_to(*self.target_) <= grid.resolution)
-            if kept and self._looked > _look_cycles(p):
-                self.reject(self.target_)
+            if kept and self._looked > look_cycles(p):
+                self._give_up_around(grid, self.target_, face_only=True)
             elif kept and self._age > self._deadline:
                 self._give_up_around(grid, self.target_)
             elif kept:
@@ -138,18 +138,27 @@ class EntropyTarget:
             self._deadline = p.target_timeout + int(2.0 * length / (p.speed * p.dt))
         return self.target_
 
-    def _give_up_around(self, grid: OccupancyGrid, target: tuple[float, float]) -> None:
+    def _give_up_around(
+        self, grid: OccupancyGrid, target: tuple[float, float], *, face_only: bool = False
+    ) -> None:
         """Blacklist a timed-out target and the uncertain cells within ``d_min`` of it.
 
         What kept the rover from one of them (a gap it cannot pass) keeps it from its
-        neighbours too; giving them up one by one would cost a timeout each.
+        neighbours too; giving them up one by one would cost a timeout each. With
+        ``face_only`` (a target looked at in vain from its viewpoint) only the neighbours in
+        the same band along an obstacle's face are given up: 8-connected to a likely
+        obstacle (``p >= p_block``), where the readings keep contradicting each other as
+        they did at the target, and which the rover has just looked at from the same spot.
         """
         p = self.params
-        window = grid.window(target[0], target[1], p.d_min)
+        window = grid.window(target[0], target[1], p.d_min + grid.resolution)
         xc, yc = grid.window_centers(window)
         near = (np.hypot(xc - target[0], yc - target[1]) <= p.d_min) & (
             grid.entropy[window.rows, window.cols] >= p.h_desired
         )
+        if face_only:
+            likely = grid.probability[window.rows, window.cols] >= p.p_block
+            near &= ndimage.binary_dilation(likely, structure=np.ones((3, 3), dtype=bool))
         self.blacklist_.update(zip(xc[near].tolist(), yc[near].tolist(), strict=True))
         self.reject(target)
 
