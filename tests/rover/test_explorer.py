@@ -112,3 +112,13 @@ def test_a_target_without_progress_for_two_turns_is_given_up() -> None:
     for k in range(4 * look_cycles(params)):  # driving toward it: never given up
         moving.step(NOTHING_SEEN, (3.0 + 0.1 * k, 6.25, 0.0))
     assert moving.target_rule.rejected == []
+
+
+def test_a_retreat_drives_on_once_the_noisy_heading_is_within_half_a_heading_step() -> None:
+    safety = _safety(retreat=True, ahead=False, back_clear=True, here=0.2)
+    explorer = _explorer()
+    step = 2.0 * math.pi / PARAMS.n_headings
+    near = explorer._drive(float(PARAMS.headings[18]), math.pi - 0.4 * step, safety, 18)
+    assert near == (PARAMS.speed, 0.0)  # 2° of compass noise no longer stops the retreat
+    far = explorer._drive(float(PARAMS.headings[18]), math.pi - 0.6 * step, safety, 18)
+    assert far[0] == 0.0 and far[1] != 0.0  # farther off: it pivots first

@@ -278,13 +278,21 @@ class Explorer:
 
     def _drive(self, heading: float, psi: float, safety: Safety, index: int) -> tuple[float, float]:
         """Drive toward a safe heading; otherwise back off, retreat along the heading when
-        it is a retreat (:attr:`Safety.retreat`), or stop and turn in place."""
+        it is a retreat (:attr:`Safety.retreat`), or stop and turn in place.
+
+        A retreat drives straight on once the estimated heading is within half the spacing
+        of the discrete headings of it: the compass's noise (2° in the simulator) never lets
+        the estimate land on it exactly, and a pivot waiting for that turned in place for
+        thousands of cycles. The footprint check of the next cycle sees the small offset.
+        """
         p = self.params
         if safety.safe[index] and not safety.retreat:
             return drive_command(heading, psi, p)
         if safety.here < p.safety_margin and safety.ahead and safety.back_clear:
             return (-p.speed, 0.0)
+        error = math.remainder(heading - psi, 2.0 * math.pi)
+        if safety.safe[index] and abs(error) <= math.pi / p.n_headings:
+            return (p.speed, 0.0)
         if safety.safe[index]:
             return retreat_command(heading, psi, p)
-        error = math.remainder(heading - psi, 2.0 * math.pi)
         return (0.0, math.copysign(p.pivot_rate, error if error != 0 else 1.0))
