@@ -32,3 +32,19 @@ def test_a_face_target_looked_at_in_vain_gives_up_its_band_but_not_open_ground()
     assert band <= rule.blacklist_  # its neighbours in the band go with it
     assert (6.75, 5.25) not in rule.blacklist_  # open ground may still be resolved
     assert rule.target_ not in band
+
+
+def test_when_all_that_is_left_was_given_up_the_blacklist_is_forgiven() -> None:
+    grid = OccupancyGrid(12.0, 12.0, 0.5, prior=PARAMS.prior)
+    grid.probability[:] = 0.01
+    grid.entropy[:] = 0.05
+    grid.entropy[20, 20] = 1.0  # one uncertain cell left, (10.25, 10.25)
+    pose = (3.0, 3.0, 0.0)
+    blocks = UncertainBlocks(grid.entropy >= PARAMS.h_desired)
+    plan = local_plan(grid, pose[0], pose[1], PARAMS)
+    rule = EntropyTarget(PARAMS)
+    rule.reject((10.25, 10.25))
+    assert rule.select(grid, pose, plan, blocks) == (10.25, 10.25)  # not a stop at 0.99
+    assert rule.blacklist_ == set()
+    grid.entropy[20, 20] = 0.05
+    assert rule.select(grid, pose, plan, UncertainBlocks(grid.entropy >= PARAMS.h_desired)) is None
