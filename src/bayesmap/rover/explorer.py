@@ -133,6 +133,7 @@ class Explorer:
         self._hemmed_log: deque[tuple[int, list[tuple[int, int]]]] = deque()
         self._cycle = 0
         self._was_hemmed = False
+        self._last_hemmed = -(10**9)
         self._progress: tuple[tuple[float, float] | None, float, int] = (None, math.inf, 0)
 
     @property
@@ -192,7 +193,9 @@ class Explorer:
 
     def _remember_hemmed(self, x: float, y: float, target: tuple[float, float] | None) -> None:
         """Mark the cells around a hemmed-in rover for the plan to avoid, and give up the
-        target that led it there (once, on the first hemmed-in cycle)."""
+        target that led it there (once per episode: not again while the rover has been
+        hemmed in within the last full turn's cycles, as it is on and off while it backs
+        out)."""
         grid = self.grid
         row, col = (int(v) for v in grid.world_to_cell(x, y))
         cells = [
@@ -205,8 +208,9 @@ class Explorer:
             self.hemmed_[cell] = 1.0
             self._hemmed_at[cell] = self._cycle
         self._hemmed_log.append((self._cycle, cells))
-        if target is not None and not self._was_hemmed:
+        if target is not None and self._cycle - self._last_hemmed > look_cycles(self.params):
             self.target_rule.reject(target)
+        self._last_hemmed = self._cycle
 
     def _forget_hemmed(self) -> None:
         """Stop avoiding cells last marked more than ``_HEMMED_TURNS`` full turns ago."""
@@ -240,10 +244,13 @@ class Explorer:
         """The rule's target and the waypoint toward it; unreachable targets are rejected.
 
         When the plan reaches next to nothing (the rover hemmed in by hazards on a noisy
-        map), nothing is rejected: the rover steers at the target and the footprint check
-        keeps it safe while it turns and looks around.
+        map), or the rover was hemmed in on the last cycle (inside the margin, the plan
+        from where it stands reaches only the cells around it), nothing is rejected: the
+        rover steers at the target and the footprint check keeps it safe while it turns,
+        looks around and backs out. Rejecting there gave up up to eight targets a cycle,
+        hundreds in one episode, and the rover then left whole regions unexplored.
         """
-        if int(np.isfinite(plan.cost).sum()) < _HEMMED_IN:
+        if self._was_hemmed or int(np.isfinite(plan.cost).sum()) < _HEMMED_IN:
             target = self.target_rule.select(self.grid, pose, plan, self.mapper_.uncertain_)
             return target, target
         for _ in range(8):
