@@ -4,8 +4,9 @@ A cycle is *stalled* when it neither lowers the number of uncertain cells nor sh
 path still to go to an unchanged target (``stalled_cycles`` in the run metrics,
 :func:`bayesmap.experiments.rover.simulate`). This script drives one run of
 ``benchmarks/rover_worlds.py``'s grid (same generator, world seed and code path) with an
-observer on every cycle, writes the per-cycle log to ``OUT/<run>.csv`` and the map with the
-path to ``OUT/<run>.png``, and splits the stalled cycles by what the rover was doing:
+observer on every cycle, writes the per-cycle log to ``OUT/<run>.csv``, the map with the
+path to ``OUT/<run>.png`` and the run's metrics to ``OUT/<run>.json``, and splits the
+stalled cycles by what the rover was doing:
 
 - *no safe heading*: the footprint check refused every heading, retreats included (the
   rover stops, pivots or backs off);
@@ -41,7 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks._report import machine, update_section  # noqa: E402
 from benchmarks.rover_worlds import GENERATOR, WORLD_SEED  # noqa: E402
 
-from bayesmap._io import write_bytes  # noqa: E402
+from bayesmap._io import write_bytes, write_json  # noqa: E402
 from bayesmap.experiments import rover  # noqa: E402
 from bayesmap.experiments.rover_world import EXPLORER_RULES  # noqa: E402
 from bayesmap.rover.explorer import Decision  # noqa: E402
@@ -127,6 +128,11 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     log = pd.DataFrame(rows)
     log.to_csv(args.out / f"{name}.csv", index=False)
+    stalled = log[log["stalled"]]
+    counts = stalled["category"].value_counts()
+    summary = {k: v for k, v in metrics.items() if k != "coverage_curve"}
+    summary["stalled_by_cause"] = {c: int(counts.get(c, 0)) for c in CATEGORIES}
+    write_json(args.out / f"{name}.json", summary)
     grid = trace.explorer.grid
     write_bytes(
         args.out / f"{name}.png",
@@ -140,8 +146,6 @@ def main() -> None:
             polygons=spec.world.polygons,
         ),
     )
-    stalled = log[log["stalled"]]
-    counts = stalled["category"].value_counts()
     checkpoints = trace.curve[:: max(len(trace.curve) // 5, 1)] + trace.curve[-1:]
     load = os.getloadavg()
     lines = [
@@ -153,7 +157,13 @@ def main() -> None:
         + (f" --max-steps {args.max_steps}" if args.max_steps else "")
         + f"`. Machine: {machine()}, load average {load[0]:.1f}. World {spec.world.name} "
         f"({args.size:g} m), {metrics['steps']} of {steps} cycles, path "
-        f"{metrics['path_length_m']:.1f} m, coverage {metrics['coverage']:.3f}, collisions "
+        f"{metrics['path_length_m']:.1f} m, coverage {metrics['coverage']:.3f} ("
+        + (
+            "90 % not reached"
+            if metrics["distance_to_90"] is None
+            else f"90 % after {metrics['distance_to_90']:.1f} m"
+        )
+        + f"), collisions "
         f"{metrics['collisions']}, min clearance {metrics['min_clearance_m']} m; stalled "
         f"{len(stalled)} cycles ({len(stalled) / max(len(log), 1):.0%}).",
         "",

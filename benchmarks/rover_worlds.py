@@ -116,22 +116,36 @@ def main() -> None:
     )
     parser.add_argument("--no-paper", action="store_true", help="skip the paper's four runs")
     parser.add_argument(
+        "--explorer",
+        action="append",
+        choices=EXPLORERS,
+        help="run only this explorer (repeatable; default both)",
+    )
+    parser.add_argument(
+        "--init",
+        action="append",
+        choices=INITS,
+        help="run only this entropy initialisation on generated worlds (repeatable; default both)",
+    )
+    parser.add_argument(
         "--report-only", action="store_true", help="summarise the finished runs, run nothing"
     )
     args = parser.parse_args()
+    explorers = tuple(args.explorer or EXPLORERS)
+    inits = tuple(args.init or INITS)
     jobs: list[Job] = []
     if not args.no_paper:  # the paper's explorer first: its runs are the reproduction
         jobs += [
             ("paper", k, 0, e, "random" if rover.RUNS[name][1] else "flat", 20.0, WORLD_SEED)
-            for e in EXPLORERS
+            for e in explorers
             for k, name in enumerate(rover.RUNS)
         ]
     jobs += [
         ("generated", w, s, e, i, args.size, args.world_seed)
         for w in range(args.worlds)
         for s in range(args.seeds)
-        for e in EXPLORERS
-        for i in INITS
+        for e in explorers
+        for i in inits
     ]
     args.out.mkdir(parents=True, exist_ok=True)
     runs: list[dict[str, Any]] = []
@@ -193,7 +207,8 @@ def _rows(runs: list[dict[str, Any]]) -> list[str]:
 
 
 def _expected(args: argparse.Namespace) -> int:
-    return args.worlds * args.seeds * 4 + (0 if args.no_paper else 8)
+    explorers, inits = len(args.explorer or EXPLORERS), len(args.init or INITS)
+    return args.worlds * args.seeds * explorers * inits + (0 if args.no_paper else 4 * explorers)
 
 
 def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -> str:
@@ -231,6 +246,8 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
         + f" --jobs {args.jobs}"
         + (f" --world-seed {args.world_seed}" if args.world_seed != WORLD_SEED else "")
         + (" --no-paper" if args.no_paper else "")
+        + "".join(f" --explorer {e}" for e in args.explorer or ())
+        + "".join(f" --init {i}" for i in args.init or ())
     )
     return "\n".join(
         [

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,8 @@ from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.explorer import Explorer
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.safety import Safety, drive_command, retreat_command
-from bayesmap.rover.targets import EntropyTarget
+from bayesmap.rover.targets import EntropyTarget, look_cycles
+from bayesmap.sensing.ir import raw_from_range
 
 PARAMS = RoverParams(n_headings=36)
 
@@ -45,3 +48,77 @@ def test_a_safe_heading_outside_a_retreat_follows_the_drive_law() -> None:
     safety = _safety(retreat=False, ahead=True, back_clear=True, here=0.5)
     heading = float(np.asarray(PARAMS.headings)[18])
     assert _explorer()._drive(heading, 0.5, safety, 18) == drive_command(heading, 0.5, PARAMS)
+
+
+class _FixedTarget:
+    """A target rule that always answers the same target and records what is rejected."""
+
+    def __init__(self, target: tuple[float, float]) -> None:
+        self.target_ = target
+        self.rejected: list[tuple[float, float]] = []
+
+    def select(self, grid, pose, plan, uncertain):  # noqa: ANN001, ANN201
+        return self.target_
+
+    def reject(self, target: tuple[float, float]) -> None:
+        self.rejected.append(target)
+
+
+def _dead_end_map(params: RoverParams) -> OccupancyGrid:
+    """Certainly free ground with a dead-end corridor one cell wide (row 12, x 2–6 m) whose
+    walls are certain obstacles: a rover inside cannot keep its margin."""
+    grid = OccupancyGrid(12.0, 12.0, 0.5, prior=params.prior)
+    grid.probability[:] = 0.01
+    grid.entropy[:] = 0.05
+    grid.probability[11, 4:13] = 0.99
+    grid.probability[13, 4:13] = 0.99
+    grid.probability[11:14, 12] = 0.99
+    return grid
+
+
+NOTHING_SEEN = raw_from_range(np.full(len(PARAMS.sensor_angles), PARAMS.r_max))
+
+
+def test_hemmed_in_the_rover_gives_up_its_target_once_and_remembers_the_spot_a_while() -> None:
+    params = RoverParams(pivot_rate=8.0)  # a full turn in 2 cycles: a short memory
+    rule = _FixedTarget((1.25, 1.25))
+    explorer = Explorer(_dead_end_map(params), params, rule)
+    inside = (5.5, 6.25, math.pi)
+    assert explorer.step(NOTHING_SEEN, inside).safety.retreat
+    assert explorer.step(NOTHING_SEEN, inside).safety.retreat
+    assert rule.rejected == [(1.25, 1.25)]  # once, on entering, not every hemmed-in cycle
+    row, col = explorer.grid.world_to_cell(5.5, 6.25)
+    assert explorer.hemmed_[int(row), int(col)] == 1.0
+    outside = (5.5, 2.25, 0.0)
+    memory = 10 * look_cycles(params)
+    for _ in range(memory + 1):  # elsewhere, the memory fades
+        explorer.step(NOTHING_SEEN, outside)
+    assert explorer.hemmed_.sum() == 0.0
+
+
+def test_a_target_without_progress_for_two_turns_is_given_up() -> None:
+    params = RoverParams(pivot_rate=8.0)  # a full turn in 2 cycles
+    grid = OccupancyGrid(12.0, 12.0, 0.5, prior=params.prior)
+    grid.probability[:] = 0.01
+    rule = _FixedTarget((9.25, 6.25))
+    explorer = Explorer(grid, params, rule)
+    pose = (3.0, 6.25, 0.0)  # the rover never moves: the path still to go never shrinks
+    for _ in range(2 * look_cycles(params) + 1):
+        explorer.step(NOTHING_SEEN, pose)
+    assert rule.rejected == []
+    explorer.step(NOTHING_SEEN, pose)
+    assert rule.rejected == [(9.25, 6.25)]
+    moving = Explorer(grid, params, _FixedTarget((9.25, 6.25)))
+    for k in range(4 * look_cycles(params)):  # driving toward it: never given up
+        moving.step(NOTHING_SEEN, (3.0 + 0.1 * k, 6.25, 0.0))
+    assert moving.target_rule.rejected == []
+
+
+def test_a_retreat_drives_on_once_the_noisy_heading_is_within_half_a_heading_step() -> None:
+    safety = _safety(retreat=True, ahead=False, back_clear=True, here=0.2)
+    explorer = _explorer()
+    step = 2.0 * math.pi / PARAMS.n_headings
+    near = explorer._drive(float(PARAMS.headings[18]), math.pi - 0.4 * step, safety, 18)
+    assert near == (PARAMS.speed, 0.0)  # 2° of compass noise no longer stops the retreat
+    far = explorer._drive(float(PARAMS.headings[18]), math.pi - 0.6 * step, safety, 18)
+    assert far[0] == 0.0 and far[1] != 0.0  # farther off: it pivots first

@@ -118,3 +118,51 @@ def test_remaining_path_shrinks_as_the_rover_drives_within_its_cell() -> None:
     assert after.remaining(3.2, 6.25, target) < before.remaining(3.1, 6.25, target)
     assert before.remaining(3.1, 6.25, target) == pytest.approx(6.75 - 3.1 - 1.0, abs=0.26)
     assert before.path_length(target) == pytest.approx(before.cost_to(*target))
+
+
+def test_cells_where_the_rover_was_hemmed_in_are_crossed_only_at_a_price() -> None:
+    grid = OccupancyGrid(12.0, 12.0, 0.5, prior=0.2)
+    grid.probability[:] = 0.01
+    grid.probability[12, 0:20] = 0.95  # a wall at y = 6.0..6.5 with a gap at x = 10..12
+    avoid = np.zeros(grid.shape)
+    target = (3.25, 9.25)  # behind the wall, reached only through the gap
+    wide = RoverParams(d_max=8.0)
+    free = local_plan(grid, 3.25, 3.25, wide).cost_to(*target)
+    avoid[10:15, 20:24] = 1.0  # hemmed in at the gap a moment ago
+    avoided = local_plan(grid, 3.25, 3.25, wide, avoid=avoid)
+    assert np.isfinite(free) and avoided.cost_to(*target) > free  # still possible, dearer
+    costs = crossing_costs(
+        np.full((5, 5), 0.01), np.ones((5, 5), bool), PARAMS, 0.5, avoid=np.eye(5, dtype=bool)
+    )
+    assert np.array_equal(costs, np.where(np.eye(5, dtype=bool), 25.0, 1.0))
+
+
+def _wall_with_gap(width: float, offset: float) -> OccupancyGrid:
+    """A certain map of a wall across a 12 m field (y = 6.0..6.5) with a gap ``width`` [m]
+    wide starting at x = 5 + ``offset``: a cell any part of which the wall covers is a
+    likely obstacle, every other cell certainly free (the best a 0.5 m map can do)."""
+    grid = OccupancyGrid(12.0, 12.0, 0.5, prior=0.2)
+    grid.probability[:] = 0.01
+    left, right = 5.0 + offset, 5.0 + offset + width
+    x0 = np.arange(grid.shape[1]) * 0.5  # cells' left edges
+    covered = (x0 < left - 1e-9) | (x0 + 0.5 > right + 1e-9)
+    grid.probability[12, covered] = 0.95
+    return grid
+
+
+@pytest.mark.parametrize("offset", np.arange(0.0, 0.5, 0.05))
+def test_the_narrowest_passage_open_by_construction_is_two_metres(offset: float) -> None:
+    """Body 0.4 m wide plus a 0.3 m margin on each side needs 1.0 m; the plan puts the
+    rover's centre on cell centres at least body + margin (0.5 m) from a likely cell, so a
+    mapped gap needs three free cells (1.5 m), which a true gap of 2.0 m always leaves
+    wherever it lies on the grid, 1.5 m only when aligned with it, and 1.2 m never (two
+    free cells at best: 1.0 m, no room for the centre at a cell centre)."""
+    wide = RoverParams(d_max=8.0)
+    assert 2 * (wide.footprint_radius + wide.safety_margin) == pytest.approx(1.0)
+    behind = (6.75, 9.25)  # seen only from beyond the wall (view_range 1 m)
+    opened = local_plan(_wall_with_gap(2.0, offset), 6.25, 2.25, wide).cost_to(*behind)
+    assert np.isfinite(opened)
+    middling = local_plan(_wall_with_gap(1.5, offset), 6.25, 2.25, wide).cost_to(*behind)
+    assert np.isfinite(middling) == (offset < 1e-9)  # only when cell-aligned
+    narrow = local_plan(_wall_with_gap(1.2, offset), 6.25, 2.25, wide).cost_to(*behind)
+    assert np.isinf(narrow)

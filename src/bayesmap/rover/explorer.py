@@ -29,11 +29,19 @@ from bayesmap.rover.safety import (
     reading_points,
     retreat_command,
 )
-from bayesmap.rover.targets import TargetRule
+from bayesmap.rover.targets import TargetRule, look_cycles
 from bayesmap.sensing.ir import ranger_poses
 
 _HEMMED_IN = 9
 """With fewer reachable cells than this, the plan is not trusted to reject targets."""
+
+_HEMMED_TURNS = 10
+"""Full turns' worth of cycles (:func:`~bayesmap.rover.targets.look_cycles`) for which the
+plan avoids the cells where the rover was hemmed in: long enough to explore elsewhere,
+short enough that a corridor the map has since opened is tried again."""
+
+_STUCK_TURNS = 2
+"""Full turns' worth of cycles without progress after which a target is given up."""
 
 
 @dataclass(frozen=True)
@@ -100,6 +108,10 @@ class Explorer:
     recent_hits_
         The points read by the rangers in the last ``hit_memory`` cycles [m]: the footprint
         keeps its margin from them as from the map, without the map's cell quantisation.
+    hemmed_
+        Map-sized layer, 1 on the cells where the rover was hemmed in (inside the margin, no
+        heading keeping it) within the last ``_HEMMED_TURNS`` full turns' cycles, else 0; the plan
+        crosses them only at a price (:func:`~bayesmap.rover.planning.local_plan`).
     """
 
     def __init__(
@@ -116,6 +128,13 @@ class Explorer:
         self.recent_hits_: deque[FloatArray] = deque(maxlen=params.hit_memory)
         self._theta = np.asarray(params.headings)
         self._retreat: int | None = None
+        self.hemmed_ = np.zeros(grid.shape)
+        self._hemmed_at = np.zeros(grid.shape, dtype=np.int64)
+        self._hemmed_log: deque[tuple[int, list[tuple[int, int]]]] = deque()
+        self._cycle = 0
+        self._was_hemmed = False
+        self._last_hemmed = -(10**9)
+        self._progress: tuple[tuple[float, float] | None, float, int] = (None, math.inf, 0)
 
     @property
     def grid(self) -> OccupancyGrid:
@@ -133,10 +152,15 @@ class Explorer:
         x, y, psi = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
         mapper = self.mapper_
         mapper.update(raw, (x, y, psi))
-        plan = local_plan(self.grid, x, y, p)
+        self._cycle += 1
+        self._forget_hemmed()
+        plan = local_plan(self.grid, x, y, p, avoid=self.hemmed_)
         target, waypoint = self._target(plan, (x, y, psi))
         theta_t = psi if waypoint is None else math.atan2(waypoint[1] - y, waypoint[0] - x)
         safety = self._safety((x, y, psi))
+        if safety.retreat:
+            self._remember_hemmed(x, y, target)
+        self._was_hemmed = safety.retreat
         safe = safety.safe
         if safety.retreat and self._retreat is not None and safe[self._retreat]:
             safe = np.arange(safe.size) == self._retreat  # a retreat once begun is kept
@@ -164,7 +188,55 @@ class Explorer:
         heading = float(self._theta[index])
         command = (0.0, 0.0) if target is None else self._drive(heading, psi, safety, index)
         cost = math.nan if target is None else plan.remaining(x, y, target)
+        self._check_progress(target, cost)
         return Decision(command, heading, target, p_move, p_o, safety, cost)
+
+    def _remember_hemmed(self, x: float, y: float, target: tuple[float, float] | None) -> None:
+        """Mark the cells around a hemmed-in rover for the plan to avoid, and give up the
+        target that led it there (once per episode: not again while the rover has been
+        hemmed in within the last full turn's cycles, as it is on and off while it backs
+        out)."""
+        grid = self.grid
+        row, col = (int(v) for v in grid.world_to_cell(x, y))
+        cells = [
+            (r, c)
+            for r in range(row - 1, row + 2)
+            for c in range(col - 1, col + 2)
+            if 0 <= r < grid.shape[0] and 0 <= c < grid.shape[1]
+        ]
+        for cell in cells:
+            self.hemmed_[cell] = 1.0
+            self._hemmed_at[cell] = self._cycle
+        self._hemmed_log.append((self._cycle, cells))
+        if target is not None and self._cycle - self._last_hemmed > look_cycles(self.params):
+            self.target_rule.reject(target)
+        self._last_hemmed = self._cycle
+
+    def _forget_hemmed(self) -> None:
+        """Stop avoiding cells last marked more than ``_HEMMED_TURNS`` full turns ago."""
+        memory = _HEMMED_TURNS * look_cycles(self.params)
+        while self._hemmed_log and self._hemmed_log[0][0] <= self._cycle - memory:
+            cycle, cells = self._hemmed_log.popleft()
+            for cell in cells:
+                if self._hemmed_at[cell] == cycle:  # not marked again since
+                    self.hemmed_[cell] = 0.0
+
+    def _check_progress(self, target: tuple[float, float] | None, to_go: float) -> None:
+        """Give up a target whose path still to go has not shrunk for ``_STUCK_TURNS`` full
+        turns' cycles while the rover is not yet at its viewpoint (where the target rule's
+        own look timeout applies)."""
+        previous, best, since = self._progress
+        if target is None or target != previous:
+            self._progress = (target, to_go, 0)
+            return
+        if to_go < best - 1e-6:
+            self._progress = (target, to_go, 0)
+            return
+        since += 1
+        self._progress = (target, best, since)
+        if since > _STUCK_TURNS * look_cycles(self.params) and to_go > self.grid.resolution:
+            self.target_rule.reject(target)
+            self._progress = (None, math.inf, 0)
 
     def _target(
         self, plan: LocalPlan, pose: tuple[float, float, float]
@@ -172,10 +244,13 @@ class Explorer:
         """The rule's target and the waypoint toward it; unreachable targets are rejected.
 
         When the plan reaches next to nothing (the rover hemmed in by hazards on a noisy
-        map), nothing is rejected: the rover steers at the target and the footprint check
-        keeps it safe while it turns and looks around.
+        map), or the rover was hemmed in on the last cycle (inside the margin, the plan
+        from where it stands reaches only the cells around it), nothing is rejected: the
+        rover steers at the target and the footprint check keeps it safe while it turns,
+        looks around and backs out. Rejecting there gave up up to eight targets a cycle,
+        hundreds in one episode, and the rover then left whole regions unexplored.
         """
-        if int(np.isfinite(plan.cost).sum()) < _HEMMED_IN:
+        if self._was_hemmed or int(np.isfinite(plan.cost).sum()) < _HEMMED_IN:
             target = self.target_rule.select(self.grid, pose, plan, self.mapper_.uncertain_)
             return target, target
         for _ in range(8):
@@ -210,13 +285,21 @@ class Explorer:
 
     def _drive(self, heading: float, psi: float, safety: Safety, index: int) -> tuple[float, float]:
         """Drive toward a safe heading; otherwise back off, retreat along the heading when
-        it is a retreat (:attr:`Safety.retreat`), or stop and turn in place."""
+        it is a retreat (:attr:`Safety.retreat`), or stop and turn in place.
+
+        A retreat drives straight on once the estimated heading is within half the spacing
+        of the discrete headings of it: the compass's noise (2° in the simulator) never lets
+        the estimate land on it exactly, and a pivot waiting for that turned in place for
+        thousands of cycles. The footprint check of the next cycle sees the small offset.
+        """
         p = self.params
         if safety.safe[index] and not safety.retreat:
             return drive_command(heading, psi, p)
         if safety.here < p.safety_margin and safety.ahead and safety.back_clear:
             return (-p.speed, 0.0)
+        error = math.remainder(heading - psi, 2.0 * math.pi)
+        if safety.safe[index] and abs(error) <= math.pi / p.n_headings:
+            return (p.speed, 0.0)
         if safety.safe[index]:
             return retreat_command(heading, psi, p)
-        error = math.remainder(heading - psi, 2.0 * math.pi)
         return (0.0, math.copysign(p.pivot_rate, error if error != 0 else 1.0))

@@ -47,6 +47,14 @@ A doubtful cell (an uncertain neighbour of a likely obstacle) may be free: a cor
 looked into it, so the plan may lead there, at a price, and the footprint check decides
 on the spot, once the rangers have resolved the doubt."""
 
+_AVOID_COST = 25.0
+"""Cost per metre of crossing a cell where the rover was recently hemmed in.
+
+Where no heading kept the safety margin (a corridor or pocket narrower than the body plus
+two margins on the map as it stood), the rover retreats; without a memory of it the next
+plan, on the same map, leads straight back in. Such cells cost as much as doubtful ones,
+so that the plan goes there again only when nothing cheaper is left."""
+
 
 def footprint_kernel(radius: float, resolution: float) -> BoolArray:
     """Cell offsets whose square comes closer than ``radius`` [m] to a cell's centre."""
@@ -61,10 +69,12 @@ def crossing_costs(
     params: RoverParams,
     resolution: float,
     rover: tuple[int, int] | None = None,
+    avoid: npt.ArrayLike | None = None,
 ) -> FloatArray:
     """Cost per metre of each cell: ``inf`` where the footprint would come within the safety
     margin of a hazard or leave the map, ``_NEAR_COST`` within one more cell of a hazard,
-    1 elsewhere.
+    1 elsewhere; cells in ``avoid`` (where the rover was recently hemmed in) cost at least
+    ``_AVOID_COST``.
 
     The rover's own cell ``rover`` (patch indices) costs 1 whatever the map says, and its
     8 neighbours, when only the margin closes them, ``_NEAR_COST``: it can always step
@@ -86,6 +96,8 @@ def crossing_costs(
     )
     costs = np.where(near, _NEAR_COST, 1.0)
     costs[doubtful] = _DOUBTFUL_COST
+    if avoid is not None:
+        costs[np.asarray(avoid, dtype=bool)] = _AVOID_COST
     costs[margin] = np.inf
     if rover is not None:
         i, j = rover
@@ -217,15 +229,28 @@ class LocalPlan:
         return first + float(self.cost[index] - self.cost[step]) + beyond
 
 
-def local_plan(grid: OccupancyGrid, x: float, y: float, params: RoverParams) -> LocalPlan:
-    """Path costs from ``(x, y)`` [m] over the local area of radius ``d_max`` (Dijkstra)."""
+def local_plan(
+    grid: OccupancyGrid,
+    x: float,
+    y: float,
+    params: RoverParams,
+    avoid: FloatArray | None = None,
+) -> LocalPlan:
+    """Path costs from ``(x, y)`` [m] over the local area of radius ``d_max`` (Dijkstra).
+
+    ``avoid`` is a map-sized layer, 1 on cells to cross only at ``_AVOID_COST``
+    (:func:`crossing_costs`) and 0 elsewhere; only its local patch is read.
+    """
     xc, yc, prob = local_patch(grid, grid.probability, x, y, params.d_max, np.nan)
     on_map = np.isfinite(prob)
     n = prob.shape[0]
     i0 = int(np.clip(math.floor((y - yc[0, 0]) / grid.resolution + 0.5), 0, n - 1))
     j0 = int(np.clip(math.floor((x - xc[0, 0]) / grid.resolution + 0.5), 0, n - 1))
     prob = np.nan_to_num(prob, nan=0.0)
-    costs = crossing_costs(prob, on_map, params, grid.resolution, rover=(i0, j0))
+    near_avoid = None
+    if avoid is not None:
+        near_avoid = local_patch(grid, avoid, x, y, params.d_max, 0.0)[2] > 0.5
+    costs = crossing_costs(prob, on_map, params, grid.resolution, rover=(i0, j0), avoid=near_avoid)
     solver = MCP_Geometric(costs, fully_connected=True)
     cumulative, _ = solver.find_costs([(i0, j0)])
     cost = np.asarray(cumulative) * grid.resolution
