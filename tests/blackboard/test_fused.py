@@ -17,7 +17,7 @@ from bayesmap.blackboard.data_driven import (
     table_candidates,
 )
 from bayesmap.blackboard.evidence import EvidenceStore
-from bayesmap.blackboard.fused import FusedMapper, FusedParams
+from bayesmap.blackboard.fused import FusedMapper, FusedParams, _suppress_duplicates
 from bayesmap.blackboard.rjmcmc import (
     ChainState,
     Context,
@@ -583,3 +583,66 @@ def test_an_exchange_never_gains_more_than_its_bound(name: str) -> None:
         ruled_out += min(bound, together) < costs[removed].sum()
         checked += 1
     assert 0 < ruled_out < checked
+
+
+def test_polish_on_the_contacts_near_its_legs_is_the_polish_on_all_of_them() -> None:
+    """Noisy contacts: a polish that keeps only the contacts whose whisker line passes within
+    0.5 m of a start's leg (starts up to a decimetre off the table) lands where the polish
+    over every contact within reach lands (the others' density is nil wherever a polish of
+    centimetres takes the table)."""
+    store, truth = _store(sensor=condition("noisy"))
+    ctx = _context(store, NOISY_MODEL)
+    ctx.refresh(_state(ctx, np.zeros((0, 4))))
+    rng = np.random.default_rng(8)
+    for table in truth:
+        ids = store.contacts_near(table[0], table[1], ctx.contact_radius + 0.1)
+        rows = store.rows_[ids][:, [0, 1, 3, 5, 6]]
+        for _ in range(3):
+            start = table + np.array([*rng.normal(0, 0.04, 2), rng.normal(0, 0.04), 0.0])
+            args = (start, rows, store.counts_[ids], ctx.floor[ids], CATALOGUE, NOISY_MODEL)
+            near = polish_table(*args)
+            every = polish_table(*args, line_gap=math.inf)
+            np.testing.assert_allclose(near, every, atol=1e-6)
+
+
+def test_a_refill_that_overlaps_the_exchanged_table_is_never_added() -> None:
+    """With overlaps forbidden (log ε_c = −∞, the fused mapper's default) a table that
+    overlaps one in the map cannot join it — so the greedy ascent need not try, nor count in
+    its bound, a refill that overlaps the candidate it exchanges in."""
+    store, truth = _store(sensor=condition("noisy"))
+    ctx = _context(store, NOISY_MODEL._replace(log_overlap=-math.inf))
+    state = _state(ctx, truth)
+    rng = np.random.default_rng(9)
+    tried = 0
+    while tried < 20:
+        other = truth[rng.integers(2)] + np.array([*rng.normal(0, 0.3, 2), rng.normal(0, 0.5), 0])
+        other[2] %= math.pi
+        if not tables_overlap(other, truth, CATALOGUE).any():
+            continue
+        if not arena_contains(other, CATALOGUE, ARENA)[0]:
+            continue
+        delta, _ = evaluate(state, ctx, Move(MoveKind.BIRTH, (), (other,)))
+        assert delta == -math.inf
+        assert _joint(ctx, np.vstack([truth, other])) == -math.inf
+        tried += 1
+
+
+def test_duplicate_candidates_are_thinned_to_the_best_of_each_table() -> None:
+    """Non-maximum suppression before polishing: candidates of a type within 0.1 m and
+    0.13 rad (modulo the type's symmetry) of a better one go, and it keeps their weights;
+    another type, or the same type farther off, stays."""
+    tables = np.array(
+        [
+            [2.0, 2.0, 0.10, 0.0],
+            [2.05, 2.02, 0.05, 0.0],  # the same desk, better fitted
+            [2.0, 1.95, math.pi - 0.02, 0.0],  # the same desk turned by π (its symmetry)
+            [2.0, 2.0, 0.10, 1.0],  # a stool at the same place
+            [2.3, 2.0, 0.10, 0.0],  # another desk 0.3 m away
+            [2.0, 2.0, 0.5, 0.0],  # another angle
+        ]
+    )
+    scores = np.array([5.0, 9.0, 1.0, 2.0, 3.0, 4.0])
+    periods = np.array([math.pi, math.pi, math.pi, 0.5 * math.pi, math.pi, math.pi])
+    kept, weights = _suppress_duplicates(tables, np.arange(1.0, 7.0), scores, 0.1, 0.13, periods)
+    np.testing.assert_array_equal(kept, tables[[1, 5, 4, 3]])
+    np.testing.assert_allclose(weights, [1.0 + 2.0 + 3.0, 6.0, 5.0, 4.0])

@@ -240,6 +240,38 @@ def _merge_coincident(tables: FloatArray, weights: FloatArray) -> tuple[FloatArr
     return tables[first], summed
 
 
+def _suppress_duplicates(
+    tables: FloatArray,
+    weights: FloatArray,
+    scores: FloatArray,
+    xy: float,
+    theta: float,
+    periods: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """Non-maximum suppression: in order of ``scores``, each table (n, 4) keeps every
+    table of its type within ``xy`` [m] and ``theta`` [rad] (modulo its type's symmetry
+    ``periods`` (n,)) out of the set and takes their weights."""
+    order = np.argsort(-scores, kind="stable")
+    taken = np.zeros(len(tables), dtype=bool)
+    keep: list[int] = []
+    summed: list[float] = []
+    for i in order:
+        if taken[i]:
+            continue
+        turn = np.mod(tables[:, 2] - tables[i, 2], periods[i])
+        close = (
+            (np.hypot(tables[:, 0] - tables[i, 0], tables[:, 1] - tables[i, 1]) <= xy)
+            & (np.minimum(turn, periods[i] - turn) <= theta)
+            & (tables[:, 3] == tables[i, 3])
+            & ~taken
+        )
+        close[i] = True
+        taken |= close
+        keep.append(int(i))
+        summed.append(float(weights[close].sum()))
+    return tables[keep], np.asarray(summed)
+
+
 class FusedMapper:
     """One persistent posterior over the tables of a room, from every whisker sweep.
 
@@ -291,8 +323,17 @@ class FusedMapper:
         )
 
     def _polished(self, tables: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Candidates merged where they coincide (4 cm, 0.06 rad grid; weights summed), each moved
-        by :func:`~bayesmap.blackboard.data_driven.polish_table` against its stored contacts.
+        """Candidates merged where they coincide (4 cm, 0.06 rad grid; weights summed), thinned
+        to one per table, each moved by :func:`~bayesmap.blackboard.data_driven.polish_table`
+        against its stored contacts.
+
+        Thinning (non-maximum suppression): candidates of a type within half the map's
+        tolerance (``match_xy``/2, ``match_theta``/2) of a better one — a larger gain alone
+        (:meth:`~bayesmap.blackboard.rjmcmc.Context.gain_alone`) — describe the same table
+        (two such tables could not both stand: they overlap), and polishing the better one
+        moves it where polishing either would; the better one keeps their summed weight. Each
+        table seen by three or four legs yields a dozen leg pairs, each two or three
+        candidates, so this halves what is polished in the noisy condition.
 
         Used by :meth:`finish` (polishing every window's candidates at every pose would cost
         more than the whole run); the result depends on the stored data alone, never on the
@@ -306,8 +347,17 @@ class FusedMapper:
         """
         if not len(tables):
             return tables, weights
+        ctx, store, p = self._ctx, self.store_, self.params
         tables, summed = _merge_coincident(tables, weights)
-        ctx, store = self._ctx, self.store_
+        periods = np.array([_symmetry(self.catalogue[int(k)]) for k in tables[:, 3]])
+        tables, summed = _suppress_duplicates(
+            tables,
+            summed,
+            np.array([ctx.gain_alone(table) for table in tables]),
+            0.5 * p.match_xy,
+            0.5 * p.match_theta,
+            periods,
+        )
         out = np.empty((len(tables), 4))
         for row, table in enumerate(tables):
             ids = store.contacts_near(table[0], table[1], ctx.contact_radius + 0.1)

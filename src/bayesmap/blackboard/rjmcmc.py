@@ -695,7 +695,11 @@ def greedy_ascent(
     (:meth:`Context.contact_gain`, each contact counted once at its best cause among them)
     − Σ_{h ∈ H} cost(h). An exchange is *ruled out* untried when the smaller is below
     zero. Once tried, a refill is skipped when the exchange's actual loss exceeds the sum
-    of the refills' positive gains alone.
+    of the refills' positive gains alone. Refills that could never join after c — those
+    whose gain alone is not positive, and, when overlaps are forbidden (log ε_c = −∞),
+    those c overlaps — are neither tried nor counted in the bound (in the noisy condition
+    most refills near a removed table overlap the candidate that replaces it, and counting
+    them left the bound unable to rule anything out).
     """
     info = {"greedy_tried": 0, "greedy_kept": 0, "greedy_ruled_out": 0}
     reach = ctx.half_diagonal
@@ -724,6 +728,11 @@ def greedy_ascent(
                     <= reach
                 )
                 near[j] = False  # c is in the map before any refill
+                # never added after c: a refill c overlaps (when overlaps are forbidden) or
+                # one whose gain alone, its largest anywhere, is not positive
+                near &= alone > 0
+                if ctx.model.log_overlap == -math.inf and near.any():
+                    near[near] = ~tables_overlap(c, candidates[near], ctx.catalogue)
             bound = alone[j] + refill_gain[near].sum()
             if near.any():  # the refills compete with c and each other for contacts
                 together = ctx.contact_gain(np.vstack([c, candidates[near]]))
