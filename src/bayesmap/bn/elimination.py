@@ -360,7 +360,17 @@ class SumProgram:
     def _emit(
         self, chosen: Sequence[tuple[Any, int, Sequence[Hashable]]], kept: Sequence[Hashable]
     ) -> tuple[Any, int, Sequence[Hashable]]:
-        """Add the step contracting ``chosen`` into ``kept`` (run now if all are constant)."""
+        """Add the step contracting ``chosen`` into ``kept`` (run now if all are constant).
+
+        A constant step is looked up in the memo before its arguments are built: most
+        constant steps of a new pattern's program were met in an earlier one's."""
+        memo = self._memo
+        key = None
+        if memo is not None and all([source < 0 for _, source, _ in chosen]):
+            key = (*[(id(value), tuple(scope)) for value, _, scope in chosen], tuple(kept))
+            result = memo.get(key)
+            if result is not None:
+                return result, -1, kept
         index: dict[Hashable, int] = {}
         args: list[Any] = []
         fills: list[tuple[int, int]] = []
@@ -375,13 +385,8 @@ class SumProgram:
             sizes = self._sizes
             large = math.prod([sizes[label] for label in index]) > self._tuning.blas_above
         if not fills:
-            memo = self._memo
-            if memo is None:
-                return _call(args, large), -1, kept
-            key = (*[(id(value), tuple(scope)) for value, _, scope in chosen], tuple(kept))
-            result = memo.get(key)
-            if result is None:
-                result = _call(args, large)
+            result = _call(args, large)
+            if memo is not None:
                 memo.put(key, [value for value, _, _ in chosen], result)
             return result, -1, kept
         self._steps.append((args, fills, self._register, large))
@@ -433,7 +438,9 @@ class Walker(Generic[L]):
     """
 
     def __init__(self, scopes: Sequence[Iterable[L]], output: Iterable[L]) -> None:
-        self.count: dict[L, int] = Counter(itertools.chain.from_iterable(scopes))
+        # a plain dict, not the Counter: the interpreter's fast paths for subscripts take
+        # exact dicts only, and a cold question's order builder counts every label it steps
+        self.count: dict[L, int] = dict(Counter(itertools.chain.from_iterable(scopes)))
         for label in output:
             self.count[label] = self.count.get(label, 0) + 1
         self.live: list[Iterable[L]] = list(scopes)

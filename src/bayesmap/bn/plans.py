@@ -418,10 +418,11 @@ def order_steps(
     """
     card = compiled.card
     extra = sizes or {}
+    # entries of a label: variables by id, other labels (the case axis) from ``sizes``
+    size_of = (lambda w: card[w] if w >= 0 else extra[w]) if extra else card.__getitem__
     n = len(scopes)
     if n == 1:
-        size = math.prod([card[u] if u >= 0 else extra[u] for u in scopes[0]])
-        return [(0,)], [tuple(output)], size
+        return [(0,)], [tuple(output)], math.prod(map(size_of, scopes[0]))
     rank = elimination_rank(scopes, output, card)
     holders: dict[int, list[int]] = {}
     for k, scope in enumerate(scopes):
@@ -438,7 +439,7 @@ def order_steps(
     total = 0
     # the ranked labels in rank order (``rank`` is filled in that order), then the labels
     # not ranked (the case axis)
-    unranked = [u for u in holders if u < 0 and u not in output]
+    unranked = [u for u in holders if u < 0 and u not in output] if extra else []
     for u in (*rank, *unranked):
         chosen = tuple([k for k in holders[u] if alive[k]])
         if not chosen:
@@ -447,21 +448,19 @@ def order_steps(
             alive[k] = False
         step = walker.step(chosen)
         kept = step.kept
-        entries = 1
-        for w in step.union:
-            entries *= card[w] if w >= 0 else extra[w]
-        total += entries
+        total += math.prod(map(size_of, step.union))
+        result = len(alive)  # the step's SSA number
         for w in kept:
-            holders[w].append(len(walker.live) - 1)
+            holders[w].append(result)
         alive.append(True)
         path.append(chosen)
         kept_steps.append(kept)
-    rest = tuple([k for k in range(len(walker.live)) if alive[k]])
+    rest = tuple([k for k, live in enumerate(alive) if live])
     if len(rest) > 1 or not path:
         path.append(rest)
         kept_steps.append(tuple(output))
         labels = {w for k in rest for w in walker.live[k]}
-        total += math.prod([card[w] if w >= 0 else extra[w] for w in labels])
+        total += math.prod(map(size_of, labels))
     if search or (total > tuning.greedy_above and total > tuning.greedy_per_factor * n):
         sets = [frozenset(scope) for scope in scopes]
         table = {u: card[u] if u >= 0 else extra[u] for u in holders}
@@ -491,27 +490,33 @@ def elimination_rank(
     """
     neighbours: dict[int, set[int]] = {}
     for scope in scopes:
-        variables = [u for u in scope if u >= 0]
-        for u in variables:
+        for u in scope:
             linked = neighbours.get(u)
             if linked is None:
-                neighbours[u] = set(variables)
+                neighbours[u] = set(scope)
             else:
-                linked.update(variables)
+                linked.update(scope)
+    others = [u for u in neighbours if u < 0]  # labels that are not variables (a case axis)
+    for u in others:
+        del neighbours[u]
     kept = set(output)
+    weigh = card.__getitem__
     current: dict[int, int] = {}
     for u, linked in neighbours.items():
         linked.discard(u)
+        for w in others:
+            linked.discard(w)
         if u not in kept:
-            current[u] = card[u] * math.prod([card[w] for w in linked])
+            current[u] = card[u] * math.prod(map(weigh, linked))
     heap = [(w, u) for u, w in current.items()]
     heapq.heapify(heap)
     rank: dict[int, int] = {}
     pop, push = heapq.heappop, heapq.heappush
     while heap:
         w, u = pop(heap)
-        if w != current[u] or u in rank:
-            continue
+        if current.get(u) != w:
+            continue  # stale: ranked already, or its weight changed since
+        del current[u]
         rank[u] = len(rank)
         around = neighbours.pop(u)
         size = card[u]
@@ -521,11 +526,12 @@ def elimination_rank(
             gained = around - linked
             gained.discard(x)
             linked |= gained
-            if x in current and x not in rank:
-                weight = current[x] // size
+            old = current.get(x)
+            if old is not None:
+                weight = old // size
                 for y in gained:
                     weight *= card[y]
-                if weight != current[x]:
+                if weight != old:
                     current[x] = weight
                     push(heap, (weight, x))
     return rank
