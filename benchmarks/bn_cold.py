@@ -9,9 +9,13 @@ wrapping the engine's functions for this run only:
 
 - *plan*: pruning and slicing (``plans.build``, with the priors of the sub-networks it
   replaces when first needed);
-- *order*: the contraction order (``plans.order_steps``);
-- *compile*: building the compiled program (``SumProgram``), including the evidence-free
-  steps it contracts now (those another pattern already contracted are looked up);
+- *order*: the contraction order (``plans.order_steps``) — for a one-case question this
+  also builds the compiled program's steps, handed to it as the order chooses them
+  (``SumProgram.add``), including the evidence-free steps contracted now (those another
+  pattern already contracted are looked up);
+- *compile*: ``SumProgram``'s constructor — for a one-case question only its set-up (the
+  steps come through *order*), all of the program where the order came from a cache or
+  from opt_einsum's search;
 - *run*: the first run of the compiled program;
 - *rest*: everything else (evidence lookup, the ancestral-query check, normalising).
 

@@ -340,3 +340,23 @@ def test_a_long_chain_computes_its_priors_without_recursion() -> None:
         net.add_variable(f"X{k}", ["0", "1"], parents=[f"X{k - 1}"], cpt=[[1 - f, f], [f, 1 - f]])
     expected = 0.5 + (a - 0.5) * (1 - 2 * f) ** n
     assert net.posterior(f"X{n}")["0"] == pytest.approx(expected, rel=1e-9)
+
+
+@pytest.mark.parametrize("constant", [True, False])
+def test_one_pass_program_puts_the_last_steps_labels_in_the_outputs_order(constant: bool) -> None:
+    """The last elimination step keeps the output's labels in the order the operands hold
+    them ((0, 2) here); the program built in one pass answers in the output's order (2, 0),
+    transposing a constant result or writing a per-call step's output subscripts so."""
+    net = random_net(3, n_vars=3, max_card=3)
+    compiled = net._engine.compiled
+    rng = np.random.default_rng(3)
+    scopes = [(0, 1), (1, 2)]
+    card = compiled.card
+    arrays = [rng.random((card[0], card[1])), rng.random((card[1], card[2]))]
+    specs = [a if constant else a.shape for a in arrays]
+    program = elimination.SumProgram(scopes, (2, 0), specs, None)
+    path, kept, _ = plans.order_steps(compiled, scopes, (2, 0), emit=program.add)
+    program.finish()
+    assert path == [(0, 1)] and kept == [(0, 2)]
+    got = program() if constant else program(*arrays)
+    np.testing.assert_array_equal(got, np.einsum("ab,bc->ca", *arrays))
