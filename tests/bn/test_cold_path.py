@@ -199,14 +199,14 @@ def test_elimination_rank_sums_every_other_label_once_leaves_before_the_hub() ->
     """A star: the hub (label 0) links every leaf; min-weight sums the leaves out first."""
     scopes = [(0, leaf) for leaf in range(1, 6)] + [(0,)]
     card = [4, 2, 2, 2, 2, 2]
-    rank = plans.elimination_rank(scopes, (5,), card)
+    rank, _ = plans.elimination_rank(scopes, (5,), card)
     assert sorted(rank) == [0, 1, 2, 3, 4]  # every label but the output, once
     assert sorted(rank.values()) == list(range(5))
     assert rank[0] == 4  # the hub, whose factor is the largest, goes last
 
 
 def test_elimination_rank_leaves_the_case_axis_out_of_the_graph() -> None:
-    rank = plans.elimination_rank([(-1, 0), (0, 1), (1, 2)], (-1, 2), [3, 2, 2])
+    rank, _ = plans.elimination_rank([(-1, 0), (0, 1), (1, 2)], (-1, 2), [3, 2, 2])
     assert sorted(rank) == [0, 1]  # the variables, not the case axis
     assert rank[1] > rank[0]  # 0 (with 1 only) before 1 (between 0 and 2)
 
@@ -225,9 +225,10 @@ def test_elimination_rank_always_sums_out_a_label_of_least_weight(scopes, card, 
     """Replayed from scratch, each label the order sums out has, among those left, the
     fewest entries in its factor (itself and its current neighbours): the weights the order
     updates as labels go are the weights recounted."""
-    rank = plans.elimination_rank(scopes, tuple(output), card)
+    rank, bound = plans.elimination_rank(scopes, tuple(output), card)
     labels = {u for scope in scopes for u in scope}
     assert set(rank) == labels - output
+    summed = 0
     neighbours = {u: set() for u in labels}
     for scope in scopes:
         for u in scope:
@@ -239,10 +240,52 @@ def test_elimination_rank_always_sums_out_a_label_of_least_weight(scopes, card, 
     for u in sorted(rank, key=rank.__getitem__):
         left = [v for v in neighbours if v not in output]
         assert weight(u) == min(weight(v) for v in left)
+        summed += weight(u)
         around = neighbours.pop(u)
         for x in around:
             neighbours[x] |= around - {x}
             neighbours[x].discard(u)
+    assert bound == summed
+
+
+@FAST
+@given(seed=SEEDS, force_greedy=st.booleans(), force_pairwise=st.booleans())
+def test_order_and_program_built_in_one_pass_equal_the_two_passes(
+    seed: int, force_greedy: bool, force_pairwise: bool
+) -> None:
+    """A program given its steps as the order is chosen (``emit``) has the same order, the
+    same einsum steps and the same answer, bit for bit, as one compiled from the finished
+    order; where the opt_einsum search may replace the order, the steps come after it."""
+    net = random_net(seed, n_vars=8, max_card=3)
+    rng = np.random.default_rng(seed)
+    scopes, arrays, output = _sliced_factors(net, rng)
+    compiled = net._engine.compiled
+    tuning = Tuning()
+    if force_greedy:
+        tuning = replace(tuning, greedy_above=-1, greedy_per_factor=-1)
+    if force_pairwise:
+        tuning = replace(tuning, split_above=-1, blas_above=-1)
+    constant = [bool(c) for c in rng.integers(0, 2, size=len(scopes))]
+    specs = [a if c else a.shape for a, c in zip(arrays, constant, strict=True)]
+    inputs = [a for a, c in zip(arrays, constant, strict=True) if not c]
+    path, kept, cost = plans.order_steps(compiled, scopes, output, tuning=tuning)
+    _, bound = plans.elimination_rank(scopes, output, compiled.card)
+    if kept is not None:  # the min-weight order: its cost within the bound of its weights
+        assert cost <= bound + int(np.prod([compiled.card[v] for v in output]))
+    two = elimination.SumProgram(scopes, output, specs, path, kept, tuning=tuning)
+    one = elimination.SumProgram(scopes, output, specs, None, tuning=tuning)
+    assert plans.order_steps(compiled, scopes, output, emit=one.add, tuning=tuning) == (
+        path,
+        kept,
+        cost,
+    )
+    one.finish()
+    assert repr(one.steps) == repr(two.steps)
+    assert np.array_equal(one(*inputs), two(*inputs))
+    args: list[object] = []
+    for array, scope in zip(arrays, scopes, strict=True):
+        args += [array, list(scope)]
+    np.testing.assert_allclose(one(*inputs), np.einsum(*args, list(output)), rtol=1e-12)
 
 
 def _diamond() -> BayesNet:
@@ -297,3 +340,23 @@ def test_a_long_chain_computes_its_priors_without_recursion() -> None:
         net.add_variable(f"X{k}", ["0", "1"], parents=[f"X{k - 1}"], cpt=[[1 - f, f], [f, 1 - f]])
     expected = 0.5 + (a - 0.5) * (1 - 2 * f) ** n
     assert net.posterior(f"X{n}")["0"] == pytest.approx(expected, rel=1e-9)
+
+
+@pytest.mark.parametrize("constant", [True, False])
+def test_one_pass_program_puts_the_last_steps_labels_in_the_outputs_order(constant: bool) -> None:
+    """The last elimination step keeps the output's labels in the order the operands hold
+    them ((0, 2) here); the program built in one pass answers in the output's order (2, 0),
+    transposing a constant result or writing a per-call step's output subscripts so."""
+    net = random_net(3, n_vars=3, max_card=3)
+    compiled = net._engine.compiled
+    rng = np.random.default_rng(3)
+    scopes = [(0, 1), (1, 2)]
+    card = compiled.card
+    arrays = [rng.random((card[0], card[1])), rng.random((card[1], card[2]))]
+    specs = [a if constant else a.shape for a in arrays]
+    program = elimination.SumProgram(scopes, (2, 0), specs, None)
+    path, kept, _ = plans.order_steps(compiled, scopes, (2, 0), emit=program.add)
+    program.finish()
+    assert path == [(0, 1)] and kept == [(0, 2)]
+    got = program() if constant else program(*arrays)
+    np.testing.assert_array_equal(got, np.einsum("ab,bc->ca", *arrays))

@@ -159,15 +159,26 @@ def single_program(plan: Plan, compiled: Compiled, tuning: Tuning) -> tuple[Any,
     card = compiled.card
     labels = dict.fromkeys(v for scope in scopes for v in scope)
     few = len(scopes) <= tuning.one_step_operands
+    memo = compiled.constants
     if few and math.prod([card[v] for v in labels]) <= tuning.one_step:
         # small enough for one np.einsum call over all variables: no order to compute
-        path: list[tuple[int, ...]] = [tuple(range(len(scopes)))]
-        kept: list[tuple[int, ...]] | None = [plan.targets]
-    else:
-        path, kept, _ = single_order(plan, compiled, tuning)
-    program = elimination.SumProgram(
-        scopes, plan.targets, specs, path, kept, memo=compiled.constants, tuning=tuning
-    )
+        path = [tuple(range(len(scopes)))]
+        program = elimination.SumProgram(
+            scopes, plan.targets, specs, path, [plan.targets], memo=memo, tuning=tuning
+        )
+    elif plan.cache.single_order is not None:
+        path, kept, _ = plan.cache.single_order
+        program = elimination.SumProgram(
+            scopes, plan.targets, specs, path, kept, memo=memo, tuning=tuning
+        )
+    else:  # order and program in one pass over the factors
+        program = elimination.SumProgram(
+            scopes, plan.targets, specs, None, memo=memo, tuning=tuning
+        )
+        plan.cache.single_order = plans.order_steps(
+            compiled, scopes, plan.targets, emit=program.add, tuning=tuning
+        )
+        program.finish()
     if not observed:
         return program(), []
     return program, observed

@@ -269,7 +269,8 @@ class SumProgram:
     path
         SSA contraction path: step ``k`` contracts the operands it lists (inputs are
         numbered first, each step's result takes the next number); the last step gives
-        ``output``.
+        ``output``. ``None``: the steps come one by one through :meth:`add` as an order
+        is built (:func:`~bayesmap.bn.plans.order_steps`' ``emit``), then :meth:`finish`.
     kept
         Labels each step's result keeps (as :func:`walk` gives them), if known.
     memo
@@ -286,7 +287,7 @@ class SumProgram:
         scopes: Sequence[Sequence[Hashable]],
         output: Sequence[Hashable],
         operands: Sequence[FloatArray | tuple[int, ...]],
-        path: Sequence[Sequence[int]],
+        path: Sequence[Sequence[int]] | None,
         kept: Sequence[Sequence[Hashable]] | None = None,
         memo: ConstantMemo | None = None,
         *,
@@ -294,9 +295,11 @@ class SumProgram:
     ) -> None:
         self._memo = memo
         self._tuning = tuning
+        self._output = output
         sizes: dict[Hashable, int] = {}
         # live operands: (constant value or None, register or -1, labels)
         live: list[tuple[Any, int, Sequence[Hashable]]] = []
+        self._live = live
         n_inputs = 0
         for scope, op in zip(scopes, operands, strict=True):
             if isinstance(op, tuple):
@@ -306,30 +309,60 @@ class SumProgram:
             else:
                 sizes.update(zip(scope, op.shape, strict=True))
                 live.append((op, -1, scope))
-        if kept is None:
-            kept = [step.kept for step in walk(scopes, output, path)]
         self.n_inputs = n_inputs
         self._sizes = sizes
         # each step: (argument template, [(argument slot, register)], result register, large)
         self._steps: list[tuple[list[Any], list[tuple[int, int]], int, bool]] = []
         self._register = n_inputs
+        self.steps: tuple[tuple[list[Any], list[tuple[int, int]], int, bool], ...] = ()
+        self.n_registers = n_inputs
+        self.result: tuple[Any, int] = (None, -1)
+        if path is None:
+            return
+        if kept is None:
+            kept = [step.kept for step in walk(scopes, output, path)]
         last = len(path) - 1
         for k, position in enumerate(path):
-            chosen = [live[i] for i in position]
-            keep = output if k == last else kept[k]
-            if len(chosen) == 1 or len(chosen) == 2:
-                live.append(self._emit(chosen, keep))
-                continue
+            self.add(position, output if k == last else kept[k])
+        self.finish()
+
+    def add(
+        self, position: Sequence[int], kept: Sequence[Hashable], entries: int | None = None
+    ) -> None:
+        """Append the step contracting the operands at SSA numbers ``position`` into
+        ``kept`` (the last step's labels may come in any order: :meth:`finish` puts them in
+        the output's). ``entries``: the size of the operands' product, if known."""
+        live = self._live
+        chosen = [live[i] for i in position]
+        if entries is None and len(chosen) > 1:
+            sizes = self._sizes
             union = dict.fromkeys(label for _, _, scope in chosen for label in scope)
-            large = math.prod([sizes[label] for label in union]) > tuning.split_above
-            if large or len(chosen) > _MAX_OPERANDS:
-                live.append(self._split(chosen, keep, large))
-            else:
-                live.append(self._emit(chosen, keep))
+            entries = math.prod([sizes[label] for label in union])
+        if len(chosen) <= 2:
+            live.append(self._emit(chosen, kept, entries or 0))
+            return
+        assert entries is not None
+        large = entries > self._tuning.split_above
+        if large or len(chosen) > _MAX_OPERANDS:
+            live.append(self._split(chosen, kept, large))
+        else:
+            live.append(self._emit(chosen, kept, entries))
+
+    def finish(self) -> None:
+        """Close the program after its last step: the result's axes in the output's order."""
+        value, source, labels = self._live[-1]
+        output = self._output
+        if tuple(labels) != tuple(output):
+            axes = [list(labels).index(label) for label in output]
+            if source < 0:
+                value = value.transpose(axes)
+            else:  # the last step writes its einsum output subscripts in the output's order
+                template = self._steps[-1][0]
+                written = template[-1]
+                template[-1] = [written[k] for k in axes]
         self.steps = tuple(self._steps)
         self.n_registers = self._register
-        value, source, _ = live[-1]
-        self.result: tuple[Any, int] = (value, source)
+        self.result = (value, source)
 
     def _split(
         self,
@@ -354,13 +387,27 @@ class SumProgram:
             joined = [acc, *chosen[j : j + group]]
             labels = dict.fromkeys(label for _, _, scope in joined for label in scope)
             keep = kept if not rest else [x for x in labels if x in later]
-            acc = self._emit(joined, keep)
+            acc = self._emit(joined, keep, math.prod([sizes[label] for label in labels]))
         return acc
 
     def _emit(
-        self, chosen: Sequence[tuple[Any, int, Sequence[Hashable]]], kept: Sequence[Hashable]
+        self,
+        chosen: Sequence[tuple[Any, int, Sequence[Hashable]]],
+        kept: Sequence[Hashable],
+        entries: int,
     ) -> tuple[Any, int, Sequence[Hashable]]:
-        """Add the step contracting ``chosen`` into ``kept`` (run now if all are constant)."""
+        """Add the step contracting ``chosen`` (``entries`` in their product) into ``kept``
+        (run now if all are constant).
+
+        A constant step is looked up in the memo before its arguments are built: most
+        constant steps of a new pattern's program were met in an earlier one's."""
+        memo = self._memo
+        key = None
+        if memo is not None and all([source < 0 for _, source, _ in chosen]):
+            key = (*[(id(value), tuple(scope)) for value, _, scope in chosen], tuple(kept))
+            result = memo.get(key)
+            if result is not None:
+                return result, -1, kept
         index: dict[Hashable, int] = {}
         args: list[Any] = []
         fills: list[tuple[int, int]] = []
@@ -370,18 +417,10 @@ class SumProgram:
             args.append(value)
             args.append([index.setdefault(label, len(index)) for label in scope])
         args.append([index[label] for label in kept])
-        large = False
-        if len(chosen) == 2:
-            sizes = self._sizes
-            large = math.prod([sizes[label] for label in index]) > self._tuning.blas_above
+        large = len(chosen) == 2 and entries > self._tuning.blas_above
         if not fills:
-            memo = self._memo
-            if memo is None:
-                return _call(args, large), -1, kept
-            key = (*[(id(value), tuple(scope)) for value, _, scope in chosen], tuple(kept))
-            result = memo.get(key)
-            if result is None:
-                result = _call(args, large)
+            result = _call(args, large)
+            if memo is not None:
                 memo.put(key, [value for value, _, _ in chosen], result)
             return result, -1, kept
         self._steps.append((args, fills, self._register, large))
@@ -433,7 +472,9 @@ class Walker(Generic[L]):
     """
 
     def __init__(self, scopes: Sequence[Iterable[L]], output: Iterable[L]) -> None:
-        self.count: dict[L, int] = Counter(itertools.chain.from_iterable(scopes))
+        # a plain dict, not the Counter: the interpreter's fast paths for subscripts take
+        # exact dicts only, and a cold question's order builder counts every label it steps
+        self.count: dict[L, int] = dict(Counter(itertools.chain.from_iterable(scopes)))
         for label in output:
             self.count[label] = self.count.get(label, 0) + 1
         self.live: list[Iterable[L]] = list(scopes)
@@ -441,6 +482,12 @@ class Walker(Generic[L]):
 
     def step(self, position: Sequence[int]) -> Step[L]:
         """Multiply the operands at SSA numbers ``position``; the step, its result appended."""
+        union, kept = self.join(position)
+        return Step(tuple(position), tuple(union), kept)
+
+    def join(self, position: Sequence[int]) -> tuple[dict[L, None], tuple[L, ...]]:
+        """:meth:`step`'s labels of the product (as dictionary keys) and kept labels, without
+        building the :class:`Step` (an order builder's inner loop)."""
         count, live = self.count, self.live
         union: dict[L, None] = {}
         for i in position:
@@ -451,7 +498,7 @@ class Walker(Generic[L]):
         for label in kept:
             count[label] += 1
         live.append(kept)
-        return Step(tuple(position), tuple(union), kept)
+        return union, kept
 
 
 def walk(

@@ -398,6 +398,7 @@ def order_steps(
     sizes: Mapping[int, int] | None = None,
     *,
     search: bool = False,
+    emit: Callable[[tuple[int, ...], tuple[int, ...], int], None] | None = None,
     tuning: Tuning = TUNING,
 ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int]:
     """A contraction order (opt_einsum SSA path), the labels each step keeps, and its cost.
@@ -415,14 +416,30 @@ def order_steps(
     (for contractions cached long and run over the whole network: the two-pass scheme,
     where min-weight's order cost andes 1.3–1.8× more time). The kept labels feed
     :class:`~bayesmap.bn.elimination.SumProgram`, which would otherwise recount them.
+
+    ``emit`` (e.g. :meth:`SumProgram.add <bayesmap.bn.elimination.SumProgram.add>`) is
+    given each step of the returned order with the labels it keeps (the last step's in
+    any order) and the entries of its operands' product. Where the min-weight order is
+    sure to be kept — the weights of its eliminations, which bound its cost, stay under
+    the search threshold — each step is emitted as it is chosen, so the order and the
+    compiled program are built in one pass over the factors; otherwise once the order is
+    decided.
     """
     card = compiled.card
     extra = sizes or {}
+    # entries of a label: variables by id, other labels (the case axis) from ``sizes``
+    size_of = (lambda w: card[w] if w >= 0 else extra[w]) if extra else card.__getitem__
     n = len(scopes)
     if n == 1:
-        size = math.prod([card[u] if u >= 0 else extra[u] for u in scopes[0]])
-        return [(0,)], [tuple(output)], size
-    rank = elimination_rank(scopes, output, card)
+        entries = math.prod(map(size_of, scopes[0]))
+        if emit is not None:
+            emit((0,), tuple(output), entries)
+        return [(0,)], [tuple(output)], entries
+    rank, bound = elimination_rank(scopes, output, card)
+    for w in extra:
+        bound *= extra[w]  # a label left out of the graph (the case axis) widens every step
+    bound += math.prod(map(size_of, output))  # the last step, over the output labels at most
+    may_search = search or (bound > tuning.greedy_above and bound > tuning.greedy_per_factor * n)
     holders: dict[int, list[int]] = {}
     for k, scope in enumerate(scopes):
         for u in scope:
@@ -431,51 +448,64 @@ def order_steps(
                 holders[u] = [k]
             else:
                 ks.append(k)
+    # the ranked labels in rank order (``rank`` is filled in that order), then the labels
+    # not ranked (the case axis)
+    unranked = [u for u in holders if u < 0 and u not in output] if extra else []
+    now = None if may_search or unranked else emit
     walker = Walker(scopes, output)
     alive = [True] * n
     path: list[tuple[int, ...]] = []
     kept_steps: list[tuple[int, ...]] = []
     total = 0
-    # the ranked labels in rank order (``rank`` is filled in that order), then the labels
-    # not ranked (the case axis)
-    unranked = [u for u in holders if u < 0 and u not in output]
     for u in (*rank, *unranked):
         chosen = tuple([k for k in holders[u] if alive[k]])
         if not chosen:
             continue
         for k in chosen:
             alive[k] = False
-        step = walker.step(chosen)
-        kept = step.kept
-        entries = 1
-        for w in step.union:
-            entries *= card[w] if w >= 0 else extra[w]
+        union, kept = walker.join(chosen)
+        entries = math.prod(map(size_of, union))
         total += entries
+        result = len(alive)  # the step's SSA number
         for w in kept:
-            holders[w].append(len(walker.live) - 1)
+            holders[w].append(result)
         alive.append(True)
         path.append(chosen)
         kept_steps.append(kept)
-    rest = tuple([k for k in range(len(walker.live)) if alive[k]])
+        if now is not None:
+            now(chosen, kept, entries)
+    rest = tuple([k for k, live in enumerate(alive) if live])
     if len(rest) > 1 or not path:
         path.append(rest)
         kept_steps.append(tuple(output))
         labels = {w for k in rest for w in walker.live[k]}
-        total += math.prod([card[w] if w >= 0 else extra[w] for w in labels])
+        entries = math.prod(map(size_of, labels))
+        total += entries
+        if now is not None:
+            now(rest, tuple(output), entries)
     if search or (total > tuning.greedy_above and total > tuning.greedy_per_factor * n):
+        if now is not None:
+            raise AssertionError("an emitted order's cost exceeded its bound")
         sets = [frozenset(scope) for scope in scopes]
         table = {u: card[u] if u >= 0 else extra[u] for u in holders}
         greedy = _greedy(sets, frozenset(output), table)
         greedy_total = _cost(sets, set(output), greedy, table)
         if greedy_total < _cost(sets, set(output), path, table):
+            if emit is not None:
+                for step in walk(scopes, output, greedy):
+                    emit(step.inputs, step.kept, math.prod(map(size_of, step.union)))
             return greedy, None, greedy_total
+    if emit is not None and now is None:
+        for chosen, step in zip(path, walk(scopes, output, path), strict=True):
+            emit(chosen, step.kept, math.prod(map(size_of, step.union)))
     return path, kept_steps, total
 
 
 def elimination_rank(
     scopes: Sequence[Sequence[int]], output: Sequence[int], card: Sequence[int]
-) -> dict[int, int]:
-    """Position of each summed-out label in a greedy min-weight elimination order.
+) -> tuple[dict[int, int], int]:
+    """Position of each summed-out label in a greedy min-weight elimination order, and the
+    sum of the weights of its eliminations.
 
     Variable elimination on the interaction graph of ``scopes`` (the labels of each factor
     linked) repeatedly sums out the label whose factor — the label and its current
@@ -487,32 +517,41 @@ def elimination_rank(
     ``card`` gives the variables' sizes; other labels (the case axis of a batch, label −1)
     are left out of the graph: the order is the one-case order, which keeps a case axis off
     the evidence-free steps (with it, min-weight spreads the axis early and a batch costs
-    30× more on alarm).
+    30× more on alarm). The summed weights bound the multiply-adds of the steps that sum
+    these labels out in this order (each step's operands lie within the label's factor).
     """
     neighbours: dict[int, set[int]] = {}
     for scope in scopes:
-        variables = [u for u in scope if u >= 0]
-        for u in variables:
+        for u in scope:
             linked = neighbours.get(u)
             if linked is None:
-                neighbours[u] = set(variables)
+                neighbours[u] = set(scope)
             else:
-                linked.update(variables)
+                linked.update(scope)
+    others = [u for u in neighbours if u < 0]  # labels that are not variables (a case axis)
+    for u in others:
+        del neighbours[u]
     kept = set(output)
+    weigh = card.__getitem__
     current: dict[int, int] = {}
     for u, linked in neighbours.items():
         linked.discard(u)
+        for w in others:
+            linked.discard(w)
         if u not in kept:
-            current[u] = card[u] * math.prod([card[w] for w in linked])
+            current[u] = card[u] * math.prod(map(weigh, linked))
     heap = [(w, u) for u, w in current.items()]
     heapq.heapify(heap)
     rank: dict[int, int] = {}
+    bound = 0
     pop, push = heapq.heappop, heapq.heappush
     while heap:
         w, u = pop(heap)
-        if w != current[u] or u in rank:
-            continue
+        if current.get(u) != w:
+            continue  # stale: ranked already, or its weight changed since
+        del current[u]
         rank[u] = len(rank)
+        bound += w
         around = neighbours.pop(u)
         size = card[u]
         for x in around:
@@ -521,14 +560,15 @@ def elimination_rank(
             gained = around - linked
             gained.discard(x)
             linked |= gained
-            if x in current and x not in rank:
-                weight = current[x] // size
+            old = current.get(x)
+            if old is not None:
+                weight = old // size
                 for y in gained:
                     weight *= card[y]
-                if weight != current[x]:
+                if weight != old:
                     current[x] = weight
                     push(heap, (weight, x))
-    return rank
+    return rank, bound
 
 
 def _greedy(
