@@ -393,9 +393,11 @@ def fused_map_figure(
     """The fused map over the truth: true tables filled, mapped objects outlined.
 
     Each mapped object is labelled with its type and existence probability; the legend
-    sits below the arena so it never hides a table.
+    sits below the axis label, outside the axes, so it never hides a table or the label;
+    the figure's height follows the arena's shape.
     """
-    fig = Figure(figsize=(5.6, 6.2))
+    aspect = (bounds[3] - bounds[1]) / max(bounds[2] - bounds[0], 1e-9)
+    fig = Figure(figsize=(5.6, 1.1 + 4.5 * min(max(aspect, 0.3), 1.6)), layout="constrained")
     ax = fig.subplots()
     _draw_sized(ax, truth, truth_sizes, color=TRUTH_COLOR, alpha=0.45, filled=True)
     _draw_sized(ax, objects, object_sizes, color=MAP_COLOR, alpha=1.0, filled=False, linewidth=1.4)
@@ -405,14 +407,13 @@ def fused_map_figure(
         ax.text(x, y, f"{label}\np={p:.2f}", ha="center", va="center", fontsize=6, color=MAP_COLOR)
     _arena(ax, bounds)
     ax.set_title(title, fontsize=9)
-    ax.legend(
+    fig.legend(
         handles=[
             Patch(facecolor=TRUTH_COLOR, alpha=0.45, label="true table"),
             Line2D([], [], color=MAP_COLOR, lw=1.4, label="fused map (type, existence p)"),
             Line2D([], [], color="k", lw=1.5, label="arena walls"),
         ],
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.1),
+        loc="outside lower center",
         ncol=3,
         fontsize=7,
         frameon=False,
