@@ -140,6 +140,19 @@ def write(rows: list[dict[str, Any]]) -> None:
     update_section("blackboard-speed", f"{note}\n\n{table(rows)}\n", RESULTS_DOC)
 
 
+def stress_worlds(seeds: list[int]) -> list[tuple[str, Any]]:
+    """The generated stress worlds of ``seeds``, each with the name the tables show."""
+    worlds = [generate_world(seed) for seed in seeds]
+    return [
+        (
+            f"stress seed {seed} ({len(world.tables)} tables, "
+            f"{world.arena[0]:.1f} × {world.arena[1]:.1f} m)",
+            world,
+        )
+        for seed, world in zip(seeds, worlds, strict=True)
+    ]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", type=int, nargs="*", default=[9317, 4])
@@ -150,12 +163,7 @@ def main() -> None:
         ("whisker-tables-v1", condition, lambda c=condition: shipped_run(c))
         for condition in args.shipped
     ]
-    for seed in args.worlds:
-        world = generate_world(np.random.default_rng(seed))
-        name = (
-            f"stress seed {seed} ({len(world.tables)} tables, "
-            f"{world.arena[0]:.1f} × {world.arena[1]:.1f} m)"
-        )
+    for name, world in stress_worlds(args.worlds):
         for condition in args.conditions:
             runs.append(
                 (

@@ -32,12 +32,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks._report import machine, update_section  # noqa: E402
+from benchmarks.blackboard_speed import stress_worlds  # noqa: E402
 
 from bayesmap.blackboard.fused import FusedMap, FusedMapper, FusedParams  # noqa: E402
 from bayesmap.blackboard.tempering import geometric_ladder  # noqa: E402
 from bayesmap.experiments import blackboard, blackboard_world  # noqa: E402
 from bayesmap.experiments.fused_run import fused_metrics  # noqa: E402
-from bayesmap.sim.whisker_worlds import generate_world  # noqa: E402
 
 BEFORE = {"replicas": 1, "samples": 1500}
 """The existence chain before tempering: 1500 moves of the β = 1 chain alone."""
@@ -188,12 +188,7 @@ def main() -> None:
         ("whisker-tables-v1", condition, lambda c=condition: blackboard.fused_condition(c))
         for condition in args.shipped
     ]
-    for seed in args.worlds:
-        world = generate_world(np.random.default_rng(seed))
-        name = (
-            f"stress seed {seed} ({len(world.tables)} tables, "
-            f"{world.arena[0]:.1f} × {world.arena[1]:.1f} m)"
-        )
+    for name, world in stress_worlds(args.worlds):
         for condition in args.conditions:
             runs.append(
                 (
