@@ -472,16 +472,30 @@ class SpecularFilter:
         return np.asarray(distance[keep])
 
     def _grow_l(self, segments: FloatArray) -> None:
-        """Merge ``V`` traits into ``L`` (extending equivalent ones) and forget old traits."""
+        """Merge ``V`` traits into ``L`` (extending equivalent ones) and forget old traits.
+
+        Only traits of ``L`` whose bounding box, grown by ``match_offset``, meets the ``V``
+        trait's are tested for equivalence: an equivalent pair always shares a point within
+        ``match_offset`` of both (both ends of the ``V`` trait lie that close to the ``L``
+        trait's line and their projections overlap), so the others cannot match.
+        """
+        reach = self.match_offset + 1e-9
         for segment in segments:
-            match = equivalent(
-                segment[None],
-                self.l_segments_,
-                match_angle=self.match_angle,
-                match_offset=self.match_offset,
-            )[0]
-            if np.any(match):
-                j = int(np.flatnonzero(match)[0])
+            ell = self.l_segments_
+            lo = np.minimum(ell[:, :2], ell[:, 2:]) - reach
+            hi = np.maximum(ell[:, :2], ell[:, 2:]) + reach
+            s_lo, s_hi = np.minimum(segment[:2], segment[2:]), np.maximum(segment[:2], segment[2:])
+            near = np.flatnonzero(np.all((lo <= s_hi) & (hi >= s_lo), axis=1))
+            match = near[
+                equivalent(
+                    segment[None],
+                    ell[near],
+                    match_angle=self.match_angle,
+                    match_offset=self.match_offset,
+                )[0]
+            ]
+            if len(match):
+                j = int(match[0])
                 a, b = self.l_segments_[j, :2], self.l_segments_[j, 2:]
                 u = (b - a) / max(float(np.hypot(*(b - a))), 1e-12)
                 t = np.array(
@@ -499,9 +513,10 @@ class SpecularFilter:
                 self.l_seen_ = np.append(self.l_seen_, self.path_)
                 self.l_passes_ = np.append(self.l_passes_, 0)
         keep = self.l_seen_ >= self.path_ - 4.0 * self.perceptual_length
-        self.l_segments_ = self.l_segments_[keep]
-        self.l_seen_ = self.l_seen_[keep]
-        self.l_passes_ = self.l_passes_[keep]
+        if not keep.all():
+            self.l_segments_ = self.l_segments_[keep]
+            self.l_seen_ = self.l_seen_[keep]
+            self.l_passes_ = self.l_passes_[keep]
 
     def _remember(
         self, centres: FloatArray, axis: FloatArray, r: FloatArray, use: BoolArray
