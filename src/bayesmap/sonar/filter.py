@@ -50,6 +50,8 @@ _STAGE_REASONS = {
     Stage.ACCEPTABILITY: "obstacle reading outside the bounds from both neighbours",
     Stage.AGREEABILITY: "free-space reading and neither neighbour reports free space",
 }
+_STAGES = {int(stage): stage for stage in Stage}
+_STAGE_NAMES = {stage: stage.name.lower() for stage in Stage}
 _TV_REASONS = {
     TVReason.UNSUPPORTED_FLAGGED: "flagged and no equivalent trait in L",
     TVReason.UNSUPPORTED_UNCERTAIN: "certainty below threshold and no equivalent trait in L",
@@ -314,8 +316,12 @@ class SpecularFilter:
             verdict = agreeability(echo.ravel(), left, right)
             stage[verdict.discard.reshape(m, n) & (stage == Stage.ACCEPTED)] = Stage.AGREEABILITY
             flagged |= verdict.flag.reshape(m, n)
+        # Every reading's echo point (used for the echoes only), for all rings at once.
+        points = centres + r[..., None] * np.stack([np.cos(axis), np.sin(axis)], axis=-1)
         for i in range(m):
-            self._finish_ring(p[i], r[i], echo[i], centres[i], axis[i], flagged[i], stage[i])
+            self._finish_ring(
+                p[i], r[i], echo[i], centres[i], axis[i], points[i], flagged[i], stage[i]
+            )
         return RingVerdict(accepted=stage == Stage.ACCEPTED, flagged=flagged, stage=stage)
 
     def _finish_ring(
@@ -325,33 +331,42 @@ class SpecularFilter:
         echo: BoolArray,
         centres: FloatArray,
         axis: FloatArray,
+        points: FloatArray,
         flagged: BoolArray,
         stage: IntArray,
     ) -> None:
-        """Trait Verification of one ring (``stage`` is updated in place) and the bookkeeping."""
-        if self.last_pose_ is not None:
-            self.path_ += float(np.hypot(*(pose[:2] - self.last_pose_[:2])))
-        self.last_pose_ = pose
-        reasons = {int(k): _STAGE_REASONS[Stage(int(stage[k]))] for k in np.flatnonzero(stage)}
-        if self.stages[Stage.TRAIT_VERIFICATION]:
-            distance = self._clean_l(
-                pose, r, echo, ~flagged & (stage == Stage.ACCEPTED), centres, axis
-            )
-            tv = self._trait_verification(
-                pose, r, echo, centres, axis, flagged, stage == Stage.ACCEPTED, distance
-            )
-            for k in np.flatnonzero(tv):
-                stage[k] = Stage.TRAIT_VERIFICATION
-                reasons[int(k)] = _TV_REASONS[TVReason(int(tv[k]))]
-        self._remember(centres, axis, r, echo & (stage == Stage.ACCEPTED))
-        for sensor, reason in sorted(reasons.items()):
-            kind = Stage(int(stage[sensor]))
-            self.rejections_.append(Rejection(self.rings_, sensor, kind, reason))
-            self.counts_[kind.name.lower()] += 1
-        self.rings_ += 1
+        """Trait Verification of one ring (``stage`` is updated in place) and the bookkeeping.
 
-    def _echo_points(self, centres: FloatArray, axis: FloatArray, r: FloatArray) -> FloatArray:
-        return np.asarray(centres + r[:, None] * np.column_stack([np.cos(axis), np.sin(axis)]))
+        ``points``: the ``(n, 2)`` echo point of every reading [m].
+        """
+        if self.last_pose_ is not None:
+            self.path_ += float(
+                np.hypot(pose[0] - self.last_pose_[0], pose[1] - self.last_pose_[1])
+            )
+        self.last_pose_ = pose
+        before = stage.tolist()
+        if self.stages[Stage.TRAIT_VERIFICATION]:
+            accepted = stage == Stage.ACCEPTED
+            distance = self._clean_l(pose, r, echo, ~flagged & accepted, centres, axis)
+            tv = self._trait_verification(
+                pose, r, echo, centres, axis, points, flagged, accepted, distance
+            )
+            stage[tv != TVReason.KEPT] = Stage.TRAIT_VERIFICATION
+            verdicts = tv.tolist()
+        else:
+            verdicts = [TVReason.KEPT] * len(before)
+        self._remember(points[echo & (stage == Stage.ACCEPTED)])
+        for sensor, (kind, verdict) in enumerate(zip(before, verdicts, strict=True)):
+            if kind:
+                reason = _STAGE_REASONS[kind]
+            elif verdict:
+                kind, reason = Stage.TRAIT_VERIFICATION, _TV_REASONS[verdict]
+            else:
+                continue
+            stage_ = _STAGES[kind]
+            self.rejections_.append(Rejection(self.rings_, sensor, stage_, reason))
+            self.counts_[_STAGE_NAMES[stage_]] += 1
+        self.rings_ += 1
 
     def _trait_verification(
         self,
@@ -360,13 +375,14 @@ class SpecularFilter:
         echo: BoolArray,
         centres: FloatArray,
         axis: FloatArray,
+        ring_points: FloatArray,
         flagged: BoolArray,
         candidate: BoolArray,
         distance: FloatArray,
     ) -> IntArray:
         """Trait Verification of one ring; ``distance``: from the robot to each trait of ``L``."""
         current = np.flatnonzero(echo & candidate)
-        points_now = self._echo_points(centres[current], axis[current], r[current])
+        points_now = ring_points[current]
         past = list(self.points_)
         points = np.vstack([points_now, *past]) if past else points_now
         owner = np.concatenate([current, np.full(len(points) - len(current), -1)])
@@ -472,41 +488,30 @@ class SpecularFilter:
         return np.asarray(distance[keep])
 
     def _grow_l(self, segments: FloatArray) -> None:
-        """Merge ``V`` traits into ``L`` (extending equivalent ones) and forget old traits.
-
-        Only traits of ``L`` whose bounding box, grown by ``match_offset``, meets the ``V``
-        trait's are tested for equivalence: an equivalent pair always shares a point within
-        ``match_offset`` of both (both ends of the ``V`` trait lie that close to the ``L``
-        trait's line and their projections overlap), so the others cannot match.
-        """
-        reach = self.match_offset + 1e-9
+        """Merge ``V`` traits into ``L`` (extending equivalent ones) and forget old traits."""
         for segment in segments:
-            ell = self.l_segments_
-            lo = np.minimum(ell[:, :2], ell[:, 2:]) - reach
-            hi = np.maximum(ell[:, :2], ell[:, 2:]) + reach
-            s_lo, s_hi = np.minimum(segment[:2], segment[2:]), np.maximum(segment[:2], segment[2:])
-            near = np.flatnonzero(np.all((lo <= s_hi) & (hi >= s_lo), axis=1))
-            match = near[
+            match = np.flatnonzero(
                 equivalent(
                     segment[None],
-                    ell[near],
+                    self.l_segments_,
                     match_angle=self.match_angle,
                     match_offset=self.match_offset,
                 )[0]
-            ]
+            )
             if len(match):
                 j = int(match[0])
-                a, b = self.l_segments_[j, :2], self.l_segments_[j, 2:]
-                u = (b - a) / max(float(np.hypot(*(b - a))), 1e-12)
-                t = np.array(
-                    [
-                        0.0,
-                        float((b - a) @ u),
-                        float((segment[:2] - a) @ u),
-                        float((segment[2:] - a) @ u),
-                    ]
+                ax, ay, bx, by = self.l_segments_[j].tolist()
+                sx0, sy0, sx1, sy1 = segment.tolist()
+                norm = max(math.hypot(bx - ax, by - ay), 1e-12)
+                ux, uy = (bx - ax) / norm, (by - ay) / norm
+                t = (
+                    0.0,
+                    (bx - ax) * ux + (by - ay) * uy,
+                    (sx0 - ax) * ux + (sy0 - ay) * uy,
+                    (sx1 - ax) * ux + (sy1 - ay) * uy,
                 )
-                self.l_segments_[j] = np.concatenate([a + t.min() * u, a + t.max() * u])
+                low, high = min(t), max(t)
+                self.l_segments_[j] = (ax + low * ux, ay + low * uy, ax + high * ux, ay + high * uy)
                 self.l_seen_[j] = self.path_
             else:
                 self.l_segments_ = np.vstack([self.l_segments_, segment])
@@ -518,7 +523,5 @@ class SpecularFilter:
             self.l_seen_ = self.l_seen_[keep]
             self.l_passes_ = self.l_passes_[keep]
 
-    def _remember(
-        self, centres: FloatArray, axis: FloatArray, r: FloatArray, use: BoolArray
-    ) -> None:
-        self.points_.appendleft(self._echo_points(centres[use], axis[use], r[use]))
+    def _remember(self, points: FloatArray) -> None:
+        self.points_.appendleft(points)
