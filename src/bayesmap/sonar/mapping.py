@@ -188,15 +188,15 @@ class _LogOddsMapper(_ConeMapper):
         span = int(math.ceil(self.footprint / res)) + 1
         col = int(math.floor((x - x0) / res))
         row = int(math.floor((y - y0) / res))
-        rows, cols = np.mgrid[
-            max(row - span, 0) : min(row + span + 1, ny),
-            max(col - span, 0) : min(col + span + 1, nx),
-        ]
+        rows = np.arange(max(row - span, 0), min(row + span + 1, ny))[:, None]
+        cols = np.arange(max(col - span, 0), min(col + span + 1, nx))[None, :]
         inside = (x0 + (cols + 0.5) * res - x) ** 2 + (y0 + (rows + 0.5) * res - y) ** 2 <= (
             self.footprint**2
         )
-        self.log_odds_[rows[inside], cols[inside]] = -self.clamp
-        self.swept_[rows[inside], cols[inside]] = True
+        r, c = np.nonzero(inside)
+        index = (rows[r, 0], cols[0, c])
+        self.log_odds_[index] = -self.clamp
+        self.swept_[index] = True
 
     def probability(self) -> Grid:
         """``(ny, nx)`` occupancy probability of each cell."""

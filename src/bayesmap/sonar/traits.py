@@ -206,10 +206,10 @@ def fit_traits(
 
 def point_segment_distance(points: FloatArray, segments: FloatArray) -> FloatArray:
     """``(n, m)`` distance [m] from each point ``(n, 2)`` to each segment ``(m, 4)``."""
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 1, 2)
-    a = segments[None, :, :2]
-    e = segments[None, :, 2:] - a
-    length2 = np.maximum((e**2).sum(axis=-1), 1e-12)
-    t = np.clip(((p - a) * e).sum(axis=-1) / length2, 0.0, 1.0)
-    closest = a + t[..., None] * e
-    return np.asarray(np.hypot(*(p - closest).transpose(2, 0, 1)))
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    ax, ay = segments[:, 0], segments[:, 1]
+    ex, ey = segments[:, 2] - ax, segments[:, 3] - ay
+    length2 = np.maximum(ex * ex + ey * ey, 1e-12)
+    rx, ry = p[:, :1] - ax, p[:, 1:] - ay
+    t = np.minimum(np.maximum((rx * ex + ry * ey) / length2, 0.0), 1.0)
+    return np.hypot(rx - t * ex, ry - t * ey)

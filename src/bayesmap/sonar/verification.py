@@ -109,19 +109,21 @@ def equivalent(
         return out
     reach = match_offset + 1e-9
     lines = ell.tolist()
-    boxes = [
-        (min(x0, x1) - reach, min(y0, y1) - reach, max(x0, x1) + reach, max(y0, y1) + reach)
-        for x0, y0, x1, y1 in lines
-    ]
     for i, (vx0, vy0, vx1, vy1) in enumerate(v.tolist()):
         if math.hypot(vx1 - vx0, vy1 - vy0) <= 1e-3:
             continue
         angle = math.atan2(vy1 - vy0, vx1 - vx0)
-        left, right = min(vx0, vx1), max(vx0, vx1)
-        bottom, top = min(vy0, vy1), max(vy0, vy1)
+        left = (vx0 if vx0 < vx1 else vx1) - reach
+        right = (vx1 if vx0 < vx1 else vx0) + reach
+        bottom = (vy0 if vy0 < vy1 else vy1) - reach
+        top = (vy1 if vy0 < vy1 else vy0) + reach
         for j, (x0, y0, x1, y1) in enumerate(lines):
-            bx0, by0, bx1, by1 = boxes[j]
-            if bx0 > right or bx1 < left or by0 > top or by1 < bottom:
+            if (
+                (x0 < left and x1 < left)
+                or (x0 > right and x1 > right)
+                or (y0 < bottom and y1 < bottom)
+                or (y0 > top and y1 > top)
+            ):
                 continue
             dx, dy = x1 - x0, y1 - y0
             length = math.hypot(dx, dy)
@@ -139,26 +141,27 @@ def equivalent(
 
 def axis_segment_hits(centres: FloatArray, axis: FloatArray, segments: FloatArray) -> FloatArray:
     """``(n, m)`` distance [m] along each beam axis to each segment (``inf``: not crossed)."""
-    d = np.column_stack([np.cos(axis), np.sin(axis)])[:, None, :]
-    p = segments[None, :, :2]
-    e = segments[None, :, 2:] - p
-    w = p - centres[:, None, :]
-    denom = d[..., 0] * e[..., 1] - d[..., 1] * e[..., 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (w[..., 0] * e[..., 1] - w[..., 1] * e[..., 0]) / denom
-        u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / denom
-    ok = (np.abs(denom) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
-    return np.asarray(np.where(ok, t, np.inf))
+    cos, sin = np.cos(axis)[:, None], np.sin(axis)[:, None]
+    px, py = segments[:, 0], segments[:, 1]
+    ex, ey = segments[:, 2] - px, segments[:, 3] - py
+    wx, wy = px - centres[:, :1], py - centres[:, 1:]
+    denom = cos * ey - sin * ex
+    crossed = np.abs(denom) > 1e-12
+    # Parallel pairs divide by 1 instead of ~0 and are masked out below.
+    safe = np.where(crossed, denom, 1.0)
+    t = (wx * ey - wy * ex) / safe
+    u = (wx * sin - wy * cos) / safe
+    return np.where(crossed & (t > 0) & (u >= 0) & (u <= 1), t, np.inf)
 
 
 def head_on(axis: FloatArray, segments: FloatArray, critical_angle: float) -> BoolArray:
     """``(n, m)``: beam axis ``axis[i]`` [rad] meets segment ``j`` within ``critical_angle``
     [rad] of its normal, so a wall there would certainly echo (the axis ray itself returns)."""
-    e = segments[:, 2:] - segments[:, :2]
-    length = np.maximum(np.hypot(e[:, 0], e[:, 1]), 1e-12)
+    ex, ey = segments[:, 2] - segments[:, 0], segments[:, 3] - segments[:, 1]
+    length = np.maximum(np.hypot(ex, ey), 1e-12)
     # |cos| of the angle between the axis and the wall's normal = |sin| of the angle to the wall.
-    cross = np.cos(axis)[:, None] * e[None, :, 1] - np.sin(axis)[:, None] * e[None, :, 0]
-    return np.asarray(np.abs(cross) / length[None, :] >= math.cos(critical_angle))
+    cross = np.cos(axis)[:, None] * ey - np.sin(axis)[:, None] * ex
+    return np.abs(cross) / length >= math.cos(critical_angle)
 
 
 def reconcile(
