@@ -385,10 +385,8 @@ class SpecularFilter:
         points_now = ring_points[current]
         past = list(self.points_)
         points = np.vstack([points_now, *past]) if past else points_now
-        owner = np.concatenate([current, np.full(len(points) - len(current), -1)])
-        order = np.argsort(
-            np.arctan2(points[:, 1] - pose[1], points[:, 0] - pose[0]), kind="stable"
-        )
+        dx, dy = points[:, 0] - pose[0], points[:, 1] - pose[1]
+        order = np.argsort(np.arctan2(dy, dx), kind="stable")
         traits = fit_traits(
             points[order],
             tolerance=self.split_tolerance,
@@ -397,11 +395,14 @@ class SpecularFilter:
             min_length=self.min_length,
             min_spacing=self.min_spacing,
         )
+        # Where each current echo point went in the bearing order.
+        rank = np.empty(len(points), dtype=np.int64)
+        rank[order] = np.arange(len(points))
+        mine = rank[: len(current)]
         labels = np.full(self.geometry.n, -1, dtype=np.int64)
         residual = np.full(self.geometry.n, np.nan)
-        mine = owner[order] >= 0
-        labels[owner[order][mine]] = traits.labels[mine]
-        residual[owner[order][mine]] = traits.residuals[mine]
+        labels[current] = traits.labels[mine]
+        residual[current] = traits.residuals[mine]
         certainties = certainty(
             residual, r, sigma=self.geometry.sigma, half_width=self.geometry.beam_width / 2
         )
@@ -410,7 +411,7 @@ class SpecularFilter:
             if self.enough_state:
                 # Only traits that some beam, echo point or trait of V can reach matter; the
                 # rest are left out of the (per-trait) tests, which gives the same verdicts.
-                spread = float(np.hypot(*(points - pose[:2]).T).max()) if len(points) else 0.0
+                spread = float(np.hypot(dx, dy).max()) if len(points) else 0.0
                 limit = max(spread, self.geometry.max_range + self.geometry.reach)
                 limit += self.extension + self.match_offset + self.margin
             else:
@@ -437,10 +438,15 @@ class SpecularFilter:
             critical_angle=self.critical_angle,
             keep_supported_echoes=self.keep_supported_echoes,
         )
-        kept = candidate & (reason == TVReason.KEPT)
-        rejected_traits = set(labels[candidate & ~kept & (labels >= 0)].tolist())
-        good = [i for i in set(labels[kept & (labels >= 0)].tolist()) if i not in rejected_traits]
-        fresh = traits.segments[sorted(good)]
+        # A trait of V enters L when every current reading on it was kept.
+        good: set[int] = set()
+        bad: set[int] = set()
+        for label, judged, verdict in zip(
+            labels.tolist(), candidate.tolist(), reason.tolist(), strict=True
+        ):
+            if label >= 0 and judged:
+                (bad if verdict else good).add(label)
+        fresh = traits.segments[sorted(good - bad)]
         if len(fresh):
             clear = point_segment_distance(pose[:2], fresh)[0] > self.footprint
             fresh = fresh[clear]
