@@ -522,3 +522,40 @@ def test_filter_keeps_the_recorded_verdicts_of_a_realistic_log() -> None:
         )
         assert np.count_nonzero(got == Stage.TRAIT_VERIFICATION) > 100  # L is in play
         assert np.array_equal(got, np.array(stages)), name
+
+
+def test_free_limit_stops_a_cones_free_space_but_not_its_echo() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), sigma=0.05, max_range=5.0)
+    cells = OccupancyGrid(10, 10, 0.1, origin=(-5, -5)).world_to_cell([0.5, 1.5, 2.05], [0.05] * 3)
+
+    def probabilities(free_limit: list[float] | None) -> np.ndarray:
+        mapper = ElfesMapper(OccupancyGrid(10, 10, 0.1, origin=(-5, -5)), geometry)
+        mapper.integrate([0.05, 0.05, 0.0], [2.0, 5.0], free_limit=free_limit)
+        return np.asarray(mapper.probability()[cells])
+
+    free, limited = probabilities(None), probabilities([1.0, math.inf])
+    assert free[1] < 0.4 and limited[1] == 0.5  # beyond the limit: no free evidence
+    assert limited[0] == free[0] < 0.4 and limited[2] == free[2] > 0.6
+    ros = RosRangeLayerMapper(OccupancyGrid(10, 10, 0.1, origin=(-5, -5)), geometry)
+    with pytest.raises(ConfigError, match="free-space limit"):
+        ros.integrate([0.05, 0.05, 0.0], [2.0, 5.0], free_limit=[1.0, math.inf])
+
+
+def test_an_echo_kept_behind_a_known_trait_stops_its_free_space_in_front_of_it() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi / 2, math.pi, -math.pi / 2), max_range=5.0)
+
+    def judge(keep: bool) -> tuple[bool, float]:
+        filt = SpecularFilter(
+            geometry, acceptability=False, agreeability=False, keep_supported_echoes=keep
+        )
+        filt.path_ = 100.0  # enough state: case B
+        # A wall 3 m ahead, and a trait of L 1.5 m ahead crossing the beam in front of it.
+        filt.l_segments_ = np.array([[3.0, -1.0, 3.0, 1.0], [1.5, -0.5, 1.5, 0.5]])
+        filt.l_seen_ = np.full(2, 100.0)
+        filt.l_passes_ = np.zeros(2, dtype=np.int64)
+        verdict = filt.process([0.0, 0.0, 0.0], [3.0, 6.0, 6.0, 6.0])
+        return bool(verdict.accepted[0]), float(verdict.free_limit[0])
+
+    assert judge(False) == (False, math.inf)  # contradicted by the trait in front
+    kept, limit = judge(True)
+    assert kept and limit == pytest.approx(1.5 - 0.2)  # free space ends before that trait

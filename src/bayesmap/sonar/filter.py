@@ -81,11 +81,17 @@ class RingVerdict(NamedTuple):
         ``(n,)`` readings flagged as possibly erroneous by Acceptability/Agreeability.
     stage
         ``(n,)`` :class:`Stage` that discarded each reading.
+    free_limit
+        ``(n,)`` distance [m] from each transducer beyond which its reading's cone should
+        write no free space (``inf``: no limit). Set with ``keep_supported_echoes`` for an
+        echo kept on a trait of ``L`` while a nearer trait of ``L`` crosses its cone: the
+        free space stops in front of that trait instead of carving through it.
     """
 
     accepted: BoolArray
     flagged: BoolArray
     stage: IntArray
+    free_limit: FloatArray
 
 
 class SpecularFilter:
@@ -259,7 +265,7 @@ class SpecularFilter:
         """
         p, r = self.geometry.one_ring(pose, ranges)
         verdict = self.process_many(p[None], r[None])
-        return RingVerdict(verdict.accepted[0], verdict.flagged[0], verdict.stage[0])
+        return RingVerdict(*(field[0] for field in verdict))
 
     def process_many(self, poses: npt.ArrayLike, ranges: npt.ArrayLike) -> RingVerdict:
         """Judge ``m`` consecutive rings: ``ranges`` ``(m, n)`` [m] taken at ``poses`` ``(m, 3)``.
@@ -318,11 +324,22 @@ class SpecularFilter:
             flagged |= verdict.flag.reshape(m, n)
         # Every reading's echo point (used for the echoes only), for all rings at once.
         points = centres + r[..., None] * np.stack([np.cos(axis), np.sin(axis)], axis=-1)
+        free_limit = np.full((m, n), np.inf)
         for i in range(m):
             self._finish_ring(
-                p[i], r[i], echo[i], centres[i], axis[i], points[i], flagged[i], stage[i]
+                p[i],
+                r[i],
+                echo[i],
+                centres[i],
+                axis[i],
+                points[i],
+                flagged[i],
+                stage[i],
+                free_limit[i],
             )
-        return RingVerdict(accepted=stage == Stage.ACCEPTED, flagged=flagged, stage=stage)
+        return RingVerdict(
+            accepted=stage == Stage.ACCEPTED, flagged=flagged, stage=stage, free_limit=free_limit
+        )
 
     def _finish_ring(
         self,
@@ -334,8 +351,10 @@ class SpecularFilter:
         points: FloatArray,
         flagged: BoolArray,
         stage: IntArray,
+        free_limit: FloatArray,
     ) -> None:
-        """Trait Verification of one ring (``stage`` is updated in place) and the bookkeeping.
+        """Trait Verification of one ring (``stage``, ``free_limit`` updated in place) and
+        the bookkeeping.
 
         ``points``: the ``(n, 2)`` echo point of every reading [m].
         """
@@ -349,7 +368,7 @@ class SpecularFilter:
             accepted = stage == Stage.ACCEPTED
             distance = self._clean_l(pose, r, echo, ~flagged & accepted, centres, axis)
             tv = self._trait_verification(
-                pose, r, echo, centres, axis, points, flagged, accepted, distance
+                pose, r, echo, centres, axis, points, flagged, accepted, distance, free_limit
             )
             stage[tv != TVReason.KEPT] = Stage.TRAIT_VERIFICATION
             verdicts = tv.tolist()
@@ -379,8 +398,12 @@ class SpecularFilter:
         flagged: BoolArray,
         candidate: BoolArray,
         distance: FloatArray,
+        free_limit: FloatArray,
     ) -> IntArray:
-        """Trait Verification of one ring; ``distance``: from the robot to each trait of ``L``."""
+        """Trait Verification of one ring; ``distance``: from the robot to each trait of ``L``.
+
+        Sets ``free_limit`` (in place) for the echoes kept despite a trait in front.
+        """
         current = np.flatnonzero(echo & candidate)
         points_now = ring_points[current]
         past = list(self.points_)
@@ -417,6 +440,7 @@ class SpecularFilter:
             else:
                 limit = self.geometry.max_range
             l_view = l_view[distance <= limit]
+        l_extended = extend_segments(l_view, self.extension)
         reason = reconcile(
             candidate=candidate,
             echo=echo,
@@ -427,7 +451,7 @@ class SpecularFilter:
             labels=labels,
             certainties=certainties,
             v_segments=traits.segments,
-            l_segments=extend_segments(l_view, self.extension),
+            l_segments=l_extended,
             enough_state=self.enough_state,
             max_range=self.geometry.max_range,
             certainty_threshold=self.certainty_threshold,
@@ -438,6 +462,10 @@ class SpecularFilter:
             critical_angle=self.critical_angle,
             keep_supported_echoes=self.keep_supported_echoes,
         )
+        if self.keep_supported_echoes and self.enough_state and len(l_extended):
+            self._stop_free_space(
+                r, echo, centres, axis, candidate & (reason == 0), l_extended, free_limit
+            )
         # A trait of V enters L when every current reading on it was kept.
         good: set[int] = set()
         bad: set[int] = set()
@@ -452,6 +480,33 @@ class SpecularFilter:
             fresh = fresh[clear]
         self._grow_l(fresh)
         return reason
+
+    def _stop_free_space(
+        self,
+        r: FloatArray,
+        echo: BoolArray,
+        centres: FloatArray,
+        axis: FloatArray,
+        kept: BoolArray,
+        l_segments: FloatArray,
+        free_limit: FloatArray,
+    ) -> None:
+        """Stop the free space of kept echoes at a trait of ``L`` that crosses their cone.
+
+        An echo kept on a trait of ``L`` (``keep_supported_echoes``) may have another trait
+        of ``L`` in front of it, crossing its axis or an edge of its cone more than
+        ``margin`` before its range: the cone's free space then ends ``match_offset`` before
+        the nearest such crossing, so the echo cannot carve through a known wall.
+        """
+        k = np.flatnonzero(kept & echo)
+        if len(k) == 0:
+            return
+        half = self.geometry.beam_width / 2.0
+        rays = np.concatenate([axis[k], axis[k] - half, axis[k] + half])
+        starts = np.concatenate([centres[k]] * 3)
+        hits = axis_segment_hits(starts, rays, l_segments).min(axis=1).reshape(3, -1).min(axis=0)
+        front = hits < r[k] - self.margin
+        free_limit[k[front]] = np.maximum(hits[front] - self.match_offset, 0.0)
 
     def _clean_l(
         self,
