@@ -139,7 +139,9 @@ class SpecularFilter:
         [rad] either side of it within the max range (0: the axis only).
     keep_supported_echoes
         An echo whose range agrees with ``L`` is not contradicted by another trait in front
-        of it (off by default: it raises rejection precision but lowers κ in walled worlds).
+        of it; its free space stops before that trait (``RingVerdict.free_limit``). Off by
+        default: it raises rejection precision and κ in walled worlds but lowers κ in the
+        open hall (docs/sonar.md, *Support / contradiction*).
 
     Attributes
     ----------

@@ -213,8 +213,8 @@ def reconcile(
         against the trait (a person who walked on), not against the reading.
     keep_supported_echoes
         If true, an echo whose range agrees with ``L`` (supported) is not contradicted by
-        another trait in front of it. This raises rejection precision but lowers κ in the
-        walled worlds (docs/sonar.md, *Support / contradiction*), so it is off by default.
+        another trait in front of it (the filter then stops its free space before that
+        trait). Off by default (docs/sonar.md, *Support / contradiction*).
 
     Returns
     -------
