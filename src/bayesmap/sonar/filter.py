@@ -142,6 +142,11 @@ class SpecularFilter:
         of it; its free space stops before that trait (``RingVerdict.free_limit``). Off by
         default: it raises rejection precision and κ in walled worlds but lowers κ in the
         open hall (docs/sonar.md, *Support / contradiction*).
+    static_span
+        With ``keep_supported_echoes``, only a trait of ``L`` that looks like static
+        structure stops a kept echo's free space: one re-seen over at least this much path
+        [m] since it entered ``L``: seen from several robot positions, so not a person who
+        walked through (0: every trait of ``L``).
 
     Attributes
     ----------
@@ -149,9 +154,9 @@ class SpecularFilter:
         Rings processed.
     path_
         Distance travelled [m].
-    l_segments_, l_seen_, l_passes_
-        ``L``: ``(k, 4)`` traits [m], the path position [m] where each was last seen, and how
-        many rings' echoes have passed through it.
+    l_segments_, l_first_, l_seen_, l_passes_
+        ``L``: ``(k, 4)`` traits [m], the path positions [m] where each was first and last
+        seen, and how many rings' echoes have passed through it.
     rejections_
         Every rejection, in order.
     counts_
@@ -184,6 +189,7 @@ class SpecularFilter:
         pass_limit: int = 3,
         no_echo_spread: float = 0.0,
         keep_supported_echoes: bool = False,
+        static_span: float = 0.0,
     ) -> None:
         if not 0.0 < critical_angle < math.pi / 2:
             raise ConfigError(f"critical_angle must be in (0, pi/2) rad, got {critical_angle}")
@@ -205,6 +211,7 @@ class SpecularFilter:
             "footprint": (footprint, 0.0, True),
             "pass_limit": (pass_limit, 1, True),
             "no_echo_spread": (no_echo_spread, 0.0, True),
+            "static_span": (static_span, 0.0, True),
         }
         for name, (value, low, closed) in limits.items():
             if not (value >= low if closed else value > low):
@@ -240,12 +247,14 @@ class SpecularFilter:
         self.pass_limit = pass_limit
         self.no_echo_spread = no_echo_spread
         self.keep_supported_echoes = keep_supported_echoes
+        self.static_span = static_span
         self.left, self.right = geometry.neighbours()
         self.rings_ = 0
         self.path_ = 0.0
         self.last_pose_: FloatArray | None = None
         self.points_: deque[FloatArray] = deque(maxlen=window - 1)
         self.l_segments_: FloatArray = np.zeros((0, 4))
+        self.l_first_: FloatArray = np.zeros(0)
         self.l_seen_: FloatArray = np.zeros(0)
         self.l_passes_: IntArray = np.zeros(0, dtype=np.int64)
         self.rejections_: list[Rejection] = []
@@ -441,7 +450,10 @@ class SpecularFilter:
                 limit += self.extension + self.match_offset + self.margin
             else:
                 limit = self.geometry.max_range
-            l_view = l_view[distance <= limit]
+            reachable = distance <= limit
+            l_view = l_view[reachable]
+        else:
+            reachable = np.zeros(0, dtype=bool)
         l_extended = extend_segments(l_view, self.extension)
         reason = reconcile(
             candidate=candidate,
@@ -465,9 +477,17 @@ class SpecularFilter:
             keep_supported_echoes=self.keep_supported_echoes,
         )
         if self.keep_supported_echoes and self.enough_state and len(l_extended):
-            self._stop_free_space(
-                r, echo, centres, axis, candidate & (reason == 0), l_extended, free_limit
-            )
+            static = self._static()[reachable]
+            if np.any(static):
+                self._stop_free_space(
+                    r,
+                    echo,
+                    centres,
+                    axis,
+                    candidate & (reason == 0),
+                    l_extended[static],
+                    free_limit,
+                )
         # A trait of V enters L when every current reading on it was kept.
         good: set[int] = set()
         bad: set[int] = set()
@@ -510,6 +530,11 @@ class SpecularFilter:
         front = hits < r[k] - self.margin
         free_limit[k[front]] = np.maximum(hits[front] - self.match_offset, 0.0)
 
+    def _static(self) -> BoolArray:
+        """Which traits of ``L`` look like static structure: re-seen over ``static_span`` of
+        path since they entered ``L``."""
+        return np.asarray(self.l_seen_ - self.l_first_ >= self.static_span)
+
     def _clean_l(
         self,
         pose: FloatArray,
@@ -545,9 +570,7 @@ class SpecularFilter:
                 seen[silent] &= head_on(axis[k][silent], segments, self.critical_angle)
             self.l_passes_[near] += np.any(seen, axis=0)
             keep &= self.l_passes_ < self.pass_limit
-        self.l_segments_ = self.l_segments_[keep]
-        self.l_seen_ = self.l_seen_[keep]
-        self.l_passes_ = self.l_passes_[keep]
+        self._keep_l(keep)
         return np.asarray(distance[keep])
 
     def _grow_l(self, segments: FloatArray) -> None:
@@ -578,13 +601,19 @@ class SpecularFilter:
                 self.l_seen_[j] = self.path_
             else:
                 self.l_segments_ = np.vstack([self.l_segments_, segment])
+                self.l_first_ = np.append(self.l_first_, self.path_)
                 self.l_seen_ = np.append(self.l_seen_, self.path_)
                 self.l_passes_ = np.append(self.l_passes_, 0)
         keep = self.l_seen_ >= self.path_ - 4.0 * self.perceptual_length
         if not keep.all():
-            self.l_segments_ = self.l_segments_[keep]
-            self.l_seen_ = self.l_seen_[keep]
-            self.l_passes_ = self.l_passes_[keep]
+            self._keep_l(keep)
+
+    def _keep_l(self, keep: BoolArray) -> None:
+        """Keep only the traits of ``L`` marked in ``keep``."""
+        self.l_segments_ = self.l_segments_[keep]
+        self.l_first_ = self.l_first_[keep]
+        self.l_seen_ = self.l_seen_[keep]
+        self.l_passes_ = self.l_passes_[keep]
 
     def _remember(self, points: FloatArray) -> None:
         self.points_.appendleft(points)
