@@ -139,14 +139,14 @@ class SpecularFilter:
         [rad] either side of it within the max range (0: the axis only).
     keep_supported_echoes
         An echo whose range agrees with ``L`` is not contradicted by another trait in front
-        of it; its free space stops before that trait (``RingVerdict.free_limit``). Off by
-        default: it raises rejection precision and κ in walled worlds but lowers κ in the
-        open hall (docs/sonar.md, *Support / contradiction*).
+        of it; its free space stops before that trait (``RingVerdict.free_limit``). Off in
+        the bare filter; the default pipeline turns it on with ``static_span`` 0.5 m
+        (docs/sonar.md, *Support / contradiction*).
     static_span
         With ``keep_supported_echoes``, only a trait of ``L`` that looks like static
-        structure stops a kept echo's free space: one re-seen over at least this much path
-        [m] since it entered ``L``: seen from several robot positions, so not a person who
-        walked through (0: every trait of ``L``).
+        structure keeps an echo that agrees with it, and stops a kept echo's free space: one
+        re-seen over at least this much path [m] since it entered ``L``, i.e. seen from
+        several robot positions, so not a person who walked through (0: every trait).
 
     Attributes
     ----------
@@ -455,6 +455,7 @@ class SpecularFilter:
         else:
             reachable = np.zeros(0, dtype=bool)
         l_extended = extend_segments(l_view, self.extension)
+        static = self._static()[reachable] if self.keep_supported_echoes else None
         reason = reconcile(
             candidate=candidate,
             echo=echo,
@@ -475,9 +476,9 @@ class SpecularFilter:
             no_echo_spread=self.no_echo_spread,
             critical_angle=self.critical_angle,
             keep_supported_echoes=self.keep_supported_echoes,
+            anchors=static,
         )
         if self.keep_supported_echoes and self.enough_state and len(l_extended):
-            static = self._static()[reachable]
             if np.any(static):
                 self._stop_free_space(
                     r,

@@ -321,7 +321,12 @@ PIPELINES: dict[str, Pipeline] = {
         footprint=0.2,
         p_free=0.4,
         merge_repeats=True,
-        filter_options=(("no_echo_spread", 0.2), ("certainty_threshold", 0.3)),
+        filter_options=(
+            ("no_echo_spread", 0.2),
+            ("certainty_threshold", 0.3),
+            ("keep_supported_echoes", True),
+            ("static_span", 0.5),
+        ),
     ),
     "paper": Pipeline(acceptability=True, agreeability=True, trait_verification=True),
     "acceptability": Pipeline(acceptability=True),
@@ -336,7 +341,9 @@ PIPELINES: dict[str, Pipeline] = {
 
 ``default``: all three stages with the settings learnt on simulated logs with known truth
 (``benchmarks/sonar_tuning.py``, docs/sonar.md): no-echo readings tested across their cone
-(±0.2 rad) against ``L``, certainty threshold 0.3; no-echo readings clear 1 m; the robot's
+(±0.2 rad) against ``L``, certainty threshold 0.3; an echo that agrees with a trait of ``L``
+re-seen over 0.5 m of path is kept despite a trait in front, whose free space it then stops
+short of (``keep_supported_echoes``, ``static_span``); no-echo readings clear 1 m; the robot's
 footprint (0.2 m) cleared and kept free; free strength ``p_free`` 0.4; identical stationary
 rings merged. ``paper``: all three stages
 with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single

@@ -185,6 +185,7 @@ def reconcile(
     no_echo_spread: float = 0.0,
     critical_angle: float | None = None,
     keep_supported_echoes: bool = False,
+    anchors: BoolArray | None = None,
 ) -> IntArray:
     """Reconcile the current readings' traits ``V`` with the local view ``L``.
 
@@ -215,6 +216,9 @@ def reconcile(
         If true, an echo whose range agrees with ``L`` (supported) is not contradicted by
         another trait in front of it (the filter then stops its free space before that
         trait). Off by default (docs/sonar.md, *Support / contradiction*).
+    anchors
+        ``(k,)`` the traits of ``L`` that can keep an echo so (default: all of them); the
+        filter passes the ones that look like static structure (``static_span``).
 
     Returns
     -------
@@ -263,7 +267,55 @@ def reconcile(
     reason[unsupported_uncertain] = TVReason.UNSUPPORTED_UNCERTAIN
     if enough_state:
         reason[supported & flagged & uncertain] = TVReason.FLAGGED_UNCERTAIN
-        overruled = echo & supported if keep_supported_echoes else np.zeros(n, dtype=bool)
+        overruled = np.zeros(n, dtype=bool)
+        if keep_supported_echoes:
+            overruled = echo & supported
+            if anchors is not None and not anchors.all():
+                overruled &= _supported_echoes(
+                    echo & contradicted,
+                    on_trait,
+                    labels,
+                    ranges,
+                    centres,
+                    axis,
+                    v_segments,
+                    l_segments[anchors],
+                    match_angle,
+                    match_offset,
+                )
         reason[contradicted & ~overruled] = TVReason.CONTRADICTS_L
     reason[~candidate] = TVReason.KEPT
     return reason
+
+
+def _supported_echoes(
+    asked: BoolArray,
+    on_trait: BoolArray,
+    labels: IntArray,
+    ranges: FloatArray,
+    centres: FloatArray,
+    axis: FloatArray,
+    v_segments: FloatArray,
+    l_segments: FloatArray,
+    match_angle: float,
+    match_offset: float,
+) -> BoolArray:
+    """Which ``asked`` echoes agree with ``l_segments``: their trait of ``V`` is equivalent
+    to one, or (an echo on no trait) their echo point lies within ``match_offset`` of one."""
+    out = np.zeros(len(ranges), dtype=bool)
+    if not np.any(asked) or len(l_segments) == 0:
+        return out
+    matched = np.asarray(
+        equivalent(v_segments, l_segments, match_angle=match_angle, match_offset=match_offset).any(
+            axis=1
+        )
+    )
+    traited = asked & on_trait
+    out[traited] = matched[labels[traited]]
+    loose = asked & ~on_trait
+    if np.any(loose):
+        points = centres[loose] + ranges[loose, None] * np.column_stack(
+            [np.cos(axis[loose]), np.sin(axis[loose])]
+        )
+        out[loose] = point_segment_distance(points, l_segments).min(axis=1) <= match_offset
+    return out
