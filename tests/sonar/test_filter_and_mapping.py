@@ -445,7 +445,7 @@ def test_map_log_matches_a_ring_by_ring_run_of_the_fixture_log() -> None:
             continue
         last = i
         verdict = ref_filter.process(p, r)
-        ref_mapper.integrate(p, r, verdict.accepted)
+        ref_mapper.integrate(p, r, verdict.accepted, verdict.free_limit)
         stages.append(verdict.stage)
     assert np.array_equal(run.stage, np.array(stages))
     assert filt.rejections_ == ref_filter.rejections_
@@ -468,9 +468,11 @@ class _RingByRingMapper:
     def __init__(self, inner: ElfesMapper) -> None:
         self.inner, self.grid, self.rings = inner, inner.grid, 0
 
-    def integrate(self, pose: object, ranges: object, use: object = None) -> None:
+    def integrate(
+        self, pose: object, ranges: object, use: object = None, free_limit: object = None
+    ) -> None:
         self.rings += 1
-        self.inner.integrate(pose, ranges, use)  # type: ignore[arg-type]
+        self.inner.integrate(pose, ranges, use, free_limit)  # type: ignore[arg-type]
 
     def probability(self) -> np.ndarray:
         return self.inner.probability()
@@ -506,8 +508,8 @@ def test_map_log_feeds_a_mapper_without_integrate_many_ring_by_ring() -> None:
 
 
 def test_filter_keeps_the_recorded_verdicts_of_a_realistic_log() -> None:
-    # tests/sonar/data/make_golden_verdicts.py wrote these with the filter as it stood before
-    # Trait Verification was rewritten for speed: the rewrite must not change one verdict.
+    # tests/sonar/data/make_golden_verdicts.py wrote these (see there when): a rewrite for
+    # speed must not change one verdict.
     recorded: dict[str, list[list[int]]] = {}
     for line in (DATA / "golden_verdicts.txt").read_text().splitlines():
         name, _, codes = line.split()

@@ -3,9 +3,10 @@
 ``golden_verdicts.txt`` holds, for the ``default`` and ``paper`` pipelines' filters on 700
 rings of ``sonar-lcorridor-v2`` (Pioneer 16-sonar ring, one lap, seed 3), one line per ring:
 the pipeline, the ring number and each reading's stage code (0 accepted, 1 Acceptability,
-2 Agreeability, 3 Trait Verification). It was written by the filter as it stood before the
-per-ring Trait Verification was rewritten for speed (commit ef25945), so the test that
-reads it holds later versions to the same verdicts.
+2 Agreeability, 3 Trait Verification). It was first written by the filter as it stood before
+the per-ring Trait Verification was rewritten for speed (commit ef25945), and rewritten when
+the default pipeline began keeping echoes on static traits of L (``keep_supported_echoes``,
+``static_span``), so the test that reads it holds later versions to the same verdicts.
 """
 
 from __future__ import annotations
