@@ -83,6 +83,9 @@ def test_filter_rejects_bad_parameters_and_input() -> None:
     with pytest.raises(ConfigError, match="tilts"):
         SpecularFilter(geometry, tilts=1)
     SpecularFilter(geometry, extension=0.0, margin=0.0)  # zero is allowed for these two
+    for span in (-0.5, math.nan):
+        with pytest.raises(ConfigError, match="static_span"):
+            SpecularFilter(geometry, keep_supported_echoes=True, static_span=span)
     with pytest.raises(InputError):
         SpecularFilter(geometry).process(np.zeros(3), np.array([1.0, np.nan, 2.0]))
     with pytest.raises(InputError, match="non-negative"):
