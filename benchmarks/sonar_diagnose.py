@@ -3,7 +3,8 @@
 ``python benchmarks/sonar_diagnose.py variants WORLDS SEEDS [NAME:OPTION=VALUE,...;...]``
 maps one simulated log per world and seed (``numpy.random.default_rng(seed)``, seeds the
 benchmark of record does not use) with the best unfiltered baseline and variants of the
-default pipeline (``nofilt=1`` switches its filter off; other options are
+default pipeline (``nofilt=1`` switches its filter off; ``filter.NAME=VALUE`` sets a
+:class:`~bayesmap.sonar.filter.SpecularFilter` option; other options are
 :class:`~bayesmap.sonar.pipeline.Pipeline` fields), and prints κ, false obstacles (also
 as cells near and far from solid: thick walls versus traces of people), missed walls, path
 cells occupied and rejection precision/recall.
@@ -48,7 +49,13 @@ def _variants(spec: str) -> dict[str, object]:
             kw[key] = value if key == "no_echo" else float(value)
         if kw.pop("nofilt", 0):
             kw.update(acceptability=False, agreeability=False, trait_verification=False)
-        out[name] = dataclasses.replace(PIPELINES["default"], **kw)  # type: ignore[arg-type]
+        # ``filter.NAME=VALUE`` sets a SpecularFilter option on top of the default's.
+        base = PIPELINES["default"]
+        extra = {k.removeprefix("filter."): v for k, v in kw.items() if k.startswith("filter.")}
+        if extra:
+            kw = {k: v for k, v in kw.items() if not k.startswith("filter.")}
+            kw["filter_options"] = tuple({**dict(base.filter_options), **extra}.items())
+        out[name] = dataclasses.replace(base, **kw)  # type: ignore[arg-type]
     return out
 
 

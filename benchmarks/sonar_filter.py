@@ -195,8 +195,10 @@ def main() -> None:
         "pipeline runs `map_log`, which hands the filter and the mapper 100 rings at a time: "
         "the transducer positions, Acceptability, Agreeability, the cone cells and the eq. 1 "
         "log-odds of a batch are computed at once, Trait Verification and the log-odds "
-        "additions ring by ring (same verdicts and map as ring by ring). The other "
-        "rows feed one ring at a time.",
+        "additions ring by ring (same verdicts and map as ring by ring). Within a ring, "
+        "split-and-merge, trait equivalence (screened by bounding boxes) and the "
+        "bookkeeping run on plain Python floats, since they handle a few dozen points "
+        "where numpy's per-call cost dominates. The other rows feed one ring at a time.",
         "",
         "The ROS layer updates one reading at a time (Bayes with cost quantisation), as the "
         "layer does; the log-odds models update a whole ring at once.",

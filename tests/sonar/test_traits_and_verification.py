@@ -167,6 +167,16 @@ def test_an_echo_that_lands_on_l_can_be_kept_despite_a_trait_in_front() -> None:
     # Without the wall at y = 2 in L, the same echoes are contradicted by the trait at y = 1.
     only_front = _reconcile(True, l_segments=two_walls[1:], keep_supported_echoes=True)
     assert only_front.tolist() == [TVReason.CONTRADICTS_L] * 4
+    # Only an anchor (a trait of L that looks like static structure) keeps an echo so: the
+    # same echoes, supported only by a wall that is not an anchor, are contradicted.
+    anchored = _reconcile(
+        True, l_segments=two_walls, keep_supported_echoes=True, anchors=np.array([True, False])
+    )
+    assert anchored.tolist() == reason.tolist()
+    unanchored = _reconcile(
+        True, l_segments=two_walls, keep_supported_echoes=True, anchors=np.array([False, True])
+    )
+    assert unanchored.tolist() == [TVReason.CONTRADICTS_L] * 4
 
 
 def test_one_point_repeated_is_not_a_trait() -> None:

@@ -50,6 +50,8 @@ _STAGE_REASONS = {
     Stage.ACCEPTABILITY: "obstacle reading outside the bounds from both neighbours",
     Stage.AGREEABILITY: "free-space reading and neither neighbour reports free space",
 }
+_STAGES = {int(stage): stage for stage in Stage}
+_STAGE_NAMES = {stage: stage.name.lower() for stage in Stage}
 _TV_REASONS = {
     TVReason.UNSUPPORTED_FLAGGED: "flagged and no equivalent trait in L",
     TVReason.UNSUPPORTED_UNCERTAIN: "certainty below threshold and no equivalent trait in L",
@@ -79,11 +81,17 @@ class RingVerdict(NamedTuple):
         ``(n,)`` readings flagged as possibly erroneous by Acceptability/Agreeability.
     stage
         ``(n,)`` :class:`Stage` that discarded each reading.
+    free_limit
+        ``(n,)`` distance [m] from each transducer beyond which its reading's cone should
+        write no free space (``inf``: no limit). Set with ``keep_supported_echoes`` for an
+        echo kept on a trait of ``L`` while a nearer trait of ``L`` crosses its cone: the
+        free space stops in front of that trait instead of carving through it.
     """
 
     accepted: BoolArray
     flagged: BoolArray
     stage: IntArray
+    free_limit: FloatArray
 
 
 class SpecularFilter:
@@ -131,7 +139,14 @@ class SpecularFilter:
         [rad] either side of it within the max range (0: the axis only).
     keep_supported_echoes
         An echo whose range agrees with ``L`` is not contradicted by another trait in front
-        of it (off by default: it raises rejection precision but lowers κ in walled worlds).
+        of it; its free space stops before that trait (``RingVerdict.free_limit``). Off in
+        the bare filter; the default pipeline turns it on with ``static_span`` 0.5 m
+        (docs/sonar.md, *Support / contradiction*).
+    static_span
+        With ``keep_supported_echoes``, only a trait of ``L`` that looks like static
+        structure keeps an echo that agrees with it, and stops a kept echo's free space: one
+        re-seen over at least this much path [m] since it entered ``L``, i.e. seen from
+        several robot positions, so not a person who walked through (0: every trait).
 
     Attributes
     ----------
@@ -139,9 +154,9 @@ class SpecularFilter:
         Rings processed.
     path_
         Distance travelled [m].
-    l_segments_, l_seen_, l_passes_
-        ``L``: ``(k, 4)`` traits [m], the path position [m] where each was last seen, and how
-        many rings' echoes have passed through it.
+    l_segments_, l_first_, l_seen_, l_passes_
+        ``L``: ``(k, 4)`` traits [m], the path positions [m] where each was first and last
+        seen, and how many rings' echoes have passed through it.
     rejections_
         Every rejection, in order.
     counts_
@@ -174,6 +189,7 @@ class SpecularFilter:
         pass_limit: int = 3,
         no_echo_spread: float = 0.0,
         keep_supported_echoes: bool = False,
+        static_span: float = 0.0,
     ) -> None:
         if not 0.0 < critical_angle < math.pi / 2:
             raise ConfigError(f"critical_angle must be in (0, pi/2) rad, got {critical_angle}")
@@ -195,6 +211,7 @@ class SpecularFilter:
             "footprint": (footprint, 0.0, True),
             "pass_limit": (pass_limit, 1, True),
             "no_echo_spread": (no_echo_spread, 0.0, True),
+            "static_span": (static_span, 0.0, True),
         }
         for name, (value, low, closed) in limits.items():
             if not (value >= low if closed else value > low):
@@ -230,12 +247,14 @@ class SpecularFilter:
         self.pass_limit = pass_limit
         self.no_echo_spread = no_echo_spread
         self.keep_supported_echoes = keep_supported_echoes
+        self.static_span = static_span
         self.left, self.right = geometry.neighbours()
         self.rings_ = 0
         self.path_ = 0.0
         self.last_pose_: FloatArray | None = None
         self.points_: deque[FloatArray] = deque(maxlen=window - 1)
         self.l_segments_: FloatArray = np.zeros((0, 4))
+        self.l_first_: FloatArray = np.zeros(0)
         self.l_seen_: FloatArray = np.zeros(0)
         self.l_passes_: IntArray = np.zeros(0, dtype=np.int64)
         self.rejections_: list[Rejection] = []
@@ -257,7 +276,7 @@ class SpecularFilter:
         """
         p, r = self.geometry.one_ring(pose, ranges)
         verdict = self.process_many(p[None], r[None])
-        return RingVerdict(verdict.accepted[0], verdict.flagged[0], verdict.stage[0])
+        return RingVerdict(*(field[0] for field in verdict))
 
     def process_many(self, poses: npt.ArrayLike, ranges: npt.ArrayLike) -> RingVerdict:
         """Judge ``m`` consecutive rings: ``ranges`` ``(m, n)`` [m] taken at ``poses`` ``(m, 3)``.
@@ -314,9 +333,24 @@ class SpecularFilter:
             verdict = agreeability(echo.ravel(), left, right)
             stage[verdict.discard.reshape(m, n) & (stage == Stage.ACCEPTED)] = Stage.AGREEABILITY
             flagged |= verdict.flag.reshape(m, n)
+        # Every reading's echo point (used for the echoes only), for all rings at once.
+        points = centres + r[..., None] * np.stack([np.cos(axis), np.sin(axis)], axis=-1)
+        free_limit = np.full((m, n), np.inf)
         for i in range(m):
-            self._finish_ring(p[i], r[i], echo[i], centres[i], axis[i], flagged[i], stage[i])
-        return RingVerdict(accepted=stage == Stage.ACCEPTED, flagged=flagged, stage=stage)
+            self._finish_ring(
+                p[i],
+                r[i],
+                echo[i],
+                centres[i],
+                axis[i],
+                points[i],
+                flagged[i],
+                stage[i],
+                free_limit[i],
+            )
+        return RingVerdict(
+            accepted=stage == Stage.ACCEPTED, flagged=flagged, stage=stage, free_limit=free_limit
+        )
 
     def _finish_ring(
         self,
@@ -325,33 +359,44 @@ class SpecularFilter:
         echo: BoolArray,
         centres: FloatArray,
         axis: FloatArray,
+        points: FloatArray,
         flagged: BoolArray,
         stage: IntArray,
+        free_limit: FloatArray,
     ) -> None:
-        """Trait Verification of one ring (``stage`` is updated in place) and the bookkeeping."""
-        if self.last_pose_ is not None:
-            self.path_ += float(np.hypot(*(pose[:2] - self.last_pose_[:2])))
-        self.last_pose_ = pose
-        reasons = {int(k): _STAGE_REASONS[Stage(int(stage[k]))] for k in np.flatnonzero(stage)}
-        if self.stages[Stage.TRAIT_VERIFICATION]:
-            distance = self._clean_l(
-                pose, r, echo, ~flagged & (stage == Stage.ACCEPTED), centres, axis
-            )
-            tv = self._trait_verification(
-                pose, r, echo, centres, axis, flagged, stage == Stage.ACCEPTED, distance
-            )
-            for k in np.flatnonzero(tv):
-                stage[k] = Stage.TRAIT_VERIFICATION
-                reasons[int(k)] = _TV_REASONS[TVReason(int(tv[k]))]
-        self._remember(centres, axis, r, echo & (stage == Stage.ACCEPTED))
-        for sensor, reason in sorted(reasons.items()):
-            kind = Stage(int(stage[sensor]))
-            self.rejections_.append(Rejection(self.rings_, sensor, kind, reason))
-            self.counts_[kind.name.lower()] += 1
-        self.rings_ += 1
+        """Trait Verification of one ring (``stage``, ``free_limit`` updated in place) and
+        the bookkeeping.
 
-    def _echo_points(self, centres: FloatArray, axis: FloatArray, r: FloatArray) -> FloatArray:
-        return np.asarray(centres + r[:, None] * np.column_stack([np.cos(axis), np.sin(axis)]))
+        ``points``: the ``(n, 2)`` echo point of every reading [m].
+        """
+        if self.last_pose_ is not None:
+            self.path_ += float(
+                np.hypot(pose[0] - self.last_pose_[0], pose[1] - self.last_pose_[1])
+            )
+        self.last_pose_ = pose
+        before = stage.tolist()
+        if self.stages[Stage.TRAIT_VERIFICATION]:
+            accepted = stage == Stage.ACCEPTED
+            distance = self._clean_l(pose, r, echo, ~flagged & accepted, centres, axis)
+            tv = self._trait_verification(
+                pose, r, echo, centres, axis, points, flagged, accepted, distance, free_limit
+            )
+            stage[tv != TVReason.KEPT] = Stage.TRAIT_VERIFICATION
+            verdicts = tv.tolist()
+        else:
+            verdicts = [TVReason.KEPT] * len(before)
+        self._remember(points[echo & (stage == Stage.ACCEPTED)])
+        for sensor, (kind, verdict) in enumerate(zip(before, verdicts, strict=True)):
+            if kind:
+                reason = _STAGE_REASONS[kind]
+            elif verdict:
+                kind, reason = Stage.TRAIT_VERIFICATION, _TV_REASONS[verdict]
+            else:
+                continue
+            stage_ = _STAGES[kind]
+            self.rejections_.append(Rejection(self.rings_, sensor, stage_, reason))
+            self.counts_[_STAGE_NAMES[stage_]] += 1
+        self.rings_ += 1
 
     def _trait_verification(
         self,
@@ -360,19 +405,22 @@ class SpecularFilter:
         echo: BoolArray,
         centres: FloatArray,
         axis: FloatArray,
+        ring_points: FloatArray,
         flagged: BoolArray,
         candidate: BoolArray,
         distance: FloatArray,
+        free_limit: FloatArray,
     ) -> IntArray:
-        """Trait Verification of one ring; ``distance``: from the robot to each trait of ``L``."""
+        """Trait Verification of one ring; ``distance``: from the robot to each trait of ``L``.
+
+        Sets ``free_limit`` (in place) for the echoes kept despite a trait in front.
+        """
         current = np.flatnonzero(echo & candidate)
-        points_now = self._echo_points(centres[current], axis[current], r[current])
+        points_now = ring_points[current]
         past = list(self.points_)
         points = np.vstack([points_now, *past]) if past else points_now
-        owner = np.concatenate([current, np.full(len(points) - len(current), -1)])
-        order = np.argsort(
-            np.arctan2(points[:, 1] - pose[1], points[:, 0] - pose[0]), kind="stable"
-        )
+        dx, dy = points[:, 0] - pose[0], points[:, 1] - pose[1]
+        order = np.argsort(np.arctan2(dy, dx), kind="stable")
         traits = fit_traits(
             points[order],
             tolerance=self.split_tolerance,
@@ -381,11 +429,14 @@ class SpecularFilter:
             min_length=self.min_length,
             min_spacing=self.min_spacing,
         )
+        # Where each current echo point went in the bearing order.
+        rank = np.empty(len(points), dtype=np.int64)
+        rank[order] = np.arange(len(points))
+        mine = rank[: len(current)]
         labels = np.full(self.geometry.n, -1, dtype=np.int64)
         residual = np.full(self.geometry.n, np.nan)
-        mine = owner[order] >= 0
-        labels[owner[order][mine]] = traits.labels[mine]
-        residual[owner[order][mine]] = traits.residuals[mine]
+        labels[current] = traits.labels[mine]
+        residual[current] = traits.residuals[mine]
         certainties = certainty(
             residual, r, sigma=self.geometry.sigma, half_width=self.geometry.beam_width / 2
         )
@@ -394,12 +445,17 @@ class SpecularFilter:
             if self.enough_state:
                 # Only traits that some beam, echo point or trait of V can reach matter; the
                 # rest are left out of the (per-trait) tests, which gives the same verdicts.
-                spread = float(np.hypot(*(points - pose[:2]).T).max()) if len(points) else 0.0
+                spread = float(np.hypot(dx, dy).max()) if len(points) else 0.0
                 limit = max(spread, self.geometry.max_range + self.geometry.reach)
                 limit += self.extension + self.match_offset + self.margin
             else:
                 limit = self.geometry.max_range
-            l_view = l_view[distance <= limit]
+            reachable = distance <= limit
+            l_view = l_view[reachable]
+        else:
+            reachable = np.zeros(0, dtype=bool)
+        l_extended = extend_segments(l_view, self.extension)
+        static = self._static()[reachable] if self.keep_supported_echoes else None
         reason = reconcile(
             candidate=candidate,
             echo=echo,
@@ -410,7 +466,7 @@ class SpecularFilter:
             labels=labels,
             certainties=certainties,
             v_segments=traits.segments,
-            l_segments=extend_segments(l_view, self.extension),
+            l_segments=l_extended,
             enough_state=self.enough_state,
             max_range=self.geometry.max_range,
             certainty_threshold=self.certainty_threshold,
@@ -420,16 +476,65 @@ class SpecularFilter:
             no_echo_spread=self.no_echo_spread,
             critical_angle=self.critical_angle,
             keep_supported_echoes=self.keep_supported_echoes,
+            anchors=static,
         )
-        kept = candidate & (reason == TVReason.KEPT)
-        rejected_traits = set(labels[candidate & ~kept & (labels >= 0)].tolist())
-        good = [i for i in set(labels[kept & (labels >= 0)].tolist()) if i not in rejected_traits]
-        fresh = traits.segments[sorted(good)]
+        if self.keep_supported_echoes and self.enough_state and len(l_extended):
+            if np.any(static):
+                self._stop_free_space(
+                    r,
+                    echo,
+                    centres,
+                    axis,
+                    candidate & (reason == 0),
+                    l_extended[static],
+                    free_limit,
+                )
+        # A trait of V enters L when every current reading on it was kept.
+        good: set[int] = set()
+        bad: set[int] = set()
+        for label, judged, verdict in zip(
+            labels.tolist(), candidate.tolist(), reason.tolist(), strict=True
+        ):
+            if label >= 0 and judged:
+                (bad if verdict else good).add(label)
+        fresh = traits.segments[sorted(good - bad)]
         if len(fresh):
             clear = point_segment_distance(pose[:2], fresh)[0] > self.footprint
             fresh = fresh[clear]
         self._grow_l(fresh)
         return reason
+
+    def _stop_free_space(
+        self,
+        r: FloatArray,
+        echo: BoolArray,
+        centres: FloatArray,
+        axis: FloatArray,
+        kept: BoolArray,
+        l_segments: FloatArray,
+        free_limit: FloatArray,
+    ) -> None:
+        """Stop the free space of kept echoes at a trait of ``L`` that crosses their cone.
+
+        An echo kept on a trait of ``L`` (``keep_supported_echoes``) may have another trait
+        of ``L`` in front of it, crossing its axis or an edge of its cone more than
+        ``margin`` before its range: the cone's free space then ends ``match_offset`` before
+        the nearest such crossing, so the echo cannot carve through a known wall.
+        """
+        k = np.flatnonzero(kept & echo)
+        if len(k) == 0:
+            return
+        half = self.geometry.beam_width / 2.0
+        rays = np.concatenate([axis[k], axis[k] - half, axis[k] + half])
+        starts = np.concatenate([centres[k]] * 3)
+        hits = axis_segment_hits(starts, rays, l_segments).min(axis=1).reshape(3, -1).min(axis=0)
+        front = hits < r[k] - self.margin
+        free_limit[k[front]] = np.maximum(hits[front] - self.match_offset, 0.0)
+
+    def _static(self) -> BoolArray:
+        """Which traits of ``L`` look like static structure: re-seen over ``static_span`` of
+        path since they entered ``L``."""
+        return np.asarray(self.l_seen_ - self.l_first_ >= self.static_span)
 
     def _clean_l(
         self,
@@ -466,44 +571,50 @@ class SpecularFilter:
                 seen[silent] &= head_on(axis[k][silent], segments, self.critical_angle)
             self.l_passes_[near] += np.any(seen, axis=0)
             keep &= self.l_passes_ < self.pass_limit
-        self.l_segments_ = self.l_segments_[keep]
-        self.l_seen_ = self.l_seen_[keep]
-        self.l_passes_ = self.l_passes_[keep]
+        self._keep_l(keep)
         return np.asarray(distance[keep])
 
     def _grow_l(self, segments: FloatArray) -> None:
         """Merge ``V`` traits into ``L`` (extending equivalent ones) and forget old traits."""
         for segment in segments:
-            match = equivalent(
-                segment[None],
-                self.l_segments_,
-                match_angle=self.match_angle,
-                match_offset=self.match_offset,
-            )[0]
-            if np.any(match):
-                j = int(np.flatnonzero(match)[0])
-                a, b = self.l_segments_[j, :2], self.l_segments_[j, 2:]
-                u = (b - a) / max(float(np.hypot(*(b - a))), 1e-12)
-                t = np.array(
-                    [
-                        0.0,
-                        float((b - a) @ u),
-                        float((segment[:2] - a) @ u),
-                        float((segment[2:] - a) @ u),
-                    ]
+            match = np.flatnonzero(
+                equivalent(
+                    segment[None],
+                    self.l_segments_,
+                    match_angle=self.match_angle,
+                    match_offset=self.match_offset,
+                )[0]
+            )
+            if len(match):
+                j = int(match[0])
+                ax, ay, bx, by = self.l_segments_[j].tolist()
+                sx0, sy0, sx1, sy1 = segment.tolist()
+                norm = max(math.hypot(bx - ax, by - ay), 1e-12)
+                ux, uy = (bx - ax) / norm, (by - ay) / norm
+                t = (
+                    0.0,
+                    (bx - ax) * ux + (by - ay) * uy,
+                    (sx0 - ax) * ux + (sy0 - ay) * uy,
+                    (sx1 - ax) * ux + (sy1 - ay) * uy,
                 )
-                self.l_segments_[j] = np.concatenate([a + t.min() * u, a + t.max() * u])
+                low, high = min(t), max(t)
+                self.l_segments_[j] = (ax + low * ux, ay + low * uy, ax + high * ux, ay + high * uy)
                 self.l_seen_[j] = self.path_
             else:
                 self.l_segments_ = np.vstack([self.l_segments_, segment])
+                self.l_first_ = np.append(self.l_first_, self.path_)
                 self.l_seen_ = np.append(self.l_seen_, self.path_)
                 self.l_passes_ = np.append(self.l_passes_, 0)
         keep = self.l_seen_ >= self.path_ - 4.0 * self.perceptual_length
+        if not keep.all():
+            self._keep_l(keep)
+
+    def _keep_l(self, keep: BoolArray) -> None:
+        """Keep only the traits of ``L`` marked in ``keep``."""
         self.l_segments_ = self.l_segments_[keep]
+        self.l_first_ = self.l_first_[keep]
         self.l_seen_ = self.l_seen_[keep]
         self.l_passes_ = self.l_passes_[keep]
 
-    def _remember(
-        self, centres: FloatArray, axis: FloatArray, r: FloatArray, use: BoolArray
-    ) -> None:
-        self.points_.appendleft(self._echo_points(centres[use], axis[use], r[use]))
+    def _remember(self, points: FloatArray) -> None:
+        self.points_.appendleft(points)

@@ -70,14 +70,31 @@ class _ConeMapper:
         return centres, axis, r, mask
 
     def integrate(
-        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+        self,
+        pose: npt.ArrayLike,
+        ranges: npt.ArrayLike,
+        use: npt.ArrayLike | None = None,
+        free_limit: npt.ArrayLike | None = None,
     ) -> None:
-        """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``."""
+        """Add one ring of ``ranges`` [m] taken at ``pose``; skip readings where not ``use``.
+
+        ``free_limit``: per reading, the distance [m] beyond which its cone writes no free
+        space (``inf``: none; see :attr:`~bayesmap.sonar.filter.RingVerdict.free_limit`).
+        """
         p, r = self.geometry.one_ring(pose, ranges)
-        self.integrate_many(p[None], r[None], None if use is None else np.asarray(use)[None])
+        self.integrate_many(
+            p[None],
+            r[None],
+            None if use is None else np.asarray(use)[None],
+            None if free_limit is None else np.asarray(free_limit, dtype=np.float64)[None],
+        )
 
     def integrate_many(
-        self, poses: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+        self,
+        poses: npt.ArrayLike,
+        ranges: npt.ArrayLike,
+        use: npt.ArrayLike | None = None,
+        free_limit: npt.ArrayLike | None = None,
     ) -> None:
         """Add ``m`` rings in order: ``ranges`` ``(m, n)`` [m] at ``poses`` ``(m, 3)``."""
         raise NotImplementedError
@@ -125,15 +142,23 @@ class _LogOddsMapper(_ConeMapper):
         raise NotImplementedError
 
     def integrate_many(
-        self, poses: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+        self,
+        poses: npt.ArrayLike,
+        ranges: npt.ArrayLike,
+        use: npt.ArrayLike | None = None,
+        free_limit: npt.ArrayLike | None = None,
     ) -> None:
         """Add ``m`` rings in order: ``ranges`` ``(m, n)`` [m] at ``poses`` ``(m, 3)``.
 
         The cone cells and the model's log-odds of a batch of rings are computed at once;
         they are added ring by ring (saturation, decay and the footprint act per ring), so
-        the map is the one ring-by-ring integration gives.
+        the map is the one ring-by-ring integration gives. ``free_limit`` ``(m, n)`` [m]:
+        cells of a cone farther than this from its transducer get no free evidence.
         """
         centres, axis, r, mask = self._prepare(poses, ranges, use)
+        limit = None if free_limit is None else np.asarray(free_limit, dtype=np.float64)
+        if limit is not None and limit.shape != r.shape:
+            raise InputError(f"'free_limit' has shape {limit.shape}, the rings {r.shape}")
         p = np.asarray(poses, dtype=np.float64)
         n = self.geometry.n
         reach = np.where(mask, self._reach(r), 0.0)
@@ -142,6 +167,9 @@ class _LogOddsMapper(_ConeMapper):
             b = min(a + step, len(r))
             cells = self._cells(centres[a:b].reshape(-1, 2), axis[a:b].ravel(), reach[a:b].ravel())
             increment = self._increment(r[a:b].ravel()[cells.reading], cells)
+            if limit is not None:
+                beyond = cells.rho > limit[a:b].ravel()[cells.reading]
+                increment = np.where(beyond & (increment < 0.0), 0.0, increment)
             bounds = np.searchsorted(cells.reading, n * np.arange(b - a + 1))
             for i in range(b - a):
                 part = slice(bounds[i], bounds[i + 1])
@@ -188,15 +216,15 @@ class _LogOddsMapper(_ConeMapper):
         span = int(math.ceil(self.footprint / res)) + 1
         col = int(math.floor((x - x0) / res))
         row = int(math.floor((y - y0) / res))
-        rows, cols = np.mgrid[
-            max(row - span, 0) : min(row + span + 1, ny),
-            max(col - span, 0) : min(col + span + 1, nx),
-        ]
+        rows = np.arange(max(row - span, 0), min(row + span + 1, ny))[:, None]
+        cols = np.arange(max(col - span, 0), min(col + span + 1, nx))[None, :]
         inside = (x0 + (cols + 0.5) * res - x) ** 2 + (y0 + (rows + 0.5) * res - y) ** 2 <= (
             self.footprint**2
         )
-        self.log_odds_[rows[inside], cols[inside]] = -self.clamp
-        self.swept_[rows[inside], cols[inside]] = True
+        r, c = np.nonzero(inside)
+        index = (rows[r, 0], cols[0, c])
+        self.log_odds_[index] = -self.clamp
+        self.swept_[index] = True
 
     def probability(self) -> Grid:
         """``(ny, nx)`` occupancy probability of each cell."""
@@ -392,9 +420,18 @@ class RosRangeLayerMapper(_ConeMapper):
         self.touched_ = np.zeros(grid.shape, dtype=bool)
 
     def integrate_many(
-        self, poses: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+        self,
+        poses: npt.ArrayLike,
+        ranges: npt.ArrayLike,
+        use: npt.ArrayLike | None = None,
+        free_limit: npt.ArrayLike | None = None,
     ) -> None:
-        """Add ``m`` rings in order: ``ranges`` ``(m, n)`` [m] at ``poses`` ``(m, 3)``."""
+        """Add ``m`` rings in order: ``ranges`` ``(m, n)`` [m] at ``poses`` ``(m, 3)``.
+
+        The layer clears each cone as a whole: a finite ``free_limit`` is refused.
+        """
+        if free_limit is not None and np.any(np.isfinite(free_limit)):
+            raise ConfigError("the ROS range_sensor_layer model takes no free-space limit")
         centres, axis, r, mask = self._prepare(poses, ranges, use, clip=False)
         for i in range(len(r)):
             self._integrate_ring(centres[i], axis[i], r[i], mask[i])

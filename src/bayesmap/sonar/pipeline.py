@@ -55,9 +55,13 @@ class RingMapper(Protocol):
     grid: OccupancyGrid
 
     def integrate(
-        self, pose: npt.ArrayLike, ranges: npt.ArrayLike, use: npt.ArrayLike | None = None
+        self,
+        pose: npt.ArrayLike,
+        ranges: npt.ArrayLike,
+        use: npt.ArrayLike | None = None,
+        free_limit: npt.ArrayLike | None = None,
     ) -> None:
-        """Add one ring."""
+        """Add one ring (``free_limit``: per reading, where its free space stops [m])."""
 
     def probability(self) -> Grid:
         """Occupancy probability of each cell."""
@@ -182,6 +186,7 @@ def map_log(
         )
     accepted = np.ones(r.shape, dtype=bool)
     stage = np.zeros(r.shape, dtype=np.int64)
+    free_limit = np.full(r.shape, np.inf)
     repeat = np.zeros(len(p), dtype=bool)
     geometry: SonarGeometry | None = getattr(mapper, "geometry", None)
     integrate_many: Callable[..., None] | None = getattr(mapper, "integrate_many", None)
@@ -207,11 +212,20 @@ def map_log(
                 verdict = filt.process_many(p[fresh], r[fresh])
                 accepted[fresh] = verdict.accepted
                 stage[fresh] = verdict.stage
+                free_limit[fresh] = verdict.free_limit
+            # Only a filter that stops free space (keep_supported_echoes) sets a limit.
+            limited = bool(np.isfinite(free_limit[fresh]).any())
             if integrate_many is not None:
-                integrate_many(p[fresh], r[fresh], accepted[fresh])
+                if limited:
+                    integrate_many(p[fresh], r[fresh], accepted[fresh], free_limit[fresh])
+                else:
+                    integrate_many(p[fresh], r[fresh], accepted[fresh])
             else:
                 for i in fresh:
-                    mapper.integrate(p[i], r[i], accepted[i])
+                    if limited:
+                        mapper.integrate(p[i], r[i], accepted[i], free_limit[i])
+                    else:
+                        mapper.integrate(p[i], r[i], accepted[i])
         for i in range(start, stop):
             if repeat[i]:
                 # A repeat takes the verdict of the ring before (a repeat or the one repeated).
@@ -307,7 +321,12 @@ PIPELINES: dict[str, Pipeline] = {
         footprint=0.2,
         p_free=0.4,
         merge_repeats=True,
-        filter_options=(("no_echo_spread", 0.2), ("certainty_threshold", 0.3)),
+        filter_options=(
+            ("no_echo_spread", 0.2),
+            ("certainty_threshold", 0.3),
+            ("keep_supported_echoes", True),
+            ("static_span", 0.5),
+        ),
     ),
     "paper": Pipeline(acceptability=True, agreeability=True, trait_verification=True),
     "acceptability": Pipeline(acceptability=True),
@@ -322,7 +341,9 @@ PIPELINES: dict[str, Pipeline] = {
 
 ``default``: all three stages with the settings learnt on simulated logs with known truth
 (``benchmarks/sonar_tuning.py``, docs/sonar.md): no-echo readings tested across their cone
-(±0.2 rad) against ``L``, certainty threshold 0.3; no-echo readings clear 1 m; the robot's
+(±0.2 rad) against ``L``, certainty threshold 0.3; an echo that agrees with a trait of ``L``
+re-seen over 0.5 m of path is kept despite a trait in front, whose free space it then stops
+short of (``keep_supported_echoes``, ``static_span``); no-echo readings clear 1 m; the robot's
 footprint (0.2 m) cleared and kept free; free strength ``p_free`` 0.4; identical stationary
 rings merged. ``paper``: all three stages
 with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single

@@ -17,6 +17,8 @@ line) and be at least ``min_length`` long; anything less is not a line.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from itertools import pairwise
 from typing import NamedTuple
 
 import numpy as np
@@ -46,38 +48,70 @@ class Traits(NamedTuple):
 
 def fit_line(points: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Total-least-squares line through ``points`` ``(n, 2)``: its centroid and unit direction."""
-    centroid = points.sum(axis=0) / len(points)
-    rel = points - centroid
-    (sxx, sxy), (_, syy) = (rel.T @ rel).tolist()
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    cx, cy, dx, dy = _line(pts[:, 0].tolist(), pts[:, 1].tolist(), range(len(pts)))
+    return np.array([cx, cy]), np.array([dx, dy])
+
+
+def _line(
+    xs: list[float], ys: list[float], members: Sequence[int]
+) -> tuple[float, float, float, float]:
+    """:func:`fit_line` of the points ``members`` of ``xs, ys`` as plain floats (a trait has
+    a few dozen points, where numpy's per-call overhead outweighs the arithmetic)."""
+    sx = sy = 0.0
+    for i in members:
+        sx += xs[i]
+        sy += ys[i]
+    cx, cy = sx / len(members), sy / len(members)
+    sxx = sxy = syy = 0.0
+    for i in members:
+        rx, ry = xs[i] - cx, ys[i] - cy
+        sxx += rx * rx
+        sxy += rx * ry
+        syy += ry * ry
     # The major axis of the 2x2 scatter matrix (its leading eigenvector), in closed form.
     angle = 0.5 * math.atan2(2.0 * sxy, sxx - syy)
-    return centroid, np.array([math.cos(angle), math.sin(angle)])
+    return cx, cy, math.cos(angle), math.sin(angle)
 
 
-def _residuals(points: FloatArray, centroid: FloatArray, direction: FloatArray) -> FloatArray:
-    rel = points - centroid
-    return np.asarray(np.abs(rel[:, 0] * direction[1] - rel[:, 1] * direction[0]))
+def _residuals(
+    xs: list[float], ys: list[float], members: Sequence[int], line: tuple[float, ...]
+) -> list[float]:
+    """Distance of each member point from ``line`` ``(cx, cy, dx, dy)`` [m]."""
+    cx, cy, dx, dy = line
+    return [abs((xs[i] - cx) * dy - (ys[i] - cy) * dx) for i in members]
 
 
 def _split(
-    points: FloatArray, start: int, stop: int, tolerance: float, out: list[tuple[int, int]]
+    xs: list[float],
+    ys: list[float],
+    start: int,
+    stop: int,
+    tolerance: float,
+    out: list[tuple[int, int]],
 ) -> None:
+    """Split ``[start, stop)`` at the point farthest from the chord until all are within
+    ``tolerance`` (iterative end-point fit). Plain floats: a run has a few dozen points, where
+    numpy's per-call overhead would outweigh the arithmetic."""
     stack = [(start, stop)]
     while stack:
         a, b = stack.pop()
         if b - a <= 2:
             out.append((a, b))
             continue
-        p, q = points[a], points[b - 1]
-        chord = q - p
-        length = float(np.hypot(*chord))
-        rel = points[a:b] - p
+        px, py = xs[a], ys[a]
+        cx, cy = xs[b - 1] - px, ys[b - 1] - py
+        length = float(np.hypot(cx, cy))
         if length > 0:
-            dist = np.abs(rel[:, 0] * chord[1] - rel[:, 1] * chord[0]) / length
+            dist = [
+                abs((x - px) * cy - (y - py) * cx) / length
+                for x, y in zip(xs[a:b], ys[a:b], strict=True)
+            ]
         else:
-            dist = np.hypot(rel[:, 0], rel[:, 1])
-        worst = int(np.argmax(dist))
-        if dist[worst] <= tolerance or worst in (0, b - a - 1):
+            dist = np.hypot(np.subtract(xs[a:b], px), np.subtract(ys[a:b], py)).tolist()
+        far = max(dist)
+        worst = dist.index(far)
+        if far <= tolerance or worst in (0, b - a - 1):
             out.append((a, b))
             continue
         stack.append((a + worst, b))
@@ -129,45 +163,53 @@ def fit_traits(
     residuals = np.full(n, np.nan)
     if n == 0:
         return Traits(np.zeros((0, 4)), labels, residuals)
-    step = np.hypot(*np.diff(pts, axis=0).T) if n > 1 else np.zeros(0)
-    cuts = np.concatenate([[0], np.flatnonzero(step > max_gap) + 1, [n]])
+    xs, ys = pts[:, 0].tolist(), pts[:, 1].tolist()
+    step = np.hypot(np.diff(pts[:, 0]), np.diff(pts[:, 1])).tolist()
+    cuts = [0, *(i + 1 for i, s in enumerate(step) if s > max_gap), n]
     pieces: list[tuple[int, int]] = []
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
-        _split(pts, int(a), int(b), tolerance, pieces)
+        _split(xs, ys, a, b, tolerance, pieces)
     pieces.sort()
     kept = [(a, b) for a, b in pieces if b - a >= min_points]
-    # Each merged piece: first and last index, its members and its line (centroid, direction).
-    merged: list[tuple[int, int, list[int], tuple[FloatArray, FloatArray]]] = []
+    # Each merged piece: first and last index, its members and its line (cx, cy, dx, dy).
+    merged: list[tuple[int, int, list[int], tuple[float, float, float, float]]] = []
     for a, b in kept:
         members = list(range(a, b))
         if merged:
             pa, pb, prev, _ = merged[-1]
             joint = prev + members
-            if float(np.hypot(*(pts[a] - pts[pb - 1]))) <= max_gap:
-                line = fit_line(pts[joint])
-                if _residuals(pts[joint], *line).max() <= tolerance:
+            if math.hypot(xs[a] - xs[pb - 1], ys[a] - ys[pb - 1]) <= max_gap:
+                line = _line(xs, ys, joint)
+                if max(_residuals(xs, ys, joint, line)) <= tolerance:
                     merged[-1] = (pa, b, joint, line)
                     continue
-        merged.append((a, b, members, fit_line(pts[members])))
+        merged.append((a, b, members, _line(xs, ys, members)))
     segments = []
-    for _, _, members, (centroid, direction) in merged:
-        sel = pts[members]
-        t = np.sort((sel - centroid) @ direction)
-        distinct = 1 + int(np.count_nonzero(np.diff(t) > min_spacing))
+    label_list = labels.tolist()
+    residual_list = residuals.tolist()
+    for _, _, members, line in merged:
+        cx, cy, dx, dy = line
+        t = sorted((xs[i] - cx) * dx + (ys[i] - cy) * dy for i in members)
+        distinct = 1 + sum(1 for u, v in pairwise(t) if v - u > min_spacing)
         if distinct < min_points or t[-1] - t[0] < min_length:
             continue
-        segments.append(np.concatenate([centroid + t[0] * direction, centroid + t[-1] * direction]))
-        labels[members] = len(segments) - 1
-        residuals[members] = _residuals(sel, centroid, direction)
-    return Traits(np.asarray(segments).reshape(-1, 4), labels, residuals)
+        segments.append((cx + t[0] * dx, cy + t[0] * dy, cx + t[-1] * dx, cy + t[-1] * dy))
+        for i, e in zip(members, _residuals(xs, ys, members, line), strict=True):
+            label_list[i] = len(segments) - 1
+            residual_list[i] = e
+    return Traits(
+        np.array(segments, dtype=np.float64).reshape(-1, 4),
+        np.array(label_list, dtype=np.int64),
+        np.array(residual_list, dtype=np.float64),
+    )
 
 
 def point_segment_distance(points: FloatArray, segments: FloatArray) -> FloatArray:
     """``(n, m)`` distance [m] from each point ``(n, 2)`` to each segment ``(m, 4)``."""
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 1, 2)
-    a = segments[None, :, :2]
-    e = segments[None, :, 2:] - a
-    length2 = np.maximum((e**2).sum(axis=-1), 1e-12)
-    t = np.clip(((p - a) * e).sum(axis=-1) / length2, 0.0, 1.0)
-    closest = a + t[..., None] * e
-    return np.asarray(np.hypot(*(p - closest).transpose(2, 0, 1)))
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    ax, ay = segments[:, 0], segments[:, 1]
+    ex, ey = segments[:, 2] - ax, segments[:, 3] - ay
+    length2 = np.maximum(ex * ex + ey * ey, 1e-12)
+    rx, ry = p[:, :1] - ax, p[:, 1:] - ay
+    t = np.minimum(np.maximum((rx * ex + ry * ey) / length2, 0.0), 1.0)
+    return np.hypot(rx - t * ex, ry - t * ey)

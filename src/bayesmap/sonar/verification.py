@@ -98,52 +98,70 @@ def equivalent(
 
     Sound for short traits: a segment shorter than 1 mm has no direction and matches nothing;
     both ends of ``v[i]`` must lie near ``ell[j]``'s line and the two must share a stretch.
+
+    Such a pair always has a point within ``match_offset`` of both traits (the offset of
+    ``v[i]`` from the line varies linearly between its ends and the projections overlap),
+    so only pairs whose bounding boxes, grown by ``match_offset``, meet are tested. A ring
+    has a few traits against a few dozen in ``L``: plain floats beat numpy's per-call cost.
     """
+    out = np.zeros((len(v), len(ell)), dtype=bool)
     if len(v) == 0 or len(ell) == 0:
-        return np.zeros((len(v), len(ell)), dtype=bool)
-    dv = v[:, 2:] - v[:, :2]
-    dl = ell[:, 2:] - ell[:, :2]
-    len_v = np.hypot(dv[:, 0], dv[:, 1])[:, None]
-    length = np.hypot(dl[:, 0], dl[:, 1])[None, :]
-    av = np.arctan2(dv[:, 1], dv[:, 0])[:, None]
-    al = np.arctan2(dl[:, 1], dl[:, 0])[None, :]
-    diff = np.abs((av - al + math.pi / 2) % math.pi - math.pi / 2)
-    ul = dl / np.maximum(length[0], 1e-12)[:, None]
-
-    def offset(points: FloatArray) -> FloatArray:
-        rel = points[:, None, :] - ell[None, :, :2]
-        return np.asarray(np.abs(rel[..., 0] * ul[None, :, 1] - rel[..., 1] * ul[None, :, 0]))
-
-    near = np.maximum(offset(v[:, :2]), offset(v[:, 2:])) <= match_offset
-    t0 = ((v[:, None, :2] - ell[None, :, :2]) * ul[None]).sum(-1)
-    t1 = ((v[:, None, 2:] - ell[None, :, :2]) * ul[None]).sum(-1)
-    shared = np.minimum(np.maximum(t0, t1), length) - np.maximum(np.minimum(t0, t1), 0.0)
-    real = (len_v > 1e-3) & (length > 1e-3)
-    return np.asarray(real & (diff <= match_angle) & near & (shared > 0.0))
+        return out
+    reach = match_offset + 1e-9
+    lines = ell.tolist()
+    for i, (vx0, vy0, vx1, vy1) in enumerate(v.tolist()):
+        if math.hypot(vx1 - vx0, vy1 - vy0) <= 1e-3:
+            continue
+        angle = math.atan2(vy1 - vy0, vx1 - vx0)
+        left = (vx0 if vx0 < vx1 else vx1) - reach
+        right = (vx1 if vx0 < vx1 else vx0) + reach
+        bottom = (vy0 if vy0 < vy1 else vy1) - reach
+        top = (vy1 if vy0 < vy1 else vy0) + reach
+        for j, (x0, y0, x1, y1) in enumerate(lines):
+            if (
+                (x0 < left and x1 < left)
+                or (x0 > right and x1 > right)
+                or (y0 < bottom and y1 < bottom)
+                or (y0 > top and y1 > top)
+            ):
+                continue
+            dx, dy = x1 - x0, y1 - y0
+            length = math.hypot(dx, dy)
+            turn = abs((angle - math.atan2(dy, dx) + math.pi / 2) % math.pi - math.pi / 2)
+            if length <= 1e-3 or turn > match_angle:
+                continue
+            ux, uy = dx / length, dy / length
+            r0x, r0y, r1x, r1y = vx0 - x0, vy0 - y0, vx1 - x0, vy1 - y0
+            if max(abs(r0x * uy - r0y * ux), abs(r1x * uy - r1y * ux)) > match_offset:
+                continue
+            t0, t1 = r0x * ux + r0y * uy, r1x * ux + r1y * uy
+            out[i, j] = min(max(t0, t1), length) - max(min(t0, t1), 0.0) > 0.0
+    return out
 
 
 def axis_segment_hits(centres: FloatArray, axis: FloatArray, segments: FloatArray) -> FloatArray:
     """``(n, m)`` distance [m] along each beam axis to each segment (``inf``: not crossed)."""
-    d = np.column_stack([np.cos(axis), np.sin(axis)])[:, None, :]
-    p = segments[None, :, :2]
-    e = segments[None, :, 2:] - p
-    w = p - centres[:, None, :]
-    denom = d[..., 0] * e[..., 1] - d[..., 1] * e[..., 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (w[..., 0] * e[..., 1] - w[..., 1] * e[..., 0]) / denom
-        u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / denom
-    ok = (np.abs(denom) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
-    return np.asarray(np.where(ok, t, np.inf))
+    cos, sin = np.cos(axis)[:, None], np.sin(axis)[:, None]
+    px, py = segments[:, 0], segments[:, 1]
+    ex, ey = segments[:, 2] - px, segments[:, 3] - py
+    wx, wy = px - centres[:, :1], py - centres[:, 1:]
+    denom = cos * ey - sin * ex
+    crossed = np.abs(denom) > 1e-12
+    # Parallel pairs divide by 1 instead of ~0 and are masked out below.
+    safe = np.where(crossed, denom, 1.0)
+    t = (wx * ey - wy * ex) / safe
+    u = (wx * sin - wy * cos) / safe
+    return np.where(crossed & (t > 0) & (u >= 0) & (u <= 1), t, np.inf)
 
 
 def head_on(axis: FloatArray, segments: FloatArray, critical_angle: float) -> BoolArray:
     """``(n, m)``: beam axis ``axis[i]`` [rad] meets segment ``j`` within ``critical_angle``
     [rad] of its normal, so a wall there would certainly echo (the axis ray itself returns)."""
-    e = segments[:, 2:] - segments[:, :2]
-    length = np.maximum(np.hypot(e[:, 0], e[:, 1]), 1e-12)
+    ex, ey = segments[:, 2] - segments[:, 0], segments[:, 3] - segments[:, 1]
+    length = np.maximum(np.hypot(ex, ey), 1e-12)
     # |cos| of the angle between the axis and the wall's normal = |sin| of the angle to the wall.
-    cross = np.cos(axis)[:, None] * e[None, :, 1] - np.sin(axis)[:, None] * e[None, :, 0]
-    return np.asarray(np.abs(cross) / length[None, :] >= math.cos(critical_angle))
+    cross = np.cos(axis)[:, None] * ey - np.sin(axis)[:, None] * ex
+    return np.abs(cross) / length >= math.cos(critical_angle)
 
 
 def reconcile(
@@ -167,6 +185,7 @@ def reconcile(
     no_echo_spread: float = 0.0,
     critical_angle: float | None = None,
     keep_supported_echoes: bool = False,
+    anchors: BoolArray | None = None,
 ) -> IntArray:
     """Reconcile the current readings' traits ``V`` with the local view ``L``.
 
@@ -195,8 +214,11 @@ def reconcile(
         against the trait (a person who walked on), not against the reading.
     keep_supported_echoes
         If true, an echo whose range agrees with ``L`` (supported) is not contradicted by
-        another trait in front of it. This raises rejection precision but lowers κ in the
-        walled worlds (docs/sonar.md, *Support / contradiction*), so it is off by default.
+        another trait in front of it (the filter then stops its free space before that
+        trait). Off by default (docs/sonar.md, *Support / contradiction*).
+    anchors
+        ``(k,)`` the traits of ``L`` that can keep an echo so (default: all of them); the
+        filter passes the ones that look like static structure (``static_span``).
 
     Returns
     -------
@@ -245,7 +267,55 @@ def reconcile(
     reason[unsupported_uncertain] = TVReason.UNSUPPORTED_UNCERTAIN
     if enough_state:
         reason[supported & flagged & uncertain] = TVReason.FLAGGED_UNCERTAIN
-        overruled = echo & supported if keep_supported_echoes else np.zeros(n, dtype=bool)
+        overruled = np.zeros(n, dtype=bool)
+        if keep_supported_echoes:
+            overruled = echo & supported
+            if anchors is not None and not anchors.all():
+                overruled &= _supported_echoes(
+                    echo & contradicted,
+                    on_trait,
+                    labels,
+                    ranges,
+                    centres,
+                    axis,
+                    v_segments,
+                    l_segments[anchors],
+                    match_angle,
+                    match_offset,
+                )
         reason[contradicted & ~overruled] = TVReason.CONTRADICTS_L
     reason[~candidate] = TVReason.KEPT
     return reason
+
+
+def _supported_echoes(
+    asked: BoolArray,
+    on_trait: BoolArray,
+    labels: IntArray,
+    ranges: FloatArray,
+    centres: FloatArray,
+    axis: FloatArray,
+    v_segments: FloatArray,
+    l_segments: FloatArray,
+    match_angle: float,
+    match_offset: float,
+) -> BoolArray:
+    """Which ``asked`` echoes agree with ``l_segments``: their trait of ``V`` is equivalent
+    to one, or (an echo on no trait) their echo point lies within ``match_offset`` of one."""
+    out = np.zeros(len(ranges), dtype=bool)
+    if not np.any(asked) or len(l_segments) == 0:
+        return out
+    matched = np.asarray(
+        equivalent(v_segments, l_segments, match_angle=match_angle, match_offset=match_offset).any(
+            axis=1
+        )
+    )
+    traited = asked & on_trait
+    out[traited] = matched[labels[traited]]
+    loose = asked & ~on_trait
+    if np.any(loose):
+        points = centres[loose] + ranges[loose, None] * np.column_stack(
+            [np.cos(axis[loose]), np.sin(axis[loose])]
+        )
+        out[loose] = point_segment_distance(points, l_segments).min(axis=1) <= match_offset
+    return out
