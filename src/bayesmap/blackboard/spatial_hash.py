@@ -64,10 +64,17 @@ class SpatialHash:
             del self._cells[cell]
 
     def query(self, x: float, y: float, radius: float) -> list[int]:
-        """Ids of the points within ``radius`` [m] of ``(x, y)`` (boundary included)."""
+        """Ids of the points within ``radius`` [m] of ``(x, y)`` (boundary included).
+
+        The cells searched reach a hair past ``radius`` (a relative 1e-9): the distance test
+        rounds, and accepts points on the boundary that lie just outside it in exact
+        arithmetic, such as a point at x = −1e-68 for a disc of radius 1 about x = 1, whose
+        cell is the one left of x = 0.
+        """
         c = self.cell
-        i0, i1 = math.floor((x - radius) / c), math.floor((x + radius) / c)
-        j0, j1 = math.floor((y - radius) / c), math.floor((y + radius) / c)
+        reach = radius * (1.0 + 1e-9) + 1e-12
+        i0, i1 = math.floor((x - reach) / c), math.floor((x + reach) / c)
+        j0, j1 = math.floor((y - reach) / c), math.floor((y + reach) / c)
         r2 = radius * radius
         found: list[int] = []
         cells = self._cells
