@@ -15,6 +15,12 @@ cone) with an axis-only label (specular when the first echo is not from the near
 on the beam axis: an echo more than 0.1 m beyond it, or no echo with a surface on the axis
 within range; echoes from people are good), and prints the default filter's rejection
 precision and recall under both, with Wilson 95 % intervals and counts by echo kind.
+``python benchmarks/sonar_diagnose.py ceiling WORLDS SEEDS`` bounds what any filter can
+give a world: it maps each log with the default pipeline's map and with the best baseline's
+map, fed by an oracle that rejects exactly the readings the simulator labels specular (and,
+in a second pair, the echoes from people too), and prints κ beside the default pipeline's
+and the baseline's own.
+
 WORLDS is a comma-separated list of registered world names.
 """
 
@@ -30,10 +36,20 @@ import numpy as np  # noqa: E402
 from scipy.ndimage import distance_transform_edt  # noqa: E402
 from scipy.stats import binomtest  # noqa: E402
 
-from bayesmap.experiments.sonar import Config, make_ring, ring_geometry, score_world  # noqa: E402
+from bayesmap.experiments.sonar import (  # noqa: E402
+    Config,
+    make_ring,
+    map_metrics,
+    path_cells,
+    ring_geometry,
+    score_world,
+    truth_layers,
+)
+from bayesmap.grid import OccupancyGrid  # noqa: E402
 from bayesmap.sim.polygons import world  # noqa: E402
 from bayesmap.sim.sonar import EchoKind, cast_rays  # noqa: E402
 from bayesmap.sim.sonar_log import simulate_log  # noqa: E402
+from bayesmap.sonar.filter import RingVerdict, Stage  # noqa: E402
 from bayesmap.sonar.pipeline import PIPELINES, grid_for_poses, map_log  # noqa: E402
 
 BASELINE = "elfes-ignore-no-echo"
@@ -142,9 +158,70 @@ def labels(worlds: str, seed: str) -> None:
         )
 
 
+class _Oracle:
+    """A stand-in filter that rejects the readings whose truth label says so."""
+
+    def __init__(self, poses: np.ndarray, reject: np.ndarray) -> None:
+        self.row = {pose.tobytes(): i for i, pose in reversed(list(enumerate(poses)))}
+        self.reject = reject
+
+    def process_many(self, poses: np.ndarray, ranges: np.ndarray) -> RingVerdict:
+        rows = [self.row[pose.tobytes()] for pose in poses]
+        rejected = self.reject[rows]
+        stage = np.where(rejected, int(Stage.TRAIT_VERIFICATION), int(Stage.ACCEPTED))
+        return RingVerdict(
+            ~rejected, np.zeros_like(rejected), stage, np.full(rejected.shape, np.inf)
+        )
+
+
+def ceiling(worlds: str, seeds: str) -> None:
+    """Print κ of the default and baseline maps fed by a truth-label oracle filter."""
+    config = Config()
+    ring = make_ring(config)
+    geometry = ring_geometry(ring)
+    for name in worlds.split(","):
+        w = world(name)
+        for seed in (int(s) for s in seeds.split(",")):
+            log = simulate_log(w, ring, config.realism, rng=np.random.default_rng(seed))
+            metrics, _, grid, _ = score_world(config, w, log, ("default", BASELINE))
+            truth, wall = truth_layers(w, grid, log.poses, config.max_range)
+            driven = path_cells(grid, log.odometry, config.footprint)
+            person = log.kind == EchoKind.PERSON
+            line = [f"{p} {metrics[p]['kappa']:.3f}" for p in ("default", BASELINE)]
+            for label, reject in (
+                ("specular", log.specular),
+                ("specular+people", log.specular | person),
+            ):
+                for p in ("default", BASELINE):
+                    pipeline = PIPELINES[p]
+                    x0, x1, y0, y1 = grid.extent
+                    mapper = pipeline.make_mapper(
+                        OccupancyGrid(x1 - x0, y1 - y0, grid.resolution, origin=grid.origin),
+                        geometry,
+                    )
+                    oracle = _Oracle(log.odometry, reject)
+                    map_log(
+                        log.odometry,
+                        log.ranges,
+                        mapper,
+                        oracle,  # type: ignore[arg-type]
+                        merge_repeats=pipeline.merge_repeats,
+                    )
+                    probability = mapper.probability()
+                    scores = map_metrics(probability, mapper.observed(), truth, wall)
+                    occupied = int((driven & (probability > 0.5)).sum())
+                    line.append(
+                        f"{p} map, oracle rejects {label} {scores['kappa']:.3f} "
+                        f"(path cells {occupied})"
+                    )
+            print(f"{name} seed {seed}: κ " + "; ".join(line), flush=True)
+
+
 def main(argv: list[str]) -> None:
     if len(argv) >= 3 and argv[0] == "variants":
         variants(argv[1], argv[2], argv[3] if len(argv) > 3 else "")
+    elif len(argv) == 3 and argv[0] == "ceiling":
+        ceiling(argv[1], argv[2])
     elif len(argv) == 3 and argv[0] == "labels":
         labels(argv[1], argv[2])
     else:

@@ -602,3 +602,33 @@ def test_traits_of_l_remember_the_path_position_they_were_first_seen_at(
         assert len(filt.l_first_) == len(filt.l_seen_) == len(filt.l_passes_) == k
         assert np.all(filt.l_first_ <= filt.l_seen_) and np.all(filt.l_seen_ <= filt.path_)
     assert np.any(filt.l_seen_ - filt.l_first_ > 1.0)  # walls are re-seen along the path
+
+
+def test_l_in_case_a_stops_free_space_and_judges_silence_before_enough_state() -> None:
+    # Case A (the robot has barely moved): by the fragment, L is consulted only for flagged
+    # or uncertain readings. With l_in_case_a a static trait of L within range stops a kept
+    # echo's free space, and a silent reading whose axis crosses an oblique trait is a lost
+    # echo.
+    geometry = SonarGeometry(angles=(0.0, math.pi / 2, math.pi, -math.pi / 2), max_range=5.0)
+    wall, front = [3.0, -1.0, 3.0, 1.0], [1.5, -0.5, 1.5, 0.5]
+    oblique = [-1.0, 0.5, 1.0, 2.5]  # 45° across the axis of the reading facing +y
+
+    def judge(l_in_case_a: bool) -> tuple[bool, float, bool]:
+        filt = SpecularFilter(
+            geometry,
+            acceptability=False,
+            agreeability=False,
+            keep_supported_echoes=True,
+            static_span=0.5,
+            l_in_case_a=l_in_case_a,
+        )
+        filt.path_ = 2.0  # far less than four perceptual lengths: case A
+        _plant_l(filt, np.array([wall, front, oblique]), seen=2.0, first=0.0)
+        verdict = filt.process([0.0, 0.0, 0.0], [3.0, 6.0, 6.0, 6.0])
+        assert not filt.enough_state
+        return bool(verdict.accepted[0]), float(verdict.free_limit[0]), bool(verdict.accepted[1])
+
+    assert judge(False) == (True, math.inf, True)
+    kept, limit, silent_kept = judge(True)
+    assert kept and limit == pytest.approx(1.5 - 0.2)
+    assert not silent_kept

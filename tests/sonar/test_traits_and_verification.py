@@ -179,6 +179,28 @@ def test_an_echo_that_lands_on_l_can_be_kept_despite_a_trait_in_front() -> None:
     assert unanchored.tolist() == [TVReason.CONTRADICTS_L] * 4
 
 
+def test_case_a_can_discard_silence_through_an_oblique_known_wall() -> None:
+    # contradict_in_case_a: in case A an unflagged no-echo reading whose axis crosses a trait
+    # of L is discarded (its echo was lost), while the unflagged echo beyond the wall keeps
+    # the fragment's case A verdict (kept); a wall the silent axis meets head-on would have
+    # echoed, so with the critical angle given it does not contradict the silence.
+    reason = _reconcile(False, contradict_in_case_a=True)
+    assert reason.tolist() == [
+        TVReason.KEPT,
+        TVReason.KEPT,
+        TVReason.CONTRADICTS_L,
+        TVReason.KEPT,
+    ]
+    head_on_wall = _reconcile(False, contradict_in_case_a=True, critical_angle=math.radians(15))
+    assert head_on_wall.tolist() == [TVReason.KEPT] * 4
+    # A wall at 45° to the silent axis (from (1, 1) to (3, 3)) is too oblique to echo.
+    oblique = np.array([[1.0, 1.0, 3.0, 3.0]])
+    reason = _reconcile(
+        False, contradict_in_case_a=True, critical_angle=math.radians(15), l_segments=oblique
+    )
+    assert reason[2] == TVReason.CONTRADICTS_L
+
+
 def test_one_point_repeated_is_not_a_trait() -> None:
     # A standing robot: one echo point, jittering by a millimetre, six times.
     standing = np.array([[1.0, 2.0]] * 2 + [[1.001, 2.0]] * 2 + [[1.002, 2.0]] * 2)

@@ -147,6 +147,13 @@ class SpecularFilter:
         structure keeps an echo that agrees with it, and stops a kept echo's free space: one
         re-seen over at least this much path [m] since it entered ``L``, i.e. seen from
         several robot positions, so not a person who walked through (0: every trait).
+    l_in_case_a
+        Let ``L`` (its traits within the max range) speak in case A too: a contradicted
+        no-echo reading is discarded, flagged or not (its cone crosses a trait of ``L``
+        that its axis does not meet head-on: a wall too oblique to echo), and with
+        ``keep_supported_echoes`` a kept echo's free space stops before a static trait in
+        front, as in case B. The fragment's case A discards only flagged or uncertain
+        readings and ignores ``L`` otherwise.
 
     Attributes
     ----------
@@ -190,6 +197,7 @@ class SpecularFilter:
         no_echo_spread: float = 0.0,
         keep_supported_echoes: bool = False,
         static_span: float = 0.0,
+        l_in_case_a: bool = False,
     ) -> None:
         if not 0.0 < critical_angle < math.pi / 2:
             raise ConfigError(f"critical_angle must be in (0, pi/2) rad, got {critical_angle}")
@@ -248,6 +256,7 @@ class SpecularFilter:
         self.no_echo_spread = no_echo_spread
         self.keep_supported_echoes = keep_supported_echoes
         self.static_span = static_span
+        self.l_in_case_a = l_in_case_a
         self.left, self.right = geometry.neighbours()
         self.rings_ = 0
         self.path_ = 0.0
@@ -477,8 +486,10 @@ class SpecularFilter:
             critical_angle=self.critical_angle,
             keep_supported_echoes=self.keep_supported_echoes,
             anchors=static,
+            contradict_in_case_a=self.l_in_case_a,
         )
-        if self.keep_supported_echoes and self.enough_state and len(l_extended):
+        judged_by_l = self.enough_state or self.l_in_case_a
+        if self.keep_supported_echoes and judged_by_l and len(l_extended):
             if np.any(static):
                 self._stop_free_space(
                     r,

@@ -319,13 +319,13 @@ PIPELINES: dict[str, Pipeline] = {
         no_echo="clear",
         clear_distance=1.0,
         footprint=0.2,
-        p_free=0.4,
         merge_repeats=True,
         filter_options=(
             ("no_echo_spread", 0.2),
             ("certainty_threshold", 0.3),
             ("keep_supported_echoes", True),
             ("static_span", 0.5),
+            ("l_in_case_a", True),
         ),
     ),
     "paper": Pipeline(acceptability=True, agreeability=True, trait_verification=True),
@@ -343,9 +343,10 @@ PIPELINES: dict[str, Pipeline] = {
 (``benchmarks/sonar_tuning.py``, docs/sonar.md): no-echo readings tested across their cone
 (±0.2 rad) against ``L``, certainty threshold 0.3; an echo that agrees with a trait of ``L``
 re-seen over 0.5 m of path is kept despite a trait in front, whose free space it then stops
-short of (``keep_supported_echoes``, ``static_span``); no-echo readings clear 1 m; the robot's
-footprint (0.2 m) cleared and kept free; free strength ``p_free`` 0.4; identical stationary
-rings merged. ``paper``: all three stages
+short of (``keep_supported_echoes``, ``static_span``); ``L`` judges silent readings and stops
+free space from the start (``l_in_case_a``); no-echo readings clear 1 m; the robot's
+footprint (0.2 m) cleared and kept free; Elfes' free strength ``p_free`` 0.35; identical
+stationary rings merged. ``paper``: all three stages
 with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single
 stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
 ``ros``: unfiltered baselines (the ROS layer exactly as ``range_sensor_layer`` does it)."""

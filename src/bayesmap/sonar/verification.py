@@ -55,7 +55,8 @@ class TVReason(IntEnum):
     UNSUPPORTED_UNCERTAIN = 2
     """Case A (or unsupported in case B): certainty below the threshold, no equivalent in L."""
     CONTRADICTS_L = 3
-    """Case B: the reading claims free space through a trait of L."""
+    """Case B (and case A for a no-echo reading, with ``contradict_in_case_a``): the reading
+    claims free space through a trait of L."""
     FLAGGED_UNCERTAIN = 4
     """Case B: coincides with L but flagged and below the certainty threshold."""
 
@@ -186,6 +187,7 @@ def reconcile(
     critical_angle: float | None = None,
     keep_supported_echoes: bool = False,
     anchors: BoolArray | None = None,
+    contradict_in_case_a: bool = False,
 ) -> IntArray:
     """Reconcile the current readings' traits ``V`` with the local view ``L``.
 
@@ -219,6 +221,10 @@ def reconcile(
     anchors
         ``(k,)`` the traits of ``L`` that can keep an echo so (default: all of them); the
         filter passes the ones that look like static structure (``static_span``).
+    contradict_in_case_a
+        If true, a contradicted reading is discarded in case A too (``L`` then holds the
+        traits within the max range), not only when it is also flagged: a no-echo reading
+        whose cone crosses a known wall lost its echo, whether or not a neighbour noticed.
 
     Returns
     -------
@@ -267,6 +273,10 @@ def reconcile(
     reason[unsupported_uncertain] = TVReason.UNSUPPORTED_UNCERTAIN
     if enough_state:
         reason[supported & flagged & uncertain] = TVReason.FLAGGED_UNCERTAIN
+    if enough_state or contradict_in_case_a:
+        # In case A only the silent readings: a no-echo reading whose cone crosses a known
+        # trait that its axis does not meet head-on lost its echo (the wall was too oblique).
+        judged = np.ones(n, dtype=bool) if enough_state else ~echo
         overruled = np.zeros(n, dtype=bool)
         if keep_supported_echoes:
             overruled = echo & supported
@@ -283,7 +293,7 @@ def reconcile(
                     match_angle,
                     match_offset,
                 )
-        reason[contradicted & ~overruled] = TVReason.CONTRADICTS_L
+        reason[contradicted & judged & ~overruled] = TVReason.CONTRADICTS_L
     reason[~candidate] = TVReason.KEPT
     return reason
 
