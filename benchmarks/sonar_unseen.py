@@ -39,8 +39,8 @@ DOCS = Path(__file__).resolve().parent.parent / "docs"
 PIPELINES = (DEFAULT_PIPELINE, *BASELINES)
 
 
-def _rows(folder: Path, label: str) -> list[str]:
-    """One table row per world of a finished run: κ, margin, missed walls, path cells."""
+def _rows(folder: Path, label: str | None = None) -> list[str]:
+    """One table row per world of a finished run (named ``label``, default the world's)."""
     metrics = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))
     rows = []
     for record in metrics["runs"]:
@@ -50,7 +50,7 @@ def _rows(folder: Path, label: str) -> list[str]:
         margin = default["kappa"] - scores[best]["kappa"]
         missed = default["missed_wall_rate"] - scores["ros"]["missed_wall_rate"]
         rows.append(
-            f"| {label}{record['world']} | {record['rings']:,} | {default['kappa']:.3f} | "
+            f"| {label or record['world']} | {record['rings']:,} | {default['kappa']:.3f} | "
             f"{best} ({scores[best]['kappa']:.3f}) | {margin:+.3f} | {missed:+.3f} | "
             f"{default['path_occupied']:.0f} (ROS {scores['ros']['path_occupied']:.0f}) | "
             f"{default['rejection_precision']:.2f} / {default['rejection_recall']:.2f} |"
@@ -75,7 +75,7 @@ def main(argv: list[str]) -> None:
             out = base / f"building-{seed}"
             config = Config(world=path, runs=1, seed=args.seed, pipelines=PIPELINES)
             run(config, out, progress=lambda what, done, total: print(what, flush=True))
-            rows += _rows(out, f"building {seed}: ")
+            rows += _rows(out, f"random building, world seed {seed}")
             for png in sorted(out.glob("maps_*.png")):
                 target = DOCS / f"sonar_unseen_building_{seed}.png"
                 shutil.copyfile(png, target)
@@ -83,7 +83,7 @@ def main(argv: list[str]) -> None:
         out = base / "named"
         config = Config(runs=1, seed=args.seed, pipelines=PIPELINES, jobs=args.jobs)
         run(config, out, progress=lambda what, done, total: print(what, flush=True))
-        rows += _rows(out, "")
+        rows += _rows(out)
     minutes = (time.perf_counter() - started) / 60
     load = " / ".join(f"{v:.1f}" for v in os.getloadavg())
     text = "\n".join(
