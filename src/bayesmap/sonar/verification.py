@@ -273,10 +273,6 @@ def reconcile(
     reason[unsupported_uncertain] = TVReason.UNSUPPORTED_UNCERTAIN
     if enough_state:
         reason[supported & flagged & uncertain] = TVReason.FLAGGED_UNCERTAIN
-    if enough_state or contradict_in_case_a:
-        # In case A only the silent readings: a no-echo reading whose cone crosses a known
-        # trait that its axis does not meet head-on lost its echo (the wall was too oblique).
-        judged = np.ones(n, dtype=bool) if enough_state else ~echo
         overruled = np.zeros(n, dtype=bool)
         if keep_supported_echoes:
             overruled = echo & supported
@@ -293,7 +289,11 @@ def reconcile(
                     match_angle,
                     match_offset,
                 )
-        reason[contradicted & judged & ~overruled] = TVReason.CONTRADICTS_L
+        reason[contradicted & ~overruled] = TVReason.CONTRADICTS_L
+    elif contradict_in_case_a:
+        # In case A only the silent readings: a no-echo reading whose cone crosses a known
+        # trait that its axis does not meet head-on lost its echo (the wall was too oblique).
+        reason[contradicted & ~echo] = TVReason.CONTRADICTS_L
     reason[~candidate] = TVReason.KEPT
     return reason
 
