@@ -632,3 +632,11 @@ def test_l_in_case_a_stops_free_space_and_judges_silence_before_enough_state() -
     kept, limit, silent_kept = judge(True)
     assert kept and limit == pytest.approx(1.5 - 0.2)
     assert not silent_kept
+
+
+def test_no_echo_spread_none_means_the_cones_edges() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), beam_width=math.radians(30), max_range=5.0)
+    assert SpecularFilter(geometry, no_echo_spread=None).no_echo_spread == pytest.approx(
+        math.radians(15)
+    )
+    assert SpecularFilter(geometry, no_echo_spread=0.1).no_echo_spread == 0.1

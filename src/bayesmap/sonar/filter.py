@@ -136,7 +136,8 @@ class SpecularFilter:
         the bottom-up stages) see through, more than ``margin`` beyond it, is removed.
     no_echo_spread
         A no-echo reading contradicts ``L`` when a trait crosses its axis or the rays this far
-        [rad] either side of it within the max range (0: the axis only).
+        [rad] either side of it within the max range (0: the axis only; ``None``: the
+        cone's edges, half the beam width).
     keep_supported_echoes
         An echo whose range agrees with ``L`` is not contradicted by another trait in front
         of it; its free space stops before that trait (``RingVerdict.free_limit``). Off in
@@ -194,7 +195,7 @@ class SpecularFilter:
         min_spacing: float = 0.05,
         footprint: float = 0.25,
         pass_limit: int = 3,
-        no_echo_spread: float = 0.0,
+        no_echo_spread: float | None = 0.0,
         keep_supported_echoes: bool = False,
         static_span: float = 0.0,
         l_in_case_a: bool = False,
@@ -218,7 +219,11 @@ class SpecularFilter:
             "min_spacing": (min_spacing, 0.0, True),
             "footprint": (footprint, 0.0, True),
             "pass_limit": (pass_limit, 1, True),
-            "no_echo_spread": (no_echo_spread, 0.0, True),
+            "no_echo_spread": (
+                geometry.beam_width / 2.0 if no_echo_spread is None else no_echo_spread,
+                0.0,
+                True,
+            ),
             "static_span": (static_span, 0.0, True),
         }
         for name, (value, low, closed) in limits.items():
@@ -253,7 +258,9 @@ class SpecularFilter:
         self.min_spacing = min_spacing
         self.footprint = footprint
         self.pass_limit = pass_limit
-        self.no_echo_spread = no_echo_spread
+        self.no_echo_spread = (
+            geometry.beam_width / 2.0 if no_echo_spread is None else float(no_echo_spread)
+        )
         self.keep_supported_echoes = keep_supported_echoes
         self.static_span = static_span
         self.l_in_case_a = l_in_case_a

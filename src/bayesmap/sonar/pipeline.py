@@ -272,7 +272,7 @@ class Pipeline:
     p_free: float = 0.35
     free_lock: float = 0.0
     merge_repeats: bool = False
-    filter_options: tuple[tuple[str, float], ...] = ()
+    filter_options: tuple[tuple[str, float | None], ...] = ()
 
     @property
     def filtered(self) -> bool:
@@ -321,7 +321,7 @@ PIPELINES: dict[str, Pipeline] = {
         footprint=0.2,
         merge_repeats=True,
         filter_options=(
-            ("no_echo_spread", 0.2),
+            ("no_echo_spread", None),
             ("certainty_threshold", 0.3),
             ("keep_supported_echoes", True),
             ("static_span", 0.5),
@@ -341,12 +341,12 @@ PIPELINES: dict[str, Pipeline] = {
 
 ``default``: all three stages with the settings learnt on simulated logs with known truth
 (``benchmarks/sonar_tuning.py``, docs/sonar.md): no-echo readings tested across their cone
-(±0.2 rad) against ``L``, certainty threshold 0.3; an echo that agrees with a trait of ``L``
-re-seen over 0.5 m of path is kept despite a trait in front, whose free space it then stops
-short of (``keep_supported_echoes``, ``static_span``); ``L`` judges silent readings and stops
-free space from the start (``l_in_case_a``); no-echo readings clear 1 m; the robot's
-footprint (0.2 m) cleared and kept free; Elfes' free strength ``p_free`` 0.35; identical
-stationary rings merged. ``paper``: all three stages
+(axis and both edges) against ``L``, certainty threshold 0.3; an echo that agrees with a
+trait of ``L`` re-seen over 0.5 m of path is kept despite a trait in front, whose free
+space it then stops short of (``keep_supported_echoes``, ``static_span``); ``L`` judges
+silent readings and stops free space from the start (``l_in_case_a``); no-echo readings
+clear 1 m; the robot's footprint (0.2 m) cleared and kept free; Elfes' free strength
+``p_free`` 0.35; identical stationary rings merged. ``paper``: all three stages
 with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single
 stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
 ``ros``: unfiltered baselines (the ROS layer exactly as ``range_sensor_layer`` does it)."""

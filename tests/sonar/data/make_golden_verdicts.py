@@ -7,7 +7,8 @@ the pipeline, the ring number and each reading's stage code (0 accepted, 1 Accep
 the per-ring Trait Verification was rewritten for speed (commit ef25945), and rewritten when
 the default pipeline began keeping echoes on static traits of L (``keep_supported_echoes``,
 ``static_span``) and again when it let ``L`` judge silent readings in case A
-(``l_in_case_a``), so the test that reads it holds later versions to the same verdicts.
+(``l_in_case_a``) and tested silent readings out to the cone's edges, so the
+test that reads it holds later versions to the same verdicts.
 """
 
 from __future__ import annotations
