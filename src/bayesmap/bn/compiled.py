@@ -97,6 +97,10 @@ class Compiled:
         """Position of each variable in :attr:`topo`."""
         self.parent_masks = tuple(sum(1 << p for p in ps) for ps in self.parents)
         """Parents of each variable as a bit mask."""
+        self.family_masks = tuple(1 << v | m for v, m in enumerate(self.parent_masks))
+        """Each variable and its parents (the variables of its CPT) as a bit mask."""
+        self.lineage_masks = tuple(1 << v | m for v, m in enumerate(self.ancestor_masks))
+        """Each variable and its ancestors as a bit mask."""
         self.child_masks = tuple(sum(1 << c for c in kids) for kids in self.children)
         """Children of each variable as a bit mask."""
         self.source_mask = sum(1 << v for v in self.sources)

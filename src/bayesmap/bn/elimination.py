@@ -13,11 +13,10 @@ a true joint maximisation, never per-variable arg-maxes of marginals.
 from __future__ import annotations
 
 import importlib
-import itertools
 import math
-from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from dataclasses import dataclass
+from itertools import chain, count
 from typing import Any, Generic, NamedTuple, Protocol, TypeVar
 
 import numpy as np
@@ -408,15 +407,17 @@ class SumProgram:
             result = memo.get(key)
             if result is not None:
                 return result, -1, kept
-        index: dict[Hashable, int] = {}
+        # einsum's sub-list labels: 0, 1, ... in order of first appearance
+        labels = dict.fromkeys(chain.from_iterable([scope for _, _, scope in chosen]))
+        number = dict(zip(labels, count())).__getitem__
         args: list[Any] = []
         fills: list[tuple[int, int]] = []
         for value, source, scope in chosen:
             if source >= 0:
                 fills.append((len(args), source))
             args.append(value)
-            args.append([index.setdefault(label, len(index)) for label in scope])
-        args.append([index[label] for label in kept])
+            args.append(list(map(number, scope)))
+        args.append(list(map(number, kept)))
         large = len(chosen) == 2 and entries > self._tuning.blas_above
         if not fills:
             result = _call(args, large)
@@ -464,21 +465,30 @@ class Step(NamedTuple, Generic[L]):
 
 class Walker(Generic[L]):
     """An SSA path read one step at a time: each operand's labels (inputs, then each step's
-    result) and how many live operands — and the output — still hold each label.
+    result), which live operands hold each label, and which operands are still live.
 
     The one reader of paths: :func:`walk` reads a whole path with it, and the builders of
     orders (:func:`~bayesmap.bn.plans.order_steps`) take each step through it as they
-    choose it.
+    choose it — the holders of a label are the operands the step that sums it out joins,
+    so an order builder reads them here rather than keeping a list of its own.
     """
 
     def __init__(self, scopes: Sequence[Iterable[L]], output: Iterable[L]) -> None:
-        # a plain dict, not the Counter: the interpreter's fast paths for subscripts take
-        # exact dicts only, and a cold question's order builder counts every label it steps
-        self.count: dict[L, int] = dict(Counter(itertools.chain.from_iterable(scopes)))
-        for label in output:
-            self.count[label] = self.count.get(label, 0) + 1
+        holders: dict[L, dict[int, None]] = {}
+        for k, scope in enumerate(scopes):
+            for label in scope:
+                held = holders.get(label)
+                if held is None:
+                    holders[label] = {k: None}
+                else:
+                    held[k] = None
+        self.holders = holders
+        """The live operands (SSA numbers, oldest first) holding each label."""
+        self.output = frozenset(output)
         self.live: list[Iterable[L]] = list(scopes)
         """Labels of every operand by SSA number."""
+        self.open: dict[int, None] = dict.fromkeys(range(len(self.live)))
+        """SSA numbers of the live operands (not yet joined), oldest first."""
 
     def step(self, position: Sequence[int]) -> Step[L]:
         """Multiply the operands at SSA numbers ``position``; the step, its result appended."""
@@ -488,16 +498,19 @@ class Walker(Generic[L]):
     def join(self, position: Sequence[int]) -> tuple[dict[L, None], tuple[L, ...]]:
         """:meth:`step`'s labels of the product (as dictionary keys) and kept labels, without
         building the :class:`Step` (an order builder's inner loop)."""
-        count, live = self.count, self.live
+        holders, live, output, open_ = self.holders, self.live, self.output, self.open
+        result = len(live)
         union: dict[L, None] = {}
         for i in position:
+            del open_[i]
             for label in live[i]:
                 union[label] = None
-                count[label] -= 1
-        kept = tuple([label for label in union if count[label] > 0])
+                del holders[label][i]
+        kept = tuple([label for label in union if holders[label] or label in output])
         for label in kept:
-            count[label] += 1
+            holders[label][result] = None
         live.append(kept)
+        open_[result] = None
         return union, kept
 
 

@@ -134,7 +134,7 @@ class Engine:
         compiled = self.compiled
         if compiled.independent_parents(var):
             return list(compiled.parents[var])
-        r_mask = compiled.ancestor_masks[var] | 1 << var
+        r_mask = compiled.lineage_masks[var]
         relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
         return plans.clean_roots(compiled, relevant, r_mask, 1 << var)
 
@@ -169,9 +169,7 @@ class Engine:
         checkable = plan.cache.checkable
         if checkable is None:
             checkable = plan.cache.checkable = tuple(
-                v
-                for v in plan.dropped
-                if not compiled.source_mask & (compiled.ancestor_masks[v] | 1 << v)
+                v for v in plan.dropped if not compiled.source_mask & compiled.lineage_masks[v]
             )
         for v in checkable:
             if not (self.prior(v)[values(v)] > 0.0).all():  # a numpy bool or bool array

@@ -78,20 +78,18 @@ class Factor:
     ev_pos: tuple[int, ...]
     free: tuple[int, ...]
     pick: Any = None
+    observed: bool = False
+    """Whether the factor depends on evidence values (observed axes or a data node)."""
 
     def __post_init__(self) -> None:
         if self.ev_pos:
             self.pick = itemgetter(*self.ev_pos)
+        self.observed = bool(self.ev_pos) or self.array is None
 
     @property
     def term(self) -> str:
         """Einsum indices of the sliced factor (one case)."""
         return "".join(symbol(v) for v in self.free)
-
-    @property
-    def observed(self) -> bool:
-        """Whether the factor depends on evidence values (observed axes or a data node)."""
-        return bool(self.ev_pos) or self.array is None
 
 
 class QueryKind(Enum):
@@ -273,11 +271,10 @@ def build(
     for y in replaced:
         replaced_mask |= 1 << y
     parents = compiled.parents
-    parent_masks = compiled.parent_masks
+    family_masks = compiled.family_masks
     free_mask = ~ev_mask
     scope_masks = [
-        1 << v if (replaced_mask >> v) & 1 else ((1 << v) | parent_masks[v]) & free_mask
-        for v in relevant
+        1 << v if (replaced_mask >> v) & 1 else family_masks[v] & free_mask for v in relevant
     ]
     keep = -1 if keep_all_components else _component(scope_masks, t_mask)
     ev_index = {v: k for k, v in enumerate(ev)}
@@ -298,17 +295,18 @@ def build(
                 shared[-1 - v] = factor
             factors.append(factor)
             continue
-        variables = (v, *parents[v])
-        if not ev_mask & ((1 << v) | parent_masks[v]):
+        seen_mask = ev_mask & family_masks[v]
+        if not seen_mask:
             factor = shared.get(v)
             if factor is None:
+                variables = (v, *parents[v])
                 array = None if v in compiled.sources else compiled.cpts[v]
                 perm = tuple(range(len(variables)))
                 factor = Factor(var=v, array=array, perm=perm, ev_pos=(), free=variables)
                 shared[v] = factor
             factors.append(factor)
             continue
-        key = (v, ev_mask & ((1 << v) | parent_masks[v]))
+        key = (v, seen_mask)
         layout = layouts.get(key)
         if layout is None:
             layout = layouts[key] = _layout(compiled, v, ev_mask)
@@ -350,13 +348,14 @@ def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int
     with at least one ancestor are returned (two such sub-networks are nested or disjoint).
     """
     anc = compiled.ancestor_masks
+    lineage = compiled.lineage_masks
     children = compiled.child_masks
     parents = compiled.parents
     skip |= compiled.source_mask
     reach: dict[int, int] = {}  # children (in relevant) of the ancestors of each variable
     candidates: list[int] = []
     for v in order:
-        if (anc[v] | 1 << v) & skip:
+        if lineage[v] & skip:
             continue
         mask = 0
         for parent in parents[v]:
@@ -369,7 +368,7 @@ def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int
     for v in reversed(candidates):
         if (covered >> v) & 1:
             continue
-        if reach[v] & ~(anc[v] | 1 << v) == 0:
+        if reach[v] & ~lineage[v] == 0:
             chosen.append(v)
             covered |= anc[v]
     return chosen
@@ -440,41 +439,27 @@ def order_steps(
         bound *= extra[w]  # a label left out of the graph (the case axis) widens every step
     bound += math.prod(map(size_of, output))  # the last step, over the output labels at most
     may_search = search or (bound > tuning.greedy_above and bound > tuning.greedy_per_factor * n)
-    holders: dict[int, list[int]] = {}
-    for k, scope in enumerate(scopes):
-        for u in scope:
-            ks = holders.get(u)
-            if ks is None:
-                holders[u] = [k]
-            else:
-                ks.append(k)
+    walker = Walker(scopes, output)
+    holders = walker.holders
     # the ranked labels in rank order (``rank`` is filled in that order), then the labels
     # not ranked (the case axis)
     unranked = [u for u in holders if u < 0 and u not in output] if extra else []
     now = None if may_search or unranked else emit
-    walker = Walker(scopes, output)
-    alive = [True] * n
     path: list[tuple[int, ...]] = []
     kept_steps: list[tuple[int, ...]] = []
     total = 0
     for u in (*rank, *unranked):
-        chosen = tuple([k for k in holders[u] if alive[k]])
+        chosen = tuple(holders[u])
         if not chosen:
             continue
-        for k in chosen:
-            alive[k] = False
         union, kept = walker.join(chosen)
         entries = math.prod(map(size_of, union))
         total += entries
-        result = len(alive)  # the step's SSA number
-        for w in kept:
-            holders[w].append(result)
-        alive.append(True)
         path.append(chosen)
         kept_steps.append(kept)
         if now is not None:
             now(chosen, kept, entries)
-    rest = tuple([k for k, live in enumerate(alive) if live])
+    rest = tuple(walker.open)
     if len(rest) > 1 or not path:
         path.append(rest)
         kept_steps.append(tuple(output))
@@ -531,20 +516,20 @@ def elimination_rank(
     others = [u for u in neighbours if u < 0]  # labels that are not variables (a case axis)
     for u in others:
         del neighbours[u]
+        for linked in neighbours.values():
+            linked.discard(u)
     kept = set(output)
     weigh = card.__getitem__
     current: dict[int, int] = {}
     for u, linked in neighbours.items():
         linked.discard(u)
-        for w in others:
-            linked.discard(w)
         if u not in kept:
             current[u] = card[u] * math.prod(map(weigh, linked))
     heap = [(w, u) for u, w in current.items()]
     heapq.heapify(heap)
     rank: dict[int, int] = {}
     bound = 0
-    pop, push = heapq.heappop, heapq.heappush
+    pop, push, prod = heapq.heappop, heapq.heappush, math.prod
     while heap:
         w, u = pop(heap)
         if current.get(u) != w:
@@ -553,18 +538,14 @@ def elimination_rank(
         rank[u] = len(rank)
         bound += w
         around = neighbours.pop(u)
-        size = card[u]
         for x in around:
             linked = neighbours[x]
+            linked |= around
+            linked.discard(x)
             linked.discard(u)
-            gained = around - linked
-            gained.discard(x)
-            linked |= gained
             old = current.get(x)
             if old is not None:
-                weight = old // size
-                for y in gained:
-                    weight *= card[y]
+                weight = card[x] * prod(map(weigh, linked))
                 if weight != old:
                     current[x] = weight
                     push(heap, (weight, x))
