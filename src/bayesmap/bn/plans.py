@@ -28,9 +28,10 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
+from itertools import chain
 from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
@@ -349,26 +350,14 @@ def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int
     """
     anc = compiled.ancestor_masks
     lineage = compiled.lineage_masks
-    children = compiled.child_masks
-    parents = compiled.parents
+    reach = compiled.reach_masks
     skip |= compiled.source_mask
-    reach: dict[int, int] = {}  # children (in relevant) of the ancestors of each variable
-    candidates: list[int] = []
-    for v in order:
-        if lineage[v] & skip:
-            continue
-        mask = 0
-        for parent in parents[v]:
-            mask |= reach[parent] | children[parent]
-        reach[v] = mask & r_mask
-        if parents[v]:
-            candidates.append(v)
     chosen: list[int] = []
     covered = 0
-    for v in reversed(candidates):
-        if (covered >> v) & 1:
+    for v in reversed(order):
+        if lineage[v] & skip or not anc[v] or (covered >> v) & 1:
             continue
-        if reach[v] & ~lineage[v] == 0:
+        if reach[v] & r_mask & ~lineage[v] == 0:
             chosen.append(v)
             covered |= anc[v]
     return chosen
@@ -397,7 +386,7 @@ def order_steps(
     sizes: Mapping[int, int] | None = None,
     *,
     search: bool = False,
-    emit: Callable[[tuple[int, ...], tuple[int, ...], int], None] | None = None,
+    emit: Callable[[tuple[int, ...], tuple[int, ...], int, Iterable[int]], None] | None = None,
     tuning: Tuning = TUNING,
 ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int]:
     """A contraction order (opt_einsum SSA path), the labels each step keeps, and its cost.
@@ -432,15 +421,15 @@ def order_steps(
     if n == 1:
         entries = math.prod(map(size_of, scopes[0]))
         if emit is not None:
-            emit((0,), tuple(output), entries)
+            emit((0,), tuple(output), entries, scopes[0])
         return [(0,)], [tuple(output)], entries
-    rank, bound = elimination_rank(scopes, output, card)
+    walker = Walker(scopes, output)
+    holders = walker.holders
+    rank, bound = elimination_rank(scopes, output, card, holders)
     for w in extra:
         bound *= extra[w]  # a label left out of the graph (the case axis) widens every step
     bound += math.prod(map(size_of, output))  # the last step, over the output labels at most
     may_search = search or (bound > tuning.greedy_above and bound > tuning.greedy_per_factor * n)
-    walker = Walker(scopes, output)
-    holders = walker.holders
     # the ranked labels in rank order (``rank`` is filled in that order), then the labels
     # not ranked (the case axis)
     unranked = [u for u in holders if u < 0 and u not in output] if extra else []
@@ -458,16 +447,16 @@ def order_steps(
         path.append(chosen)
         kept_steps.append(kept)
         if now is not None:
-            now(chosen, kept, entries)
+            now(chosen, kept, entries, union)
     rest = tuple(walker.open)
     if len(rest) > 1 or not path:
         path.append(rest)
         kept_steps.append(tuple(output))
-        labels = {w for k in rest for w in walker.live[k]}
+        labels = dict.fromkeys(chain.from_iterable([walker.live[k] for k in rest]))
         entries = math.prod(map(size_of, labels))
         total += entries
         if now is not None:
-            now(rest, tuple(output), entries)
+            now(rest, tuple(output), entries, labels)
     if search or (total > tuning.greedy_above and total > tuning.greedy_per_factor * n):
         if now is not None:
             raise AssertionError("an emitted order's cost exceeded its bound")
@@ -478,16 +467,19 @@ def order_steps(
         if greedy_total < _cost(sets, set(output), path, table):
             if emit is not None:
                 for step in walk(scopes, output, greedy):
-                    emit(step.inputs, step.kept, math.prod(map(size_of, step.union)))
+                    emit(step.inputs, step.kept, math.prod(map(size_of, step.union)), step.union)
             return greedy, None, greedy_total
     if emit is not None and now is None:
         for chosen, step in zip(path, walk(scopes, output, path), strict=True):
-            emit(chosen, step.kept, math.prod(map(size_of, step.union)))
+            emit(chosen, step.kept, math.prod(map(size_of, step.union)), step.union)
     return path, kept_steps, total
 
 
 def elimination_rank(
-    scopes: Sequence[Sequence[int]], output: Sequence[int], card: Sequence[int]
+    scopes: Sequence[Sequence[int]],
+    output: Sequence[int],
+    card: Sequence[int],
+    holders: Mapping[int, Mapping[int, None]] | None = None,
 ) -> tuple[dict[int, int], int]:
     """Position of each summed-out label in a greedy min-weight elimination order, and the
     sum of the weights of its eliminations.
@@ -504,21 +496,23 @@ def elimination_rank(
     the evidence-free steps (with it, min-weight spreads the axis early and a batch costs
     30× more on alarm). The summed weights bound the multiply-adds of the steps that sum
     these labels out in this order (each step's operands lie within the label's factor).
+    ``holders`` gives the factors holding each label (:attr:`Walker.holders
+    <bayesmap.bn.elimination.Walker.holders>`, which an order builder has already), from
+    which each label's neighbours are read.
     """
-    neighbours: dict[int, set[int]] = {}
-    for scope in scopes:
-        for u in scope:
-            linked = neighbours.get(u)
-            if linked is None:
-                neighbours[u] = set(scope)
-            else:
-                linked.update(scope)
+    if holders is None:
+        holders = Walker(scopes, output).holders
+    kept = set(output)
+    neighbours = {  # each label's factor-mates (itself included, dropped below)
+        u: set(chain.from_iterable([scopes[k] for k in held if k >= 0]))
+        for u, held in holders.items()
+        if held.keys() != {-1}  # not an output label that no factor holds
+    }
     others = [u for u in neighbours if u < 0]  # labels that are not variables (a case axis)
     for u in others:
         del neighbours[u]
         for linked in neighbours.values():
             linked.discard(u)
-    kept = set(output)
     weigh = card.__getitem__
     current: dict[int, int] = {}
     for u, linked in neighbours.items():
@@ -611,11 +605,12 @@ def _cost(
 def _component(scope_masks: Sequence[int], seed: int) -> int:
     """Bit mask of the free variables linked to ``seed`` (the targets) through shared factors."""
     reached = seed
-    changed = True
-    while changed:
-        changed = False
-        for mask in scope_masks:
-            if mask & reached and mask & ~reached:
+    masks = scope_masks
+    while True:
+        before = reached
+        for mask in masks:
+            if mask & reached:
                 reached |= mask
-                changed = True
-    return reached
+        if reached == before:
+            return reached
+        masks = masks[::-1]  # links run both ways along the (topological) order: alternate
