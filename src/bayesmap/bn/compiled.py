@@ -119,7 +119,8 @@ class Compiled:
         self.constants = ConstantMemo()
         """Evidence-independent contraction steps already computed (``SumProgram`` memo)."""
         self.layouts: dict[tuple[int, int], Any] = {}
-        """Observed-first layouts of CPTs, by variable and observed family (``plans.build``)."""
+        """Observed-first layouts of CPTs and their factors, by variable and observed family
+        (``plans.build``)."""
 
     def transposed(self, var: int, perm: tuple[int, ...]) -> FloatArray:
         """CPT of ``var`` with axes permuted by ``perm``, C-contiguous (cached)."""

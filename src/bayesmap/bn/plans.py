@@ -110,6 +110,18 @@ class QueryKind(Enum):
     __hash__ = object.__hash__
 
 
+Layout = tuple[
+    FloatArray | None,
+    tuple[int, ...],
+    tuple[int, ...],
+    tuple[int, ...],
+    dict[tuple[int, ...], Factor],
+]
+"""A CPT laid out for a set of observed family members (:func:`_layout`): array, permutation,
+observed ids, free ids, and the factors made of it, by evidence positions (factors are
+never changed once made, so plans share them)."""
+
+
 BatchOrder = tuple[
     list[tuple[int, ...]], tuple[int, ...], list[Any], list[tuple[int, ...]], Any, int
 ]
@@ -267,16 +279,15 @@ def build(
             for y in replaced:
                 removed |= anc[y]
             r_mask &= ~removed
-            relevant = [v for v in relevant if (r_mask >> v) & 1]
+            relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
+    parents = compiled.parents
+    family_masks = compiled.family_masks
+    # the free variables of each relevant CPT (of a replaced variable's prior: itself)
+    scope_masks = list(map((~ev_mask).__and__, map(family_masks.__getitem__, relevant)))
     replaced_mask = 0
     for y in replaced:
         replaced_mask |= 1 << y
-    parents = compiled.parents
-    family_masks = compiled.family_masks
-    free_mask = ~ev_mask
-    scope_masks = [
-        1 << v if (replaced_mask >> v) & 1 else family_masks[v] & free_mask for v in relevant
-    ]
+        scope_masks[relevant.index(y)] = 1 << y
     keep = -1 if keep_all_components else _component(scope_masks, t_mask)
     ev_index = {v: k for k, v in enumerate(ev)}
     shared = compiled.factors  # evidence-free factors, the same in every plan
@@ -311,10 +322,11 @@ def build(
         layout = layouts.get(key)
         if layout is None:
             layout = layouts[key] = _layout(compiled, v, ev_mask)
-        array, perm, seen, free = layout
-        factor = Factor(
-            var=v, array=array, perm=perm, ev_pos=tuple([ev_index[u] for u in seen]), free=free
-        )
+        array, perm, seen, free, made = layout
+        ev_pos = tuple([ev_index[u] for u in seen])
+        factor = made.get(ev_pos)
+        if factor is None:
+            factor = made[ev_pos] = Factor(var=v, array=array, perm=perm, ev_pos=ev_pos, free=free)
         (factors if free else checks).append(factor)
     return Plan(
         targets=tuple(targets),
@@ -325,17 +337,16 @@ def build(
     )
 
 
-def _layout(
-    compiled: Compiled, v: int, ev_mask: int
-) -> tuple[FloatArray | None, tuple[int, ...], tuple[int, ...], tuple[int, ...]]:
-    """The CPT of ``v`` with its observed axes first: array, permutation, observed, free ids."""
+def _layout(compiled: Compiled, v: int, ev_mask: int) -> Layout:
+    """The CPT of ``v`` with its observed axes first: array, permutation, observed, free ids
+    (and, empty, its factors by the positions of the observed values in a plan's evidence)."""
     variables = (v, *compiled.parents[v])
     observed_axes = [k for k, u in enumerate(variables) if (ev_mask >> u) & 1]
     free_axes = [k for k, u in enumerate(variables) if not (ev_mask >> u) & 1]
     perm = (*observed_axes, *free_axes)
     array = None if v in compiled.sources else compiled.transposed(v, perm)
     seen = tuple(variables[k] for k in observed_axes)
-    return array, perm, seen, tuple(variables[k] for k in free_axes)
+    return array, perm, seen, tuple(variables[k] for k in free_axes), {}
 
 
 def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int) -> list[int]:
@@ -425,7 +436,7 @@ def order_steps(
         return [(0,)], [tuple(output)], entries
     walker = Walker(scopes, output)
     holders = walker.holders
-    rank, bound = elimination_rank(scopes, output, card, holders)
+    rank, bound = elimination_rank(scopes, output, card)
     for w in extra:
         bound *= extra[w]  # a label left out of the graph (the case axis) widens every step
     bound += math.prod(map(size_of, output))  # the last step, over the output labels at most
@@ -479,7 +490,6 @@ def elimination_rank(
     scopes: Sequence[Sequence[int]],
     output: Sequence[int],
     card: Sequence[int],
-    holders: Mapping[int, Mapping[int, None]] | None = None,
 ) -> tuple[dict[int, int], int]:
     """Position of each summed-out label in a greedy min-weight elimination order, and the
     sum of the weights of its eliminations.
@@ -496,18 +506,16 @@ def elimination_rank(
     the evidence-free steps (with it, min-weight spreads the axis early and a batch costs
     30× more on alarm). The summed weights bound the multiply-adds of the steps that sum
     these labels out in this order (each step's operands lie within the label's factor).
-    ``holders`` gives the factors holding each label (:attr:`Walker.holders
-    <bayesmap.bn.elimination.Walker.holders>`, which an order builder has already), from
-    which each label's neighbours are read.
     """
-    if holders is None:
-        holders = Walker(scopes, output).holders
+    neighbours: dict[int, set[int]] = {}  # each label's factor-mates (itself included)
+    for scope in scopes:
+        for u in scope:
+            linked = neighbours.get(u)
+            if linked is None:
+                neighbours[u] = set(scope)
+            else:
+                linked.update(scope)
     kept = set(output)
-    neighbours = {  # each label's factor-mates (itself included, dropped below)
-        u: set(chain.from_iterable([scopes[k] for k in held if k >= 0]))
-        for u, held in holders.items()
-        if held.keys() != {-1}  # not an output label that no factor holds
-    }
     others = [u for u in neighbours if u < 0]  # labels that are not variables (a case axis)
     for u in others:
         del neighbours[u]
