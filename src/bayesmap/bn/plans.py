@@ -486,6 +486,12 @@ def order_steps(
     return path, kept_steps, total
 
 
+_SCAN_UP_TO = 32
+"""Up to this many labels to rank, :func:`elimination_rank` finds the next by scanning their
+weights rather than keeping a heap (the scan is one C call; the heap's pushes and stale pops
+are interpreter steps)."""
+
+
 def elimination_rank(
     scopes: Sequence[Sequence[int]],
     output: Sequence[int],
@@ -497,17 +503,21 @@ def elimination_rank(
     Variable elimination on the interaction graph of ``scopes`` (the labels of each factor
     linked) repeatedly sums out the label whose factor — the label and its current
     neighbours — has the fewest entries, then links its neighbours (Koller & Friedman
-    2009, §9.4.3.2). Labels in ``output`` are never summed out. A heap with stale entries
-    skipped keeps it near-linear in the size of the graph, and each neighbour's weight (an
-    exact integer, the entries of its factor) is updated by the labels it gains rather than
-    recounted, so a cold question pays set operations, not a Python loop per neighbour.
+    2009, §9.4.3.2). Labels in ``output`` are never summed out. Each label keeps its closed
+    neighbourhood (itself and its neighbours), whose entries — an exact integer, recounted
+    in C when it changes — are its weight; the next label is found by one C scan of the
+    weights when there are at most :data:`_SCAN_UP_TO`, else from a heap with stale entries
+    skipped, so a cold question pays set operations, not a Python loop per neighbour's
+    neighbour.
     ``card`` gives the variables' sizes; other labels (the case axis of a batch, label −1)
     are left out of the graph: the order is the one-case order, which keeps a case axis off
     the evidence-free steps (with it, min-weight spreads the axis early and a batch costs
     30× more on alarm). The summed weights bound the multiply-adds of the steps that sum
     these labels out in this order (each step's operands lie within the label's factor).
     """
-    neighbours: dict[int, set[int]] = {}  # each label's factor-mates (itself included)
+    # each label's closed neighbourhood: itself and its factor-mates, whose entries are the
+    # label's weight
+    neighbours: dict[int, set[int]] = {}
     for scope in scopes:
         for u in scope:
             linked = neighbours.get(u)
@@ -522,35 +532,38 @@ def elimination_rank(
         for linked in neighbours.values():
             linked.discard(u)
     weigh = card.__getitem__
-    current: dict[int, int] = {}
-    for u, linked in neighbours.items():
-        linked.discard(u)
-        if u not in kept:
-            current[u] = card[u] * math.prod(map(weigh, linked))
-    heap = [(w, u) for u, w in current.items()]
-    heapq.heapify(heap)
+    prod = math.prod
+    current = {u: prod(map(weigh, linked)) for u, linked in neighbours.items() if u not in kept}
+    # the next label: of least weight, then least id; a scan of the weights (in C) where
+    # there are few, else a heap whose stale entries are skipped
+    heap: list[tuple[int, int]] | None = None
+    if len(current) > _SCAN_UP_TO:
+        heap = [(w, u) for u, w in current.items()]
+        heapq.heapify(heap)
     rank: dict[int, int] = {}
     bound = 0
-    pop, push, prod = heapq.heappop, heapq.heappush, math.prod
-    while heap:
-        w, u = pop(heap)
-        if current.get(u) != w:
-            continue  # stale: ranked already, or its weight changed since
+    pop, push = heapq.heappop, heapq.heappush
+    while current:
+        if heap is None:
+            w, u = min(zip(current.values(), current.keys(), strict=True))
+        else:
+            w, u = pop(heap)
+            if current.get(u) != w:
+                continue  # stale: ranked already, or its weight changed since
         del current[u]
         rank[u] = len(rank)
         bound += w
         around = neighbours.pop(u)
-        for x in around:
+        around.discard(u)
+        for x in around:  # each neighbour now also neighbours the others, and not u
             linked = neighbours[x]
             linked |= around
-            linked.discard(x)
             linked.discard(u)
-            old = current.get(x)
-            if old is not None:
-                weight = card[x] * prod(map(weigh, linked))
-                if weight != old:
-                    current[x] = weight
+            if x in current:
+                weight = prod(map(weigh, linked))
+                if heap is not None and weight != current[x]:
                     push(heap, (weight, x))
+                current[x] = weight
     return rank, bound
 
 
