@@ -157,15 +157,15 @@ def single_program(plan: Plan, compiled: Compiled, tuning: Tuning) -> tuple[Any,
     size = compiled.card.__getitem__
     specs: list[Any] = [tuple(map(size, f.free)) if f.observed else f.array for f in plan.factors]
     memo = compiled.constants
-    if (
-        len(scopes) <= tuning.one_step_operands
-        and math.prod(map(size, set(chain.from_iterable(scopes)))) <= tuning.one_step
-    ):
+    labels = dict.fromkeys(chain.from_iterable(scopes))
+    entries = math.prod(map(size, labels))
+    if len(scopes) <= tuning.one_step_operands and entries <= tuning.one_step:
         # small enough for one np.einsum call over all variables: no order to compute
-        path = [tuple(range(len(scopes)))]
         program = elimination.SumProgram(
-            scopes, plan.targets, specs, path, [plan.targets], memo=memo, tuning=tuning
+            scopes, plan.targets, specs, None, memo=memo, tuning=tuning
         )
+        program.add(tuple(range(len(scopes))), plan.targets, entries, labels)
+        program.finish()
     elif plan.cache.single_order is not None:
         path, kept, _ = plan.cache.single_order
         program = elimination.SumProgram(

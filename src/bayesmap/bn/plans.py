@@ -624,9 +624,15 @@ def _cost(
 
 
 def _component(scope_masks: Sequence[int], seed: int) -> int:
-    """Bit mask of the free variables linked to ``seed`` (the targets) through shared factors."""
+    """Bit mask of the free variables linked to ``seed`` (the targets) through shared factors.
+
+    ``scope_masks`` come in topological order. Passes over them alternate direction, the
+    first from the last (a factor holds a child and its parents: a pass upwards carries the
+    targets to their ancestors, the next one down to the ancestors' other children), until
+    one pass reaches nothing new.
+    """
     reached = seed
-    masks = scope_masks
+    masks = scope_masks[::-1]
     while True:
         before = reached
         for mask in masks:
@@ -634,4 +640,4 @@ def _component(scope_masks: Sequence[int], seed: int) -> int:
                 reached |= mask
         if reached == before:
             return reached
-        masks = masks[::-1]  # links run both ways along the (topological) order: alternate
+        masks = masks[::-1]
