@@ -178,9 +178,11 @@ class Engine:
     def evidence_ids(self, evidence: Evidence) -> dict[int, int]:
         """``{variable id: state index}`` of named evidence (unknown names raise)."""
         compiled = self.compiled
-        return {
-            compiled.id(name): compiled.state(compiled.id(name), s) for name, s in evidence.items()
-        }
+        ids = {}
+        for name, s in evidence.items():
+            v = compiled.id(name)
+            ids[v] = compiled.state(v, s)
+        return ids
 
     def source_evidence(self, ev: Mapping[int, int]) -> Callable[[], dict[str, str]]:
         """The evidence by name, computed when a data node's table first asks for it."""
