@@ -21,7 +21,11 @@ wrapping the engine's functions for this run only:
 
 And the numpy ``einsum`` calls a cold question makes (compile and run), and the fixed cost of
 one such call (a 2×3 by 3×4 product, best of 5 × 2,000), whose product is the share of the
-question that numpy's per-call cost alone accounts for. The wrappers add a few µs per
+question that numpy's per-call cost alone accounts for. And the *interpreter steps* of a cold
+question: the Python bytecode instructions it executes (counted with ``sys.settrace``
+opcode events, the same questions asked again of a fresh copy of the network, untimed) —
+a count no other job on the machine can move, and the Python bookkeeping that is most of a
+cold question. The wrappers add a few µs per
 question, so the parts sum to a little more than a cold question of
 ``benchmarks/bn_inference.py``. Run ``python benchmarks/bn_cold.py`` (writes the
 ``bn_cold`` section of docs/benchmarks.md; network names as arguments only print).
@@ -118,6 +122,31 @@ def call_cost() -> float:
     return min(runs) / 2000
 
 
+def interpreter_steps(name: str, questions: list[tuple[str, dict[str, str]]]) -> float:
+    """Mean bytecode instructions per question of ``questions[1:]`` on a fresh copy of the
+    network, after ``questions[0]`` (the network's first question) untimed and uncounted."""
+    net = bn.read(MODELS / f"{name}.bif.gz")
+    net.posterior(*questions[0])
+    steps = 0
+
+    def tracer(frame: Any, event: str, arg: Any) -> Any:
+        nonlocal steps
+        if frame.f_code.co_filename == __file__:
+            return None  # this benchmark's own timing wrappers are not the engine's steps
+        frame.f_trace_opcodes = True
+        if event == "opcode":
+            steps += 1
+        return tracer
+
+    sys.settrace(tracer)
+    try:
+        for target, evidence in questions[1:]:
+            net.posterior(target, evidence)
+    finally:
+        sys.settrace(None)
+    return steps / (len(questions) - 1)
+
+
 def measure(name: str, rng: np.random.Generator, meter: Meter) -> dict[str, Any]:
     net = bn.read(MODELS / f"{name}.bif.gz")
     names = list(net.variables)
@@ -141,6 +170,7 @@ def measure(name: str, rng: np.random.Generator, meter: Meter) -> dict[str, Any]
         calls.append(meter.calls)
     rest = [t - sum(p[k] for p in parts.values()) for k, t in enumerate(totals)]
     return {
+        "steps": interpreter_steps(name, questions),
         "network": name,
         "cold_ms": statistics.median(totals) * 1e3,
         "parts_ms": {part: statistics.fsum(v) / len(v) * 1e3 for part, v in parts.items()},
@@ -161,11 +191,14 @@ def markdown(rows: list[dict[str, Any]], cost: float, load: tuple[float, float])
         "question of another pattern; CPU ms. *cold*: median; the parts are means (they add "
         "up to the mean question, which a few large patterns pull above the median). "
         "*einsum calls*: numpy calls per question (median, mean); *numpy share*: mean calls "
-        f"× the fixed cost of one call ({cost * 1e6:.2f} µs here) / mean question.",
+        f"× the fixed cost of one call ({cost * 1e6:.2f} µs here) / mean question. "
+        "*interpreter steps*: Python bytecode instructions per question (mean; the same "
+        "questions on a fresh copy of the network, counted, not timed: the load cannot move "
+        "it).",
         "",
         "| network | cold (median) | mean | plan | order | compile | first run | rest "
-        "| einsum calls | numpy share |",
-        "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|",
+        "| einsum calls | numpy share | interpreter steps |",
+        "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|",
     ]
     for r in rows:
         p = r["parts_ms"]
@@ -173,7 +206,7 @@ def markdown(rows: list[dict[str, Any]], cost: float, load: tuple[float, float])
         lines.append(
             f"| {r['network']} | {r['cold_ms']:.3f} | {r['mean_ms']:.3f} | {p['plan']:.3f} "
             f"| {p['order']:.3f} | {p['compile']:.3f} | {p['run']:.3f} | {r['rest_ms']:.3f} "
-            f"| {r['calls']:.0f}, {r['calls_mean']:.1f} | {share:.0%} |"
+            f"| {r['calls']:.0f}, {r['calls_mean']:.1f} | {share:.0%} | {r['steps']:,.0f} |"
         )
     return "\n".join(lines)
 
@@ -191,7 +224,8 @@ def main() -> None:
         print(
             f"{name:11s} cold {row['cold_ms']:.3f} ms (mean {row['mean_ms']:.3f}), "
             + ", ".join(f"{k} {v:.3f}" for k, v in row["parts_ms"].items())
-            + f", rest {row['rest_ms']:.3f}, einsum calls {row['calls_mean']:.1f} "
+            + f", rest {row['rest_ms']:.3f}, einsum calls {row['calls_mean']:.1f}, "
+            f"interpreter steps {row['steps']:,.0f} "
             f"(load {os.getloadavg()[0]:.1f})",
             flush=True,
         )

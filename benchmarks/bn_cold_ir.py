@@ -13,8 +13,13 @@ which are Python bookkeeping, they track CPU time closely.
 
     python benchmarks/bn_cold_ir.py /work/wt/bncold-base . --networks alarm
 
-needs ``valgrind``; each run takes 1–5 minutes on a busy machine. Writes the
-``bn_cold_ir`` section of docs/benchmarks.md (``--no-write`` to only print).
+``--count steps`` counts Python bytecode instructions instead (``sys.settrace`` opcode
+events, no valgrind; seconds per network): the interpreter's share, which is most of a cold
+question; it too is the same whatever else runs.
+
+Instructions need ``valgrind``; each run takes 1–5 minutes on a busy machine. Writes the
+``bn_cold_ir`` section of docs/benchmarks.md (``bn_cold_steps`` with ``--count steps``;
+``--no-write`` to only print).
 """
 
 from __future__ import annotations
@@ -57,11 +62,24 @@ net.posterior(t0, e0)  # the network's first question: set-up, counted in both r
 if mode == "warm":
     for target, values in questions[:n]:
         net.posterior(target, values[0])  # set-up: the patterns asked once
-    for target, values in questions[:n]:
-        net.posterior(target, values[1])
-else:
-    for target, values in questions[:n]:
-        net.posterior(target, values[0])
+asked = [(target, values[mode == "warm"]) for target, values in questions[:n]]
+steps = 0
+
+
+def tracer(frame, event, arg):
+    global steps
+    frame.f_trace_opcodes = True
+    if event == "opcode":
+        steps += 1
+    return tracer
+
+
+if sys.argv[6:] == ["steps"]:  # count the questions' bytecode instructions
+    sys.settrace(tracer)
+for target, evidence in asked:
+    net.posterior(target, evidence)
+sys.settrace(None)
+print(steps)
 """
 
 
@@ -99,8 +117,26 @@ def instructions(tree: Path, name: str, mode: str, n: int) -> int:
     return int(found.group(1))
 
 
-def per_question(tree: Path, name: str, mode: str, n: int, base: dict[Path, int]) -> float:
-    """Instructions per question of ``mode`` (the set-up-only run counted once per tree)."""
+def steps(tree: Path, name: str, mode: str, n: int) -> int:
+    """Python bytecode instructions the worker's questions execute (``sys.settrace``)."""
+    command = [sys.executable, "-c", WORKER, str(tree / "src"), str(models_dir())]
+    env = dict(os.environ, PYTHONPATH="", PYTHONHASHSEED="0")
+    done = subprocess.run(
+        [*command, name, mode, str(n), "steps"], capture_output=True, text=True, env=env
+    )
+    if done.returncode != 0:
+        tail = done.stderr.strip().splitlines()[-3:]
+        raise SystemExit(f"bn_cold_ir: {tree} on {name} failed: {' '.join(tail)}")
+    return int(done.stdout.split()[-1])
+
+
+def per_question(
+    tree: Path, name: str, mode: str, n: int, base: dict[Path, int], count: str
+) -> float:
+    """Instructions (or interpreter steps) per question of ``mode`` (for instructions, the
+    set-up-only run is counted once per tree and subtracted)."""
+    if count == "steps":
+        return steps(tree, name, mode, n) / n
     if tree not in base:
         base[tree] = instructions(tree, name, "cold", 0)
     return (instructions(tree, name, mode, n) - base[tree]) / n
@@ -113,9 +149,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--networks", nargs="+", default=["alarm", "pathfinder", "win95pts"])
     parser.add_argument("--questions", type=int, default=100)
     parser.add_argument("--modes", nargs="+", default=["cold"], choices=["cold", "warm"])
+    parser.add_argument(
+        "--count",
+        choices=["instructions", "steps"],
+        default="instructions",
+        help="machine instructions under valgrind, or Python bytecode instructions (seconds)",
+    )
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args(argv)
-    if shutil.which("valgrind") is None:
+    if args.count == "instructions" and shutil.which("valgrind") is None:
         raise SystemExit("bn_cold_ir: valgrind is not installed")
     from benchmarks._report import machine, update_section
 
@@ -125,31 +167,46 @@ def main(argv: list[str] | None = None) -> None:
     for name in args.networks:
         base: dict[Path, int] = {}
         for mode in args.modes:
-            a, b = (per_question(tree, name, mode, args.questions, base) for tree in trees)
+            a, b = (
+                per_question(tree, name, mode, args.questions, base, args.count) for tree in trees
+            )
             rows.append((name, mode, a, b))
-            print(f"{name:11s} {mode}: A {a:,.0f}, B {b:,.0f} Ir/question ({b / a - 1:+.1%})")
+            unit = "Ir" if args.count == "instructions" else "steps"
+            print(f"{name:11s} {mode}: A {a:,.0f}, B {b:,.0f} {unit}/question ({b / a - 1:+.1%})")
+    if args.count == "instructions":
+        section, unit = "bn_cold_ir", "Ir"
+        title = "Instructions per question, two source trees (`benchmarks/bn_cold_ir.py`)"
+        what = "Machine instructions (Valgrind callgrind's Ir)"
+    else:
+        section, unit = "bn_cold_steps", "steps"
+        title = (
+            "Interpreter steps per question, two source trees "
+            "(`benchmarks/bn_cold_ir.py --count steps`)"
+        )
+        what = "Python bytecode instructions (`sys.settrace` opcode events)"
     lines = [
-        "## Instructions per question, two source trees (`benchmarks/bn_cold_ir.py`)",
+        f"## {title}",
         "",
-        f"A = {labels[0]}, B = {labels[1]}. Machine instructions (Valgrind callgrind's Ir) "
+        f"A = {labels[0]}, B = {labels[1]}. {what} "
         f"per question, {args.questions} questions (a target and 3 observed variables, "
         "values forward-sampled) after the network's first question; *cold*: each a new "
         "pattern, *warm*: the same patterns re-asked with other values. Independent of the "
         "machine's load.",
         "",
-        "| network | mode | A (Ir) | B (Ir) | B/A−1 |",
+        f"| network | mode | A ({unit}) | B ({unit}) | B/A−1 |",
         "|---|---|--:|--:|--:|",
     ]
     for name, mode, a, b in rows:
         lines.append(f"| {name} | {mode} | {a:,.0f} | {b:,.0f} | {b / a - 1:+.1%} |")
     lines += [
         "",
-        f"{machine()}. Rerun: `python benchmarks/bn_cold_ir.py A_TREE B_TREE`.",
+        f"{machine()}. Rerun: `python benchmarks/bn_cold_ir.py A_TREE B_TREE"
+        + (" --count steps`." if args.count == "steps" else "`."),
     ]
     text = "\n".join(lines)
     print(text)
     if not args.no_write:
-        update_section("bn_cold_ir", text)
+        update_section(section, text)
 
 
 def _describe(tree: Path) -> str:

@@ -9,6 +9,7 @@ variable), rebuilt only when the network's version counter changes.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from itertools import compress, count
 from typing import Any, Protocol
 
 import numpy as np
@@ -97,8 +98,19 @@ class Compiled:
         """Position of each variable in :attr:`topo`."""
         self.parent_masks = tuple(sum(1 << p for p in ps) for ps in self.parents)
         """Parents of each variable as a bit mask."""
+        self.family_masks = tuple(1 << v | m for v, m in enumerate(self.parent_masks))
+        """Each variable and its parents (the variables of its CPT) as a bit mask."""
+        self.lineage_masks = tuple(1 << v | m for v, m in enumerate(self.ancestor_masks))
+        """Each variable and its ancestors as a bit mask."""
         self.child_masks = tuple(sum(1 << c for c in kids) for kids in self.children)
         """Children of each variable as a bit mask."""
+        reach = [0] * len(self.names)
+        for v in self.topo:
+            for parent in self.parents[v]:
+                reach[v] |= reach[parent] | self.child_masks[parent]
+        self.reach_masks = tuple(reach)
+        """The children of each variable's ancestors as a bit mask: where the sub-network
+        above a variable meets the rest of the network (``plans.clean_roots``)."""
         self.source_mask = sum(1 << v for v in self.sources)
         """Data nodes as a bit mask."""
         self._transposed: dict[tuple[int, tuple[int, ...]], FloatArray] = {}
@@ -107,7 +119,8 @@ class Compiled:
         self.constants = ConstantMemo()
         """Evidence-independent contraction steps already computed (``SumProgram`` memo)."""
         self.layouts: dict[tuple[int, int], Any] = {}
-        """Observed-first layouts of CPTs, by variable and observed family (``plans.build``)."""
+        """Observed-first layouts of CPTs and their factors, by variable and observed family
+        (``plans.build``)."""
 
     def transposed(self, var: int, perm: tuple[int, ...]) -> FloatArray:
         """CPT of ``var`` with axes permuted by ``perm``, C-contiguous (cached)."""
@@ -171,11 +184,14 @@ class Compiled:
         return {self.names[v]: self.states[v][s] for v, s in evidence.items()}
 
 
+_BINARY_DIGITS = bytes.maketrans(b"01", b"\x00\x01")
+
+
 def bits(mask: int) -> list[int]:
-    """Ids of the set bits of ``mask`` (a variable set as a bit mask), ascending."""
-    out = []
-    while mask:
-        low = mask & -mask
-        out.append(low.bit_length() - 1)
-        mask ^= low
-    return out
+    """Ids of the set bits of ``mask`` (a variable set as a bit mask), ascending.
+
+    The binary digits, lowest first, as bytes 0 and 1 select the ids from a count, all in
+    C: a cold question lists a few relevant sets of dozens to hundreds of variables.
+    """
+    digits = format(mask, "b")[::-1].encode().translate(_BINARY_DIGITS)
+    return list(compress(count(), digits))

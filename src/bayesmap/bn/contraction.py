@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from itertools import chain
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -153,19 +154,18 @@ def single_program(plan: Plan, compiled: Compiled, tuning: Tuning) -> tuple[Any,
         return np.ones(()), []
     observed = [f for f in plan.factors if f.observed]
     scopes = [f.free for f in plan.factors]
-    specs: list[Any] = [
-        tuple(compiled.card[v] for v in f.free) if f.observed else f.array for f in plan.factors
-    ]
-    card = compiled.card
-    labels = dict.fromkeys(v for scope in scopes for v in scope)
-    few = len(scopes) <= tuning.one_step_operands
+    size = compiled.card.__getitem__
+    specs: list[Any] = [tuple(map(size, f.free)) if f.observed else f.array for f in plan.factors]
     memo = compiled.constants
-    if few and math.prod([card[v] for v in labels]) <= tuning.one_step:
+    labels = dict.fromkeys(chain.from_iterable(scopes))
+    entries = math.prod(map(size, labels))
+    if len(scopes) <= tuning.one_step_operands and entries <= tuning.one_step:
         # small enough for one np.einsum call over all variables: no order to compute
-        path = [tuple(range(len(scopes)))]
         program = elimination.SumProgram(
-            scopes, plan.targets, specs, path, [plan.targets], memo=memo, tuning=tuning
+            scopes, plan.targets, specs, None, memo=memo, tuning=tuning
         )
+        program.add(tuple(range(len(scopes))), plan.targets, entries, labels)
+        program.finish()
     elif plan.cache.single_order is not None:
         path, kept, _ = plan.cache.single_order
         program = elimination.SumProgram(

@@ -13,11 +13,10 @@ a true joint maximisation, never per-variable arg-maxes of marginals.
 from __future__ import annotations
 
 import importlib
-import itertools
 import math
-from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from dataclasses import dataclass
+from itertools import chain, compress, count
 from typing import Any, Generic, NamedTuple, Protocol, TypeVar
 
 import numpy as np
@@ -296,21 +295,19 @@ class SumProgram:
         self._memo = memo
         self._tuning = tuning
         self._output = output
-        sizes: dict[Hashable, int] = {}
         # live operands: (constant value or None, register or -1, labels)
         live: list[tuple[Any, int, Sequence[Hashable]]] = []
         self._live = live
         n_inputs = 0
         for scope, op in zip(scopes, operands, strict=True):
             if isinstance(op, tuple):
-                sizes.update(zip(scope, op, strict=True))
                 live.append((None, n_inputs, scope))
                 n_inputs += 1
             else:
-                sizes.update(zip(scope, op.shape, strict=True))
                 live.append((op, -1, scope))
         self.n_inputs = n_inputs
-        self._sizes = sizes
+        self._operands = (scopes, operands)
+        self._size_table: dict[Hashable, int] | None = None
         # each step: (argument template, [(argument slot, register)], result register, large)
         self._steps: list[tuple[list[Any], list[tuple[int, int]], int, bool]] = []
         self._register = n_inputs
@@ -326,27 +323,44 @@ class SumProgram:
             self.add(position, output if k == last else kept[k])
         self.finish()
 
+    @property
+    def _sizes(self) -> dict[Hashable, int]:
+        """Entries of each label, from the operands (built when a step first needs it)."""
+        table = self._size_table
+        if table is None:
+            table = self._size_table = {}
+            for scope, op in zip(*self._operands, strict=True):
+                table.update(zip(scope, op if isinstance(op, tuple) else op.shape, strict=True))
+        return table
+
     def add(
-        self, position: Sequence[int], kept: Sequence[Hashable], entries: int | None = None
+        self,
+        position: Sequence[int],
+        kept: Sequence[Hashable],
+        entries: int | None = None,
+        union: Iterable[Hashable] | None = None,
     ) -> None:
         """Append the step contracting the operands at SSA numbers ``position`` into
         ``kept`` (the last step's labels may come in any order: :meth:`finish` puts them in
-        the output's). ``entries``: the size of the operands' product, if known."""
+        the output's). ``entries``: the size of the operands' product, if known; ``union``:
+        their labels in order of first appearance, if known (as :meth:`Walker.join` gives
+        them)."""
         live = self._live
-        chosen = [live[i] for i in position]
+        chosen = list(map(live.__getitem__, position))
+        if union is None:
+            union = dict.fromkeys(chain.from_iterable([scope for _, _, scope in chosen]))
         if entries is None and len(chosen) > 1:
             sizes = self._sizes
-            union = dict.fromkeys(label for _, _, scope in chosen for label in scope)
             entries = math.prod([sizes[label] for label in union])
         if len(chosen) <= 2:
-            live.append(self._emit(chosen, kept, entries or 0))
+            live.append(self._emit(chosen, kept, entries or 0, union))
             return
         assert entries is not None
         large = entries > self._tuning.split_above
         if large or len(chosen) > _MAX_OPERANDS:
             live.append(self._split(chosen, kept, large))
         else:
-            live.append(self._emit(chosen, kept, entries))
+            live.append(self._emit(chosen, kept, entries, union))
 
     def finish(self) -> None:
         """Close the program after its last step: the result's axes in the output's order."""
@@ -387,7 +401,7 @@ class SumProgram:
             joined = [acc, *chosen[j : j + group]]
             labels = dict.fromkeys(label for _, _, scope in joined for label in scope)
             keep = kept if not rest else [x for x in labels if x in later]
-            acc = self._emit(joined, keep, math.prod([sizes[label] for label in labels]))
+            acc = self._emit(joined, keep, math.prod([sizes[label] for label in labels]), labels)
         return acc
 
     def _emit(
@@ -395,28 +409,33 @@ class SumProgram:
         chosen: Sequence[tuple[Any, int, Sequence[Hashable]]],
         kept: Sequence[Hashable],
         entries: int,
+        union: Iterable[Hashable],
     ) -> tuple[Any, int, Sequence[Hashable]]:
-        """Add the step contracting ``chosen`` (``entries`` in their product) into ``kept``
-        (run now if all are constant).
+        """Add the step contracting ``chosen`` (``entries`` in their product, ``union`` their
+        labels in order of first appearance) into ``kept`` (run now if all are constant).
 
         A constant step is looked up in the memo before its arguments are built: most
         constant steps of a new pattern's program were met in an earlier one's."""
         memo = self._memo
         key = None
-        if memo is not None and all([source < 0 for _, source, _ in chosen]):
-            key = (*[(id(value), tuple(scope)) for value, _, scope in chosen], tuple(kept))
-            result = memo.get(key)
-            if result is not None:
-                return result, -1, kept
-        index: dict[Hashable, int] = {}
+        if memo is not None:
+            for _, source, _ in chosen:
+                if source >= 0:
+                    break  # an operand supplied per call: not a constant step
+            else:
+                key = (*[(id(value), tuple(scope)) for value, _, scope in chosen], tuple(kept))
+                result = memo.get(key)
+                if result is not None:
+                    return result, -1, kept
+        number = dict(zip(union, count())).__getitem__  # einsum's sub-list labels 0, 1, ...
         args: list[Any] = []
         fills: list[tuple[int, int]] = []
         for value, source, scope in chosen:
             if source >= 0:
                 fills.append((len(args), source))
             args.append(value)
-            args.append([index.setdefault(label, len(index)) for label in scope])
-        args.append([index[label] for label in kept])
+            args.append(list(map(number, scope)))
+        args.append(list(map(number, kept)))
         large = len(chosen) == 2 and entries > self._tuning.blas_above
         if not fills:
             result = _call(args, large)
@@ -464,21 +483,36 @@ class Step(NamedTuple, Generic[L]):
 
 class Walker(Generic[L]):
     """An SSA path read one step at a time: each operand's labels (inputs, then each step's
-    result) and how many live operands — and the output — still hold each label.
+    result), which live operands hold each label, and which operands are still live.
 
     The one reader of paths: :func:`walk` reads a whole path with it, and the builders of
     orders (:func:`~bayesmap.bn.plans.order_steps`) take each step through it as they
-    choose it.
+    choose it — the holders of a label are the operands the step that sums it out joins,
+    so an order builder reads them here rather than keeping a list of its own.
     """
 
     def __init__(self, scopes: Sequence[Iterable[L]], output: Iterable[L]) -> None:
-        # a plain dict, not the Counter: the interpreter's fast paths for subscripts take
-        # exact dicts only, and a cold question's order builder counts every label it steps
-        self.count: dict[L, int] = dict(Counter(itertools.chain.from_iterable(scopes)))
-        for label in output:
-            self.count[label] = self.count.get(label, 0) + 1
+        holders: dict[L, dict[int, None]] = {}
+        for k, scope in enumerate(scopes):
+            for label in scope:
+                held = holders.get(label)
+                if held is None:
+                    holders[label] = {k: None}
+                else:
+                    held[k] = None
+        for label in output:  # the output holds its labels for good (as SSA number -1)
+            held = holders.get(label)
+            if held is None:
+                holders[label] = {-1: None}
+            else:
+                held[-1] = None
+        self.holders = holders
+        """The live operands (SSA numbers, oldest first) holding each label; -1 marks the
+        output's labels."""
         self.live: list[Iterable[L]] = list(scopes)
         """Labels of every operand by SSA number."""
+        self.open: dict[int, None] = dict.fromkeys(range(len(self.live)))
+        """SSA numbers of the live operands (not yet joined), oldest first."""
 
     def step(self, position: Sequence[int]) -> Step[L]:
         """Multiply the operands at SSA numbers ``position``; the step, its result appended."""
@@ -488,16 +522,19 @@ class Walker(Generic[L]):
     def join(self, position: Sequence[int]) -> tuple[dict[L, None], tuple[L, ...]]:
         """:meth:`step`'s labels of the product (as dictionary keys) and kept labels, without
         building the :class:`Step` (an order builder's inner loop)."""
-        count, live = self.count, self.live
+        holders, live, open_ = self.holders, self.live, self.open
+        result = len(live)
         union: dict[L, None] = {}
         for i in position:
+            del open_[i]
             for label in live[i]:
                 union[label] = None
-                count[label] -= 1
-        kept = tuple([label for label in union if count[label] > 0])
+                del holders[label][i]
+        kept = tuple(compress(union, map(holders.__getitem__, union)))  # still held
         for label in kept:
-            count[label] += 1
+            holders[label][result] = None
         live.append(kept)
+        open_[result] = None
         return union, kept
 
 

@@ -134,7 +134,7 @@ class Engine:
         compiled = self.compiled
         if compiled.independent_parents(var):
             return list(compiled.parents[var])
-        r_mask = compiled.ancestor_masks[var] | 1 << var
+        r_mask = compiled.lineage_masks[var]
         relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
         return plans.clean_roots(compiled, relevant, r_mask, 1 << var)
 
@@ -169,9 +169,7 @@ class Engine:
         checkable = plan.cache.checkable
         if checkable is None:
             checkable = plan.cache.checkable = tuple(
-                v
-                for v in plan.dropped
-                if not compiled.source_mask & (compiled.ancestor_masks[v] | 1 << v)
+                v for v in plan.dropped if not compiled.source_mask & compiled.lineage_masks[v]
             )
         for v in checkable:
             if not (self.prior(v)[values(v)] > 0.0).all():  # a numpy bool or bool array
@@ -180,9 +178,11 @@ class Engine:
     def evidence_ids(self, evidence: Evidence) -> dict[int, int]:
         """``{variable id: state index}`` of named evidence (unknown names raise)."""
         compiled = self.compiled
-        return {
-            compiled.id(name): compiled.state(compiled.id(name), s) for name, s in evidence.items()
-        }
+        ids = {}
+        for name, s in evidence.items():
+            v = compiled.id(name)
+            ids[v] = compiled.state(v, s)
+        return ids
 
     def source_evidence(self, ev: Mapping[int, int]) -> Callable[[], dict[str, str]]:
         """The evidence by name, computed when a data node's table first asks for it."""

@@ -28,9 +28,10 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
+from itertools import chain
 from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
@@ -78,20 +79,18 @@ class Factor:
     ev_pos: tuple[int, ...]
     free: tuple[int, ...]
     pick: Any = None
+    observed: bool = False
+    """Whether the factor depends on evidence values (observed axes or a data node)."""
 
     def __post_init__(self) -> None:
         if self.ev_pos:
             self.pick = itemgetter(*self.ev_pos)
+        self.observed = bool(self.ev_pos) or self.array is None
 
     @property
     def term(self) -> str:
         """Einsum indices of the sliced factor (one case)."""
         return "".join(symbol(v) for v in self.free)
-
-    @property
-    def observed(self) -> bool:
-        """Whether the factor depends on evidence values (observed axes or a data node)."""
-        return bool(self.ev_pos) or self.array is None
 
 
 class QueryKind(Enum):
@@ -109,6 +108,18 @@ class QueryKind(Enum):
     # members are singletons compared by identity: hash them by identity too (a C call;
     # Enum's own hash is Python code, paid on every plan lookup of a warm question)
     __hash__ = object.__hash__
+
+
+Layout = tuple[
+    FloatArray | None,
+    tuple[int, ...],
+    tuple[int, ...],
+    tuple[int, ...],
+    dict[tuple[int, ...], Factor],
+]
+"""A CPT laid out for a set of observed family members (:func:`_layout`): array, permutation,
+observed ids, free ids, and the factors made of it, by evidence positions (factors are
+never changed once made, so plans share them)."""
 
 
 BatchOrder = tuple[
@@ -268,17 +279,15 @@ def build(
             for y in replaced:
                 removed |= anc[y]
             r_mask &= ~removed
-            relevant = [v for v in relevant if (r_mask >> v) & 1]
+            relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
+    parents = compiled.parents
+    family_masks = compiled.family_masks
+    # the free variables of each relevant CPT (of a replaced variable's prior: itself)
+    scope_masks = list(map((~ev_mask).__and__, map(family_masks.__getitem__, relevant)))
     replaced_mask = 0
     for y in replaced:
         replaced_mask |= 1 << y
-    parents = compiled.parents
-    parent_masks = compiled.parent_masks
-    free_mask = ~ev_mask
-    scope_masks = [
-        1 << v if (replaced_mask >> v) & 1 else ((1 << v) | parent_masks[v]) & free_mask
-        for v in relevant
-    ]
+        scope_masks[relevant.index(y)] = 1 << y
     keep = -1 if keep_all_components else _component(scope_masks, t_mask)
     ev_index = {v: k for k, v in enumerate(ev)}
     shared = compiled.factors  # evidence-free factors, the same in every plan
@@ -298,24 +307,26 @@ def build(
                 shared[-1 - v] = factor
             factors.append(factor)
             continue
-        variables = (v, *parents[v])
-        if not ev_mask & ((1 << v) | parent_masks[v]):
+        seen_mask = ev_mask & family_masks[v]
+        if not seen_mask:
             factor = shared.get(v)
             if factor is None:
+                variables = (v, *parents[v])
                 array = None if v in compiled.sources else compiled.cpts[v]
                 perm = tuple(range(len(variables)))
                 factor = Factor(var=v, array=array, perm=perm, ev_pos=(), free=variables)
                 shared[v] = factor
             factors.append(factor)
             continue
-        key = (v, ev_mask & ((1 << v) | parent_masks[v]))
+        key = (v, seen_mask)
         layout = layouts.get(key)
         if layout is None:
             layout = layouts[key] = _layout(compiled, v, ev_mask)
-        array, perm, seen, free = layout
-        factor = Factor(
-            var=v, array=array, perm=perm, ev_pos=tuple([ev_index[u] for u in seen]), free=free
-        )
+        array, perm, seen, free, made = layout
+        ev_pos = tuple([ev_index[u] for u in seen])
+        factor = made.get(ev_pos)
+        if factor is None:
+            factor = made[ev_pos] = Factor(var=v, array=array, perm=perm, ev_pos=ev_pos, free=free)
         (factors if free else checks).append(factor)
     return Plan(
         targets=tuple(targets),
@@ -326,17 +337,16 @@ def build(
     )
 
 
-def _layout(
-    compiled: Compiled, v: int, ev_mask: int
-) -> tuple[FloatArray | None, tuple[int, ...], tuple[int, ...], tuple[int, ...]]:
-    """The CPT of ``v`` with its observed axes first: array, permutation, observed, free ids."""
+def _layout(compiled: Compiled, v: int, ev_mask: int) -> Layout:
+    """The CPT of ``v`` with its observed axes first: array, permutation, observed, free ids
+    (and, empty, its factors by the positions of the observed values in a plan's evidence)."""
     variables = (v, *compiled.parents[v])
     observed_axes = [k for k, u in enumerate(variables) if (ev_mask >> u) & 1]
     free_axes = [k for k, u in enumerate(variables) if not (ev_mask >> u) & 1]
     perm = (*observed_axes, *free_axes)
     array = None if v in compiled.sources else compiled.transposed(v, perm)
     seen = tuple(variables[k] for k in observed_axes)
-    return array, perm, seen, tuple(variables[k] for k in free_axes)
+    return array, perm, seen, tuple(variables[k] for k in free_axes), {}
 
 
 def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int) -> list[int]:
@@ -350,26 +360,15 @@ def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int
     with at least one ancestor are returned (two such sub-networks are nested or disjoint).
     """
     anc = compiled.ancestor_masks
-    children = compiled.child_masks
-    parents = compiled.parents
+    lineage = compiled.lineage_masks
+    reach = compiled.reach_masks
     skip |= compiled.source_mask
-    reach: dict[int, int] = {}  # children (in relevant) of the ancestors of each variable
-    candidates: list[int] = []
-    for v in order:
-        if (anc[v] | 1 << v) & skip:
-            continue
-        mask = 0
-        for parent in parents[v]:
-            mask |= reach[parent] | children[parent]
-        reach[v] = mask & r_mask
-        if parents[v]:
-            candidates.append(v)
     chosen: list[int] = []
     covered = 0
-    for v in reversed(candidates):
-        if (covered >> v) & 1:
+    for v in reversed(order):
+        if lineage[v] & skip or not anc[v] or (covered >> v) & 1:
             continue
-        if reach[v] & ~(anc[v] | 1 << v) == 0:
+        if reach[v] & r_mask & ~lineage[v] == 0:
             chosen.append(v)
             covered |= anc[v]
     return chosen
@@ -398,7 +397,7 @@ def order_steps(
     sizes: Mapping[int, int] | None = None,
     *,
     search: bool = False,
-    emit: Callable[[tuple[int, ...], tuple[int, ...], int], None] | None = None,
+    emit: Callable[[tuple[int, ...], tuple[int, ...], int, Iterable[int]], None] | None = None,
     tuning: Tuning = TUNING,
 ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int]:
     """A contraction order (opt_einsum SSA path), the labels each step keeps, and its cost.
@@ -433,56 +432,42 @@ def order_steps(
     if n == 1:
         entries = math.prod(map(size_of, scopes[0]))
         if emit is not None:
-            emit((0,), tuple(output), entries)
+            emit((0,), tuple(output), entries, scopes[0])
         return [(0,)], [tuple(output)], entries
+    walker = Walker(scopes, output)
+    holders = walker.holders
     rank, bound = elimination_rank(scopes, output, card)
     for w in extra:
         bound *= extra[w]  # a label left out of the graph (the case axis) widens every step
     bound += math.prod(map(size_of, output))  # the last step, over the output labels at most
     may_search = search or (bound > tuning.greedy_above and bound > tuning.greedy_per_factor * n)
-    holders: dict[int, list[int]] = {}
-    for k, scope in enumerate(scopes):
-        for u in scope:
-            ks = holders.get(u)
-            if ks is None:
-                holders[u] = [k]
-            else:
-                ks.append(k)
     # the ranked labels in rank order (``rank`` is filled in that order), then the labels
     # not ranked (the case axis)
     unranked = [u for u in holders if u < 0 and u not in output] if extra else []
     now = None if may_search or unranked else emit
-    walker = Walker(scopes, output)
-    alive = [True] * n
     path: list[tuple[int, ...]] = []
     kept_steps: list[tuple[int, ...]] = []
     total = 0
     for u in (*rank, *unranked):
-        chosen = tuple([k for k in holders[u] if alive[k]])
+        chosen = tuple(holders[u])
         if not chosen:
             continue
-        for k in chosen:
-            alive[k] = False
         union, kept = walker.join(chosen)
         entries = math.prod(map(size_of, union))
         total += entries
-        result = len(alive)  # the step's SSA number
-        for w in kept:
-            holders[w].append(result)
-        alive.append(True)
         path.append(chosen)
         kept_steps.append(kept)
         if now is not None:
-            now(chosen, kept, entries)
-    rest = tuple([k for k, live in enumerate(alive) if live])
+            now(chosen, kept, entries, union)
+    rest = tuple(walker.open)
     if len(rest) > 1 or not path:
         path.append(rest)
         kept_steps.append(tuple(output))
-        labels = {w for k in rest for w in walker.live[k]}
+        labels = dict.fromkeys(chain.from_iterable([walker.live[k] for k in rest]))
         entries = math.prod(map(size_of, labels))
         total += entries
         if now is not None:
-            now(rest, tuple(output), entries)
+            now(rest, tuple(output), entries, labels)
     if search or (total > tuning.greedy_above and total > tuning.greedy_per_factor * n):
         if now is not None:
             raise AssertionError("an emitted order's cost exceeded its bound")
@@ -493,16 +478,24 @@ def order_steps(
         if greedy_total < _cost(sets, set(output), path, table):
             if emit is not None:
                 for step in walk(scopes, output, greedy):
-                    emit(step.inputs, step.kept, math.prod(map(size_of, step.union)))
+                    emit(step.inputs, step.kept, math.prod(map(size_of, step.union)), step.union)
             return greedy, None, greedy_total
     if emit is not None and now is None:
         for chosen, step in zip(path, walk(scopes, output, path), strict=True):
-            emit(chosen, step.kept, math.prod(map(size_of, step.union)))
+            emit(chosen, step.kept, math.prod(map(size_of, step.union)), step.union)
     return path, kept_steps, total
 
 
+_SCAN_UP_TO = 32
+"""Up to this many labels to rank, :func:`elimination_rank` finds the next by scanning their
+weights rather than keeping a heap (the scan is one C call; the heap's pushes and stale pops
+are interpreter steps)."""
+
+
 def elimination_rank(
-    scopes: Sequence[Sequence[int]], output: Sequence[int], card: Sequence[int]
+    scopes: Sequence[Sequence[int]],
+    output: Sequence[int],
+    card: Sequence[int],
 ) -> tuple[dict[int, int], int]:
     """Position of each summed-out label in a greedy min-weight elimination order, and the
     sum of the weights of its eliminations.
@@ -510,10 +503,13 @@ def elimination_rank(
     Variable elimination on the interaction graph of ``scopes`` (the labels of each factor
     linked) repeatedly sums out the label whose factor — the label and its current
     neighbours — has the fewest entries, then links its neighbours (Koller & Friedman
-    2009, §9.4.3.2). Labels in ``output`` are never summed out. A heap with stale entries
-    skipped keeps it near-linear in the size of the graph, and each neighbour's weight (an
+    2009, §9.4.3.2). Labels in ``output`` are never summed out. Each neighbour's weight (an
     exact integer, the entries of its factor) is updated by the labels it gains rather than
-    recounted, so a cold question pays set operations, not a Python loop per neighbour.
+    recounted, and the next label is found by one C scan of the weights when there are at
+    most :data:`_SCAN_UP_TO`, else from a heap with stale entries skipped (near-linear in
+    the size of the graph), so a cold question pays set operations, not a Python loop per
+    neighbour's neighbour. (Recounting a changed weight over the whole neighbourhood in C
+    executes fewer bytecode steps but took longer: 25–33 % on alarm and andes.)
     ``card`` gives the variables' sizes; other labels (the case axis of a batch, label −1)
     are left out of the graph: the order is the one-case order, which keeps a case axis off
     the evidence-free steps (with it, min-weight spreads the axis early and a batch costs
@@ -528,27 +524,34 @@ def elimination_rank(
                 neighbours[u] = set(scope)
             else:
                 linked.update(scope)
+    kept = set(output)
     others = [u for u in neighbours if u < 0]  # labels that are not variables (a case axis)
     for u in others:
         del neighbours[u]
-    kept = set(output)
+        for linked in neighbours.values():
+            linked.discard(u)
     weigh = card.__getitem__
     current: dict[int, int] = {}
     for u, linked in neighbours.items():
         linked.discard(u)
-        for w in others:
-            linked.discard(w)
         if u not in kept:
             current[u] = card[u] * math.prod(map(weigh, linked))
-    heap = [(w, u) for u, w in current.items()]
-    heapq.heapify(heap)
+    # the next label: of least weight, then least id; a scan of the weights (in C) where
+    # there are few, else a heap whose stale entries are skipped
+    heap: list[tuple[int, int]] | None = None
+    if len(current) > _SCAN_UP_TO:
+        heap = [(w, u) for u, w in current.items()]
+        heapq.heapify(heap)
     rank: dict[int, int] = {}
     bound = 0
     pop, push = heapq.heappop, heapq.heappush
-    while heap:
-        w, u = pop(heap)
-        if current.get(u) != w:
-            continue  # stale: ranked already, or its weight changed since
+    while current:
+        if heap is None:
+            w, u = min(zip(current.values(), current.keys(), strict=True))
+        else:
+            w, u = pop(heap)
+            if current.get(u) != w:
+                continue  # stale: ranked already, or its weight changed since
         del current[u]
         rank[u] = len(rank)
         bound += w
@@ -567,7 +570,8 @@ def elimination_rank(
                     weight *= card[y]
                 if weight != old:
                     current[x] = weight
-                    push(heap, (weight, x))
+                    if heap is not None:
+                        push(heap, (weight, x))
     return rank, bound
 
 
@@ -628,13 +632,20 @@ def _cost(
 
 
 def _component(scope_masks: Sequence[int], seed: int) -> int:
-    """Bit mask of the free variables linked to ``seed`` (the targets) through shared factors."""
+    """Bit mask of the free variables linked to ``seed`` (the targets) through shared factors.
+
+    ``scope_masks`` come in topological order. Passes over them alternate direction, the
+    first from the last (a factor holds a child and its parents: a pass upwards carries the
+    targets to their ancestors, the next one down to the ancestors' other children), until
+    one pass reaches nothing new.
+    """
     reached = seed
-    changed = True
-    while changed:
-        changed = False
-        for mask in scope_masks:
-            if mask & reached and mask & ~reached:
+    masks = scope_masks[::-1]
+    while True:
+        before = reached
+        for mask in masks:
+            if mask & reached:
                 reached |= mask
-                changed = True
-    return reached
+        if reached == before:
+            return reached
+        masks = masks[::-1]
