@@ -8,11 +8,15 @@ import numpy as np
 import pytest
 
 from bayesmap.grid import OccupancyGrid
+from bayesmap.rover import explorer as explorer_module
+from bayesmap.rover import planning
 from bayesmap.rover.explorer import Explorer
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.safety import Safety, drive_command, retreat_command
 from bayesmap.rover.targets import EntropyTarget, look_cycles
 from bayesmap.sensing.ir import raw_from_range
+from bayesmap.sim import rover as sim_rover
+from bayesmap.sim.world2d import box_world
 
 PARAMS = RoverParams(n_headings=36)
 
@@ -94,6 +98,55 @@ def test_hemmed_in_the_rover_gives_up_its_target_once_and_remembers_the_spot_a_w
     for _ in range(memory + 1):  # elsewhere, the memory fades
         explorer.step(NOTHING_SEEN, outside)
     assert explorer.hemmed_.sum() == 0.0
+
+
+def test_a_place_that_hems_the_rover_in_again_is_closed_and_remembered_longer() -> None:
+    params = RoverParams(pivot_rate=8.0)  # a full turn in 2 cycles: a short memory
+    explorer = Explorer(_dead_end_map(params), params, _FixedTarget((1.25, 1.25)))
+    inside, outside = (5.5, 6.25, math.pi), (5.5, 2.25, 0.0)
+    row, col = (int(v) for v in explorer.grid.world_to_cell(5.5, 6.25))
+    turns = 10 * look_cycles(params)
+    explorer.step(NOTHING_SEEN, inside)
+    for _ in range(look_cycles(params) + 1):  # out long enough for a new episode
+        explorer.step(NOTHING_SEEN, outside)
+    assert explorer.step(NOTHING_SEEN, inside).safety.retreat
+    assert explorer.hemmed_[row, col] == 2.0  # hemmed in there a second time
+    for _ in range(turns + 1):  # one time's memory is not enough to forget it
+        explorer.step(NOTHING_SEEN, outside)
+    assert explorer.hemmed_[row, col] == 2.0
+    for _ in range(turns):
+        explorer.step(NOTHING_SEEN, outside)
+    assert explorer.hemmed_[row, col] == 0.0
+
+
+def test_reusing_the_last_plan_changes_no_decision(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The plan is solved again only when the patch, the rover's cell or a crossing cost
+    changed; a run re-planning every cycle takes exactly the same decisions."""
+    world = box_world("rover-field-obstacles-v1")
+    sim = sim_rover.SimulatedRoverParams()
+
+    def run() -> list[tuple[object, ...]]:
+        rng = np.random.default_rng(5)
+        explorer = Explorer(
+            OccupancyGrid(20.0, 20.0, 0.5, prior=PARAMS.prior), PARAMS, EntropyTarget(PARAMS)
+        )
+        state = sim_rover.initial([1.0, 1.0, 0.8], sim, rng=rng)
+        decisions = []
+        for _ in range(150):
+            obs = sim_rover.observe(world, state, sim, rng=rng)
+            d = explorer.step(obs.raw, obs.pose)
+            decisions.append((d.command, d.heading, d.target, d.target_cost, d.p_move.tobytes()))
+            state = sim_rover.transition(state, d.command, sim, rng=rng)
+        return decisions
+
+    reused = run()
+    fresh_plan = planning.local_plan
+    monkeypatch.setattr(
+        explorer_module,
+        "local_plan",
+        lambda *args, previous=None, **kwargs: fresh_plan(*args, **kwargs),
+    )
+    assert run() == reused
 
 
 def test_a_target_without_progress_for_two_turns_is_given_up() -> None:

@@ -135,6 +135,28 @@ def test_cells_where_the_rover_was_hemmed_in_are_crossed_only_at_a_price() -> No
         np.full((5, 5), 0.01), np.ones((5, 5), bool), PARAMS, 0.5, avoid=np.eye(5, dtype=bool)
     )
     assert np.array_equal(costs, np.where(np.eye(5, dtype=bool), 25.0, 1.0))
+    twice = crossing_costs(
+        np.full((5, 5), 0.01), np.ones((5, 5), bool), PARAMS, 0.5, avoid=2.0 * np.eye(5)
+    )
+    assert np.array_equal(twice, np.where(np.eye(5, dtype=bool), np.inf, 1.0))  # closed
+    avoid[10:15, 20:24] = 2.0  # hemmed in there twice: the gap is closed to the plan
+    assert local_plan(grid, 3.25, 3.25, wide, avoid=avoid).cost_to(*target) == np.inf
+
+
+def test_the_last_plan_is_reused_only_while_nothing_it_rests_on_changed() -> None:
+    grid = OccupancyGrid(12.0, 12.0, 0.5, prior=0.2)
+    grid.probability[:] = 0.01
+    first = local_plan(grid, 3.2, 3.2, PARAMS)
+    assert local_plan(grid, 3.3, 3.3, PARAMS, previous=first) is first  # same cell and map
+    grid.probability[8, 8] = 0.3  # below p_block: no crossing cost changes
+    assert local_plan(grid, 3.3, 3.3, PARAMS, previous=first) is first
+    moved = local_plan(grid, 3.8, 3.3, PARAMS, previous=first)  # into the next cell
+    assert moved is not first
+    np.testing.assert_array_equal(moved.cost, local_plan(grid, 3.8, 3.3, PARAMS).cost)
+    grid.probability[8, 8] = 0.95  # a new obstacle near the rover
+    replanned = local_plan(grid, 3.8, 3.3, PARAMS, previous=moved)
+    assert replanned is not moved
+    assert np.isinf(replanned.cost[8 - replanned.row0, 8 - replanned.col0])
 
 
 def _wall_with_gap(width: float, offset: float) -> OccupancyGrid:

@@ -192,3 +192,34 @@ def test_a_retreat_pivots_onto_its_heading_then_drives_straight() -> None:
     v, w = retreat_command(0.2, 0.1, PARAMS)  # lands exactly on it
     assert v == 0.0 and 0.1 + w * PARAMS.dt == pytest.approx(0.2, abs=1e-12)
     assert retreat_command(0.2, 0.2, PARAMS) == (PARAMS.speed, 0.0)
+
+
+def test_each_distinct_point_of_the_paths_is_measured_once_with_the_same_verdicts() -> None:
+    """The check measures distances per distinct centre (the centre repeats while the rover
+    pivots); every path's clearance and verdict equal the per-sample computation's."""
+    rng = np.random.default_rng(3)
+    pose = (0.3, -0.2, 0.7)
+    cells = rng.uniform(-1.5, 1.5, size=(40, 2))
+    hits = rng.uniform(-1.5, 1.5, size=(6, 2))
+    unknown = rng.uniform(-1.5, 1.5, size=(25, 2))
+    safety = footprint_safety(pose, THETA, cells, 0.5, hits, FIELD, PARAMS, unknown)
+    centres = predicted_centres(pose, THETA, PARAMS)  # (M, K, 2), every sample
+    px, py = centres[..., 0:1], centres[..., 1:2]
+    gap = (
+        np.minimum(
+            square_distance(px, py, cells[:, 0], cells[:, 1], 0.25).min(axis=-1),
+            np.hypot(px - hits[:, 0], py - hits[:, 1]).min(axis=-1),
+        )
+        - PARAMS.footprint_radius
+    )
+    distance = square_distance(px, py, unknown[:, 0], unknown[:, 1], 0.25)
+    unseen = (distance[:, 1:, :] < PARAMS.footprint_radius) & ~(
+        distance[0, 0, :] < PARAMS.footprint_radius
+    )
+    allowed = ~unseen.any(axis=(1, 2))
+    assert safety.here == gap[0, 0]
+    if not safety.retreat:
+        np.testing.assert_array_equal(safety.clearance, gap.min(axis=1))
+        np.testing.assert_array_equal(
+            safety.safe, (gap.min(axis=1) >= PARAMS.safety_margin) & allowed
+        )

@@ -7,6 +7,7 @@ simulator.
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -37,8 +38,10 @@ _HEMMED_IN = 9
 
 _HEMMED_TURNS = 10
 """Full turns' worth of cycles (:func:`~bayesmap.rover.targets.look_cycles`) for which the
-plan avoids the cells where the rover was hemmed in: long enough to explore elsewhere,
-short enough that a corridor the map has since opened is tried again."""
+plan avoids the cells where the rover was hemmed in, per time it was hemmed in there: long
+enough to explore elsewhere, short enough that a corridor the map has since opened is tried
+again. A place that hemmed the rover in twice is closed to the plan and remembered twice
+as long, and so on (:func:`~bayesmap.rover.planning.crossing_costs`)."""
 
 _STUCK_TURNS = 2
 """Full turns' worth of cycles without progress after which a target is given up."""
@@ -109,9 +112,11 @@ class Explorer:
         The points read by the rangers in the last ``hit_memory`` cycles [m]: the footprint
         keeps its margin from them as from the map, without the map's cell quantisation.
     hemmed_
-        Map-sized layer, 1 on the cells where the rover was hemmed in (inside the margin, no
-        heading keeping it) within the last ``_HEMMED_TURNS`` full turns' cycles, else 0; the plan
-        crosses them only at a price (:func:`~bayesmap.rover.planning.local_plan`).
+        Map-sized layer: on the cells where the rover was hemmed in (inside the margin, no
+        heading keeping it), the number of times it was hemmed in there, for
+        ``_HEMMED_TURNS`` full turns' cycles per time; 0 elsewhere. The plan crosses a
+        cell hemmed in once only at a price, and not at all one hemmed in more often
+        (:func:`~bayesmap.rover.planning.local_plan`).
     """
 
     def __init__(
@@ -129,12 +134,14 @@ class Explorer:
         self._theta = np.asarray(params.headings)
         self._retreat: int | None = None
         self.hemmed_ = np.zeros(grid.shape)
+        self._hemmed_times = np.zeros(grid.shape, dtype=np.int64)
         self._hemmed_at = np.zeros(grid.shape, dtype=np.int64)
-        self._hemmed_log: deque[tuple[int, list[tuple[int, int]]]] = deque()
+        self._hemmed_log: list[tuple[int, int, tuple[int, int]]] = []  # heap: expiry, mark, cell
         self._cycle = 0
         self._was_hemmed = False
         self._last_hemmed = -(10**9)
         self._progress: tuple[tuple[float, float] | None, float, int] = (None, math.inf, 0)
+        self._plan: LocalPlan | None = None
 
     @property
     def grid(self) -> OccupancyGrid:
@@ -154,7 +161,7 @@ class Explorer:
         mapper.update(raw, (x, y, psi))
         self._cycle += 1
         self._forget_hemmed()
-        plan = local_plan(self.grid, x, y, p, avoid=self.hemmed_)
+        plan = self._plan = local_plan(self.grid, x, y, p, avoid=self.hemmed_, previous=self._plan)
         target, waypoint = self._target(plan, (x, y, psi))
         theta_t = psi if waypoint is None else math.atan2(waypoint[1] - y, waypoint[0] - x)
         safety = self._safety((x, y, psi))
@@ -195,31 +202,30 @@ class Explorer:
         """Mark the cells around a hemmed-in rover for the plan to avoid, and give up the
         target that led it there (once per episode: not again while the rover has been
         hemmed in within the last full turn's cycles, as it is on and off while it backs
-        out)."""
+        out). Each new episode counts once more on the cells it marks, so a corridor that
+        keeps drawing the rover back in is closed to the plan, for longer each time."""
         grid = self.grid
         row, col = (int(v) for v in grid.world_to_cell(x, y))
-        cells = [
-            (r, c)
-            for r in range(row - 1, row + 2)
-            for c in range(col - 1, col + 2)
-            if 0 <= r < grid.shape[0] and 0 <= c < grid.shape[1]
-        ]
-        for cell in cells:
-            self.hemmed_[cell] = 1.0
-            self._hemmed_at[cell] = self._cycle
-        self._hemmed_log.append((self._cycle, cells))
-        if target is not None and self._cycle - self._last_hemmed > look_cycles(self.params):
+        new_episode = self._cycle - self._last_hemmed > look_cycles(self.params)
+        turns = look_cycles(self.params) * _HEMMED_TURNS
+        for r in range(max(row - 1, 0), min(row + 2, grid.shape[0])):
+            for c in range(max(col - 1, 0), min(col + 2, grid.shape[1])):
+                times = self._hemmed_times[r, c] + 1 if new_episode else 1
+                self._hemmed_times[r, c] = times = max(times, self._hemmed_times[r, c])
+                self.hemmed_[r, c] = times
+                self._hemmed_at[r, c] = self._cycle
+                heapq.heappush(self._hemmed_log, (self._cycle + times * turns, self._cycle, (r, c)))
+        if target is not None and new_episode:
             self.target_rule.reject(target)
         self._last_hemmed = self._cycle
 
     def _forget_hemmed(self) -> None:
-        """Stop avoiding cells last marked more than ``_HEMMED_TURNS`` full turns ago."""
-        memory = _HEMMED_TURNS * look_cycles(self.params)
-        while self._hemmed_log and self._hemmed_log[0][0] <= self._cycle - memory:
-            cycle, cells = self._hemmed_log.popleft()
-            for cell in cells:
-                if self._hemmed_at[cell] == cycle:  # not marked again since
-                    self.hemmed_[cell] = 0.0
+        """Stop avoiding cells whose memory (``_HEMMED_TURNS`` full turns per time the rover
+        was hemmed in there) has run out since they were last marked."""
+        while self._hemmed_log and self._hemmed_log[0][0] <= self._cycle:
+            _, cycle, cell = heapq.heappop(self._hemmed_log)
+            if self._hemmed_at[cell] == cycle:  # not marked again since
+                self.hemmed_[cell] = 0.0
 
     def _check_progress(self, target: tuple[float, float] | None, to_go: float) -> None:
         """Give up a target whose path still to go has not shrunk for ``_STUCK_TURNS`` full
