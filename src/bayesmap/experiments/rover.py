@@ -241,6 +241,7 @@ def simulate(
     progress: ProgressHook,
     stage: str,
     observer: CycleObserver | None = None,
+    target_rule: TargetRule | None = None,
 ) -> Trace:
     """Drive one run: sense → map → decide → move, until the stop rule or the step budget.
 
@@ -249,13 +250,15 @@ def simulate(
     number of uncertain cells nor shorten the path still to go to an unchanged target
     (:meth:`~bayesmap.rover.planning.LocalPlan.remaining`, measured from the rover's
     position). ``observer`` is told every cycle's estimated pose, decision and whether the
-    cycle stalled (for diagnosis, e.g. ``benchmarks/rover_stalls.py``).
+    cycle stalled (for diagnosis, e.g. ``benchmarks/rover_stalls.py``). ``target_rule``, when
+    given, replaces the rule ``explorer_name`` names (e.g. an adversarial rule that tests
+    safety apart from the explorer, ``benchmarks/rover_safety.py``).
     """
     init_rng, sensor_rng, drive_rng = spawn(config.seed, 3)
     params = config.rover_params()
     sim_params = config.sim_params()
     grid = _initial_grid(world, config, randomised, init_rng)
-    rule: TargetRule = (
+    rule: TargetRule = target_rule or (
         EntropyTarget(params) if explorer_name == "entropy" else FrontierTarget(params)
     )
     trace = Trace(Explorer(grid, params, rule))
