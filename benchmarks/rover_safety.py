@@ -7,9 +7,11 @@ drawn fresh by :func:`bayesmap.sim.rover_worlds.generate_world` (walls, L-shapes
 corridors, passages down to ``--passage`` metres, boxes, tilted obstacles, on 20 m areas),
 with
 
-- both explorers (``paper``, ``frontier``) and an adversarial one (``random``: targets
-  drawn uniformly from the local area, :class:`RandomTarget`), so that safety is measured
-  apart from how well the explorer avoids trouble;
+- both explorers (``paper``, ``frontier``) and adversarial ones (``random``: targets
+  drawn uniformly from the local area, :class:`RandomTarget`; ``forgetful``: the paper's
+  rule without the explorer's memory of where it was hemmed in, so it is led back into
+  tight spots), so that safety is measured apart from how well the explorer avoids
+  trouble;
 - both entropy initialisations;
 - several run seeds;
 - the GPS error (a Gauss-Markov process, ``gps_sigma``, ``gps_tau``) at the experiment's
@@ -53,6 +55,7 @@ from bayesmap._rng import RNGLike, as_generator  # noqa: E402
 from bayesmap.experiments import rover  # noqa: E402
 from bayesmap.geometry import wrap_angle  # noqa: E402
 from bayesmap.grid import OccupancyGrid  # noqa: E402
+from bayesmap.rover import explorer as explorer_module  # noqa: E402
 from bayesmap.rover.explorer import Decision  # noqa: E402
 from bayesmap.rover.mapping import UncertainBlocks  # noqa: E402
 from bayesmap.rover.params import RoverParams  # noqa: E402
@@ -63,8 +66,15 @@ from bayesmap.sim.world2d import BoxWorld, world_distance  # noqa: E402
 WORLD_SEED = 4242
 """Generator seed of the stress worlds (not the 2026 of ``rover_worlds.py``'s grid)."""
 
-EXPLORERS = {"paper": "entropy", "frontier": "frontier", "random": "entropy"}
-"""Harness explorer → the experiment's rule name (``random`` replaces the rule)."""
+EXPLORERS = {
+    "paper": "entropy",
+    "frontier": "frontier",
+    "random": "entropy",
+    "forgetful": "entropy",
+}
+"""Harness explorer → the experiment's rule name (``random`` replaces the rule;
+``forgetful`` is the paper's rule with the explorer's memory of where it was hemmed in
+switched off, the ablation that once hit a wall on generated world 2026/01)."""
 
 
 class RandomTarget:
@@ -131,8 +141,9 @@ def _nearest_obstacle_point(world: BoxWorld, x: float, y: float) -> tuple[float,
     """The point of the true obstacles nearest ``(x, y)``."""
     parts = [shapely.box(*b) for b in world.boxes] + [shapely.Polygon(p) for p in world.polygons]
     solid = shapely.union_all(parts)
-    point = shapely.ops.nearest_points(solid, shapely.Point(x, y))[0]
-    return float(point.x), float(point.y)
+    line = shapely.shortest_line(solid, shapely.Point(x, y))
+    (px, py), _ = shapely.get_coordinates(line)
+    return float(px), float(py)
 
 
 def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
@@ -172,16 +183,22 @@ def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
             }
         )
 
-    trace = rover.simulate(
-        spec.world,
-        config,
-        EXPLORERS[job.explorer],
-        job.init == "random",
-        rover.no_progress,
-        "",
-        observe,
-        target_rule=rule,
-    )
+    remembered = explorer_module._HEMMED_TURNS
+    if job.explorer == "forgetful":
+        explorer_module._HEMMED_TURNS = 0  # this worker process only, restored below
+    try:
+        trace = rover.simulate(
+            spec.world,
+            config,
+            EXPLORERS[job.explorer],
+            job.init == "random",
+            rover.no_progress,
+            "",
+            observe,
+            target_rule=rule,
+        )
+    finally:
+        explorer_module._HEMMED_TURNS = remembered
     metrics = rover.run_metrics(trace, spec.world, config, EXPLORERS[job.explorer])
     path = np.asarray(trace.path)
     radius = config.sim_params().radius
@@ -189,7 +206,8 @@ def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
     grid = trace.explorer.grid
     near = []
     # path[k + 1] is where the decision of cycle k took the rover
-    for k in np.flatnonzero(clearance[1:] < args.near)[: args.max_near]:
+    closest = np.argsort(clearance[1:], kind="stable")[: args.max_near]
+    for k in closest[clearance[1:][closest] < args.near]:
         cycle = cycles[int(k)]
         true = path[k]
         estimate = np.asarray(cycle["estimate"])
@@ -315,7 +333,7 @@ def main() -> None:
     parser.add_argument("--explorers", type=_names, default=list(EXPLORERS))
     parser.add_argument("--inits", type=_names, default=["flat", "random"])
     parser.add_argument("--near", type=float, default=0.1, help="near-miss clearance [m]")
-    parser.add_argument("--max-near", type=int, default=20, help="near misses kept per run")
+    parser.add_argument("--max-near", type=int, default=20, help="closest cycles kept per run")
     parser.add_argument("--table-misses", type=int, default=12)
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", type=Path, default=Path("results/rover_safety"))
