@@ -7,13 +7,15 @@ an :class:`~bayesmap.blackboard.evidence.EvidenceStore` and runs one reversible-
 :mod:`~bayesmap.blackboard.sweep_model` — contacts, free space, walls, several object
 types — across poses. Each :meth:`FusedMapper.step` stores a pose's sweeps and moves the
 chain a little inside a window around the robot (data-driven births from the legs seen
-there); :meth:`FusedMapper.finish` runs the chain over the whole arena: a tempered
-burn-in, a stretch at β = 1, then annealing and a greedy ascent through the polished
-data-driven candidates (:func:`~bayesmap.blackboard.rjmcmc.greedy_ascent`) only to read off
-the MAP map; finally the chain, restarted at the MAP as the coldest replica of a
-parallel-tempering ladder (:mod:`~bayesmap.blackboard.tempering`), samples at β = 1 and each
-MAP object's existence probability is the fraction of those samples holding it (to the
-tolerance of the map's metric, 0.2 m and 15°). See docs/blackboard.md.
+there); :meth:`FusedMapper.finish` fits the legs seen anywhere to their contacts, pairs
+the fitted legs into polished table candidates and runs the chain over the whole arena: a
+tempered burn-in, a stretch at β = 1, then annealing and a greedy ascent through those
+candidates (:func:`~bayesmap.blackboard.rjmcmc.greedy_ascent`) only to read off the MAP
+map; finally the chain, restarted at the MAP as the coldest replica of a parallel-tempering
+ladder (:mod:`~bayesmap.blackboard.tempering`), samples at β = 1 and each MAP object's
+existence probability is the fraction of those samples holding it (to the tolerance of the
+map's metric, 0.2 m and 15°); the map holds the MAP objects of existence at least 1/2
+(:class:`FusedMap`). See docs/blackboard.md.
 
 Examples
 --------
