@@ -15,7 +15,12 @@ runner = CliRunner()
 ROOM = {
     "arena": {"width": 4.0, "height": 3.0},
     "tables": [{"x": 2.0, "y": 1.5, "theta": 0.4, "length": 1.2, "width": 0.8, "leg": 0.1}],
-    "poses": [[x, y, h * math.pi / 2] for x in (0.5, 3.5) for y in (0.5, 2.5) for h in range(4)],
+    # six spots around the desk, each within a whisker's length (1 m) of one of its legs
+    "poses": [
+        [x, y, h * math.pi / 2]
+        for x, y in ((1.0, 0.5), (3.0, 0.5), (1.0, 2.5), (3.0, 2.5), (0.5, 1.5), (3.5, 1.5))
+        for h in range(4)
+    ],
     "catalogue": [
         {"name": "desk", "length": 1.2, "width": 0.8, "leg": 0.1},
         {"name": "stool", "length": 0.8, "width": 0.8, "leg": 0.08},
@@ -47,11 +52,32 @@ def test_run_writes_metrics_map_and_figure(tmp_path: Path) -> None:
         "wall_s",
     ):
         assert key in metrics, key
+    assert metrics["fused_precision"] == 1.0 and metrics["fused_recall"] == 1.0
+    assert metrics["tables_touched"] == 1
     objects = json.loads((out / "map.json").read_text())["objects"]
     for row in objects:
         assert row["type"] in ("desk", "stool") and 0.0 <= row["existence_probability"] <= 1.0
         assert set(row) >= {"type", "length", "width", "x", "y", "theta", "existence_probability"}
     assert (out / "map.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_tour_that_touches_no_table_says_why_its_map_is_empty(tmp_path: Path) -> None:
+    """Poses in the room's corners, every leg over a whisker's length away: the map is empty,
+    its undefined precision is JSON null, and the run says which tables no whisker touched."""
+    room = json.loads(json.dumps(ROOM))
+    room["poses"] = [
+        [x, y, h * math.pi / 2] for x in (0.5, 3.5) for y in (0.5, 2.5) for h in range(4)
+    ]
+    world = tmp_path / "corners.json"
+    world.write_text(json.dumps(room))
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["blackboard", "run", "--world", str(world), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["fused_objects"] == 0 and metrics["fused_precision"] is None
+    assert metrics["tables_touched"] == 0
+    assert "1 of the world's 1 tables were never touched by a whisker" in result.output
+    assert "fused_precision undefined" in result.output
 
 
 def test_a_bad_world_is_one_line_naming_the_element(tmp_path: Path) -> None:

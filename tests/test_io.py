@@ -46,6 +46,22 @@ def test_write_json_accepts_numpy(tmp_path):
     assert json.loads(path.read_text()) == {"a": 0.5, "b": [0, 1, 2]}
 
 
+def test_write_json_writes_undefined_numbers_as_null(tmp_path):
+    """JSON has no NaN: a metric with no defined value is null, at any depth, and the file
+    is standard JSON (the strict parser accepts it)."""
+    data = {"p": float("nan"), "q": [np.float64(np.inf), 1.5], "r": {"s": np.array([np.nan])}}
+    path = write_json(tmp_path / "m.json", data)
+
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"non-standard JSON constant {constant}")
+
+    assert json.loads(path.read_text(), parse_constant=refuse) == {
+        "p": None,
+        "q": [None, 1.5],
+        "r": {"s": [None]},
+    }
+
+
 def test_as_generator_passes_generators_through_and_seeds_ints():
     generator = np.random.default_rng(3)
     assert as_generator(generator) is generator

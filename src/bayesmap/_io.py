@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import os
 import secrets
 import shutil
@@ -233,16 +234,32 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
 
 
 def write_json(path: str | Path, obj: Any) -> Path:
-    """Write ``obj`` as indented JSON to ``path`` atomically (numpy scalars allowed)."""
-    return write_text(path, json.dumps(obj, indent=2, default=_to_builtin, allow_nan=True) + "\n")
+    """Write ``obj`` as indented JSON to ``path`` atomically (numpy scalars and arrays
+    allowed).
+
+    JSON has no NaN or infinity: a number with no defined value (a precision over no
+    objects, a mean of nothing) is written as ``null``, so every reader of the standard
+    can read the file.
+    """
+    text = json.dumps(_to_builtin(obj), indent=2, allow_nan=False)
+    return write_text(path, text + "\n")
 
 
 def _to_builtin(value: Any) -> Any:
-    """JSON fallback for numpy scalars and arrays, paths and tuples."""
+    """``value`` as plain JSON types: numpy scalars and arrays as numbers and lists, paths
+    as strings, tuples as lists, NaN and ±∞ as ``None``."""
+    if isinstance(value, dict):
+        return {key: _to_builtin(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_to_builtin(item) for item in value]
     if hasattr(value, "tolist"):
-        return value.tolist()
+        return _to_builtin(value.tolist())
     if isinstance(value, Path):
         return str(value)
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if value is None or isinstance(value, str | int | bool):
+        return value
     raise TypeError(f"cannot write {type(value).__name__} as JSON")
 
 

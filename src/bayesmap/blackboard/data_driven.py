@@ -21,12 +21,16 @@ reversible-jump ratio. Two detectors:
    candidate legs within ``spacing_tol`` of its four corners, so a table seen by three or
    four legs is proposed far more often (a triple pins the table).
 
-3. **Polish (local optimisation).** Two leg peaks a few cm off make a table a few cm and
+3. **Fit (local optimisation).** Two leg peaks a few cm off make a table a few cm and
    degrees off, and a table born that far off can fit its contacts worse than walls and
-   clutter do. :func:`polish_table` moves each candidate to a local maximum of
-   its own contacts' likelihood, Σ n_i log(floor_i + max_legs ρ_leg(i)), by Nelder–Mead,
-   first with the noise scales four times wider (a wide basin) and then at the model's.
-   A candidate depends on the stored data only, never on the chain's state, so the birth
+   clutter do. :func:`polish_leg` moves a leg peak to a local maximum of the likelihood of
+   the contacts whose bearings pass it, Σ n_i log(floor_i + ρ_leg(i)) — the leg-level fit
+   of the intersection of bearings —, and :func:`polish_table` moves a table candidate to
+   a local maximum of its own contacts' likelihood, Σ n_i log(floor_i + max_legs
+   ρ_leg(i)); both by Nelder–Mead, optionally first with the noise scales widened (a wide
+   basin for a start far off) and then at the model's. The fused mapper's final pass fits
+   the legs, pairs the fitted legs and polishes each table once at the model's scales. A
+   candidate depends on the stored data only, never on the chain's state, so the birth
    density below is still exactly the density of what is drawn.
 
 The birth density is a mixture: with probability ``uniform_share`` a table uniform in the
@@ -38,6 +42,7 @@ evaluates exactly the density :func:`draw_birth` samples, for the acceptance rat
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -60,6 +65,7 @@ __all__ = [
     "draw_birth",
     "draw_near",
     "near_density",
+    "polish_leg",
     "polish_table",
     "table_candidates",
 ]
@@ -405,7 +411,74 @@ def polish_table(
         ).max(axis=1)
         return -float((counts * np.log(floor + rho)).sum())
 
-    out = start.copy()
+    out = placed(_climb(negative, start[:3], model, widen, max_evals, lambda v: placed(v)[:3]))
+    out[2] %= math.pi
+    # the wide basin can lead off a table's best place (a table against a wall, whose wall
+    # contacts the widened legs also claim): never return worse than the start
+    better = negative(out[:3], model) <= negative(start[:3], model)
+    return np.asarray(out if better else start, dtype=np.float64)
+
+
+def polish_leg(
+    leg: FloatArray,
+    contacts: FloatArray,
+    counts: FloatArray,
+    floor: FloatArray,
+    half_side: float,
+    model: SweepModel,
+    *,
+    widen: tuple[float, ...] = (4.0, 1.0),
+    max_evals: int = 24,
+    line_gap: float = 0.15,
+) -> FloatArray:
+    """Move a candidate leg ``(3,)`` ``x, y, θ`` to a local maximum of its contacts'
+    likelihood, Σ n_i log(floor_i + ρ_leg(i)), as :func:`polish_table` moves a table.
+
+    The leg-level fit of the noisy condition: with σ_r = 0.5 m along the whisker and exact
+    bearings, a leg's contacts pin it across their bearings (σ_⊥) from every side it was
+    touched, so a peak of the vote grid a few centimetres off moves onto the leg, once per
+    leg rather than once per table that could stand on it. ``contacts`` as in
+    :func:`polish_table` (only whisker lines passing within ``line_gap`` [m] of the start
+    enter), ``half_side`` the leg's half side [m]. Returns the fitted ``x, y`` [m] and θ
+    [rad] in [0, π/2) (a square leg's symmetry), or the start if that fits better at the
+    model's noise scales.
+    """
+    start = np.asarray(leg, dtype=np.float64).copy()
+    near = _lines_near(contacts, start[None, :2], line_gap, model.reach)
+    if not near.any():
+        return start
+    contacts, counts, floor = contacts[near], counts[near], floor[near]
+
+    def negative(v: FloatArray, scaled: SweepModel) -> float:
+        rho = leg_contact_density(
+            contacts[:, :2],
+            contacts[:, 2],
+            contacts[:, 3],
+            contacts[:, 4],
+            np.array([[v[0], v[1], half_side]]),
+            v[2:3],
+            scaled,
+        )[:, 0]
+        return -float((counts * np.log(floor + rho)).sum())
+
+    out = _climb(negative, start, model, widen, max_evals)
+    out[2] %= 0.5 * math.pi
+    better = negative(out, model) <= negative(start, model)
+    return np.asarray(out if better else start, dtype=np.float64)
+
+
+def _climb(
+    negative: Callable[[FloatArray, SweepModel], float],
+    start: FloatArray,
+    model: SweepModel,
+    widen: tuple[float, ...],
+    max_evals: int,
+    project: Callable[[FloatArray], FloatArray] = lambda v: v,
+) -> FloatArray:
+    """Nelder–Mead on ``negative`` over ``x, y, θ`` from ``start`` (3,), once per factor of
+    ``widen`` (the noise scales σ_r, σ_⊥, σ_φ and the simplex's size multiplied by it),
+    each round's result mapped by ``project`` (e.g. into the arena) before the next."""
+    out = np.asarray(start, dtype=np.float64).copy()
     for factor in widen:
         scaled = model._replace(
             sigma_r=model.sigma_r * factor,
@@ -413,20 +486,16 @@ def polish_table(
             sigma_phi=model.sigma_phi * factor,
         )
         scale = np.array([0.02, 0.02, 0.03]) * factor
-        simplex = out[:3] + np.vstack([np.zeros(3), np.diag(scale)])
+        simplex = out + np.vstack([np.zeros(3), np.diag(scale)])
         found = optimize.minimize(
             negative,
-            out[:3],
+            out,
             args=(scaled,),
             method="Nelder-Mead",
             options={"initial_simplex": simplex, "maxfev": max_evals, "xatol": 1e-3, "fatol": 1e-2},
         )
-        out = placed(found.x)
-    out[2] %= math.pi
-    # the wide basin can lead off a table's best place (a table against a wall, whose wall
-    # contacts the widened legs also claim): never return worse than the start
-    better = negative(out[:3], model) <= negative(start[:3], model)
-    return np.asarray(out if better else start, dtype=np.float64)
+        out = np.asarray(project(found.x), dtype=np.float64)
+    return out
 
 
 def _lines_near(contacts: FloatArray, legs: FloatArray, gap: float, reach: float) -> BoolArray:

@@ -7,13 +7,15 @@ an :class:`~bayesmap.blackboard.evidence.EvidenceStore` and runs one reversible-
 :mod:`~bayesmap.blackboard.sweep_model` — contacts, free space, walls, several object
 types — across poses. Each :meth:`FusedMapper.step` stores a pose's sweeps and moves the
 chain a little inside a window around the robot (data-driven births from the legs seen
-there); :meth:`FusedMapper.finish` runs the chain over the whole arena: a tempered
-burn-in, a stretch at β = 1, then annealing and a greedy ascent through the polished
-data-driven candidates (:func:`~bayesmap.blackboard.rjmcmc.greedy_ascent`) only to read off
-the MAP map; finally the chain, restarted at the MAP as the coldest replica of a
-parallel-tempering ladder (:mod:`~bayesmap.blackboard.tempering`), samples at β = 1 and each
-MAP object's existence probability is the fraction of those samples holding it (to the
-tolerance of the map's metric, 0.2 m and 15°). See docs/blackboard.md.
+there); :meth:`FusedMapper.finish` fits the legs seen anywhere to their contacts, pairs
+the fitted legs into polished table candidates and runs the chain over the whole arena: a
+tempered burn-in, a stretch at β = 1, then annealing and a greedy ascent through those
+candidates (:func:`~bayesmap.blackboard.rjmcmc.greedy_ascent`) only to read off the MAP
+map; finally the chain, restarted at the MAP as the coldest replica of a parallel-tempering
+ladder (:mod:`~bayesmap.blackboard.tempering`), samples at β = 1 and each MAP object's
+existence probability is the fraction of those samples holding it (to the tolerance of the
+map's metric, 0.2 m and 15°); the map holds the MAP objects of existence at least 1/2
+(:class:`FusedMap`). See docs/blackboard.md.
 
 Examples
 --------
@@ -40,6 +42,7 @@ from bayesmap._typing import FloatArray
 from bayesmap.blackboard.data_driven import (
     BirthProposal,
     LegVotes,
+    polish_leg,
     polish_table,
     table_candidates,
 )
@@ -57,6 +60,7 @@ from bayesmap.blackboard.sweep_model import (
     SweepModel,
     arena_contains,
     check_catalogue,
+    contact_cutoff,
 )
 from bayesmap.blackboard.tempering import geometric_ladder, tempered_run
 from bayesmap.errors import ConfigError, InputError
@@ -176,10 +180,19 @@ class FusedStep:
 class FusedMap:
     """The fused map of the whole run.
 
+    Which objects are on the map: the MAP objects (the mode of the posterior, read off by
+    annealing and the greedy ascent) whose existence probability is at least 1/2 — the
+    median-probability map (Barbieri & Berger 2004: under a per-object 0–1 loss, report
+    each object whose posterior probability exceeds 1/2). A MAP object the β = 1 chain
+    holds less than half the time — one that fits its few contacts only in a narrow range
+    of poses, so the posterior's mass lies mostly without it — is kept apart in
+    ``doubtful``, not dropped. With ``samples`` = 0 there are no probabilities and every
+    MAP object is on the map.
+
     Attributes
     ----------
     tables
-        ``(n, 4)`` MAP objects ``x, y`` [m], ``θ`` [rad] in [0, π), type index.
+        ``(n, 4)`` mapped objects ``x, y`` [m], ``θ`` [rad] in [0, π), type index.
     existence
         ``(n,)`` each object's existence probability: the fraction of the states of a β = 1
         chain started at the MAP (the coldest replica of the tempering ladder) that hold an
@@ -188,9 +201,14 @@ class FusedMap:
     catalogue
         The object types the indices refer to.
     log_posterior
-        log π of the MAP map (up to the constant of the posterior).
+        log π of the MAP (all MAP objects, doubtful ones included; up to the constant of
+        the posterior).
     info
         Counters of the final pass.
+    doubtful
+        ``(d, 4)`` MAP objects of existence probability below 1/2.
+    doubtful_existence
+        ``(d,)`` their existence probabilities.
     """
 
     tables: FloatArray
@@ -198,11 +216,17 @@ class FusedMap:
     catalogue: tuple[ObjectType, ...]
     log_posterior: float
     info: dict[str, int]
+    doubtful: FloatArray = field(default_factory=lambda: np.zeros((0, 4)))
+    doubtful_existence: FloatArray = field(default_factory=lambda: np.zeros(0))
 
-    def objects(self) -> list[dict[str, float | str]]:
-        """The map as records ``type, length, width, x, y, theta, existence_probability``."""
+    def objects(self, *, doubtful: bool = False) -> list[dict[str, float | str]]:
+        """The map (or, with ``doubtful``, the doubtful MAP objects) as records ``type,
+        length, width, x, y, theta, existence_probability``."""
         out: list[dict[str, float | str]] = []
-        for row, p in zip(self.tables, self.existence, strict=True):
+        rows, probabilities = (
+            (self.doubtful, self.doubtful_existence) if doubtful else (self.tables, self.existence)
+        )
+        for row, p in zip(rows, probabilities, strict=True):
             kind = self.catalogue[int(row[3])]
             out.append(
                 {
@@ -323,9 +347,9 @@ class FusedMapper:
         )
 
     def _polished(self, tables: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Candidates merged where they coincide (4 cm, 0.06 rad grid; weights summed), thinned
-        to one per table, each moved by :func:`~bayesmap.blackboard.data_driven.polish_table`
-        against its stored contacts.
+        """Candidates (built from fitted legs) merged where they coincide (4 cm, 0.06 rad
+        grid; weights summed), thinned to one per table, each moved by
+        :func:`~bayesmap.blackboard.data_driven.polish_table` against its stored contacts.
 
         Thinning (non-maximum suppression): candidates of a type within half the map's
         tolerance (``match_xy``/2, ``match_theta``/2) of a better one — a larger gain alone
@@ -334,6 +358,13 @@ class FusedMapper:
         moves it where polishing either would; the better one keeps their summed weight. Each
         table seen by three or four legs yields a dozen leg pairs, each two or three
         candidates, so this halves what is polished in the noisy condition.
+
+        The legs were fitted (:meth:`_fitted_legs`), so a candidate starts within a few
+        centimetres and degrees of its table: one Nelder–Mead round at the model's noise
+        scales (no widened basin), reading the contacts whose whisker line passes within
+        15 cm of a leg (elsewhere ρ_leg is nil wherever such a polish can take the table:
+        the across cut is 8 σ_⊥ = 8 cm), finishes the fit the two legs of a pair cannot
+        give (the table's angle from legs a metre apart).
 
         Used by :meth:`finish` (polishing every window's candidates at every pose would cost
         more than the whole run); the result depends on the stored data alone, never on the
@@ -369,17 +400,61 @@ class FusedMapper:
                 ctx.floor[ids],
                 self.catalogue,
                 self.model,
+                widen=(1.0,),
+                line_gap=0.15,
             )
         pays = np.array([ctx.gain_alone(table) for table in out]) > 0
         return _merge_coincident(out[pays], summed[pays])
 
+    def _fitted_legs(self, legs: FloatArray) -> FloatArray:
+        """Leg candidates ``(p, 3)`` ``x, y, votes`` each moved by
+        :func:`~bayesmap.blackboard.data_driven.polish_leg` against its stored contacts
+        (started at the angle of its contacts' normals, their circular mean modulo π/2),
+        and those that land in the same 1 cm cell merged, their votes summed.
+
+        The leg-level fit: a vote peak sits a few centimetres off its leg (2.5 cm cells;
+        with σ_r = 0.5 m the votes are ridges along the bearings), and a table built from
+        two such legs is off by as much and by degrees. Fitting each leg once against the
+        bearings that pass it, then pairing fitted legs, costs one small fit per leg where
+        polishing from raw peaks needed a widened basin and twice the evaluations per table
+        candidate — and there are many times more candidates than legs."""
+        if not len(legs):
+            return legs
+        ctx, store = self._ctx, self.store_
+        half = 0.5 * min(t.leg for t in self.catalogue)
+        radius = contact_cutoff(half, self.model) + 0.1
+        out = legs.copy()
+        for row, (x, y, _) in enumerate(legs):
+            ids = store.contacts_near(x, y, radius)
+            if not len(ids):
+                continue
+            rows = store.rows_[ids]
+            turn = np.exp(4j * rows[:, 6]) @ store.counts_[ids]
+            start = np.array([x, y, 0.25 * float(np.angle(turn))])
+            out[row, :2] = polish_leg(
+                start,
+                rows[:, [0, 1, 3, 5, 6]],
+                store.counts_[ids],
+                ctx.floor[ids],
+                half,
+                self.model,
+            )[:2]
+        keys = np.round(out[:, :2] / 0.01).astype(np.int64)
+        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        votes = np.bincount(inverse.reshape(-1), weights=out[:, 2])
+        return np.column_stack([out[first, :2], votes])
+
     def _proposal(
         self, box: tuple[float, float, float, float], *, polish: bool = False
     ) -> BirthProposal:
+        """The birth mixture of ``box``: tables from pairs of the vote grid's leg peaks
+        (``polish``: of fitted legs, and the tables polished, :meth:`_polished`)."""
         grow = self._ctx.half_diagonal + self.params.spacing_tol
         legs = self._votes.peaks(
             (box[0] - grow, box[1] - grow, box[2] + grow, box[3] + grow), self.params.min_votes
         )
+        if polish:
+            legs = self._fitted_legs(legs)
         tables, weights = table_candidates(
             legs, self.catalogue, self.arena, self.params.spacing_tol
         )
@@ -472,7 +547,16 @@ class FusedMapper:
         start = ChainState(best.copy(), self.state_.free_space.copy(), best_log_pi)
         existence, visits = self._existence(start, proposal, generator)
         info |= visits
-        return FusedMap(best, existence, self.catalogue, best_log_pi, info)
+        doubtful = existence < 0.5  # NaN (no samples) compares False: kept
+        return FusedMap(
+            best[~doubtful],
+            existence[~doubtful],
+            self.catalogue,
+            best_log_pi,
+            info,
+            best[doubtful],
+            existence[doubtful],
+        )
 
     def existence(self, tables: FloatArray, *, rng: RNGLike = None) -> FloatArray:
         """Existence probabilities ``(n,)`` of the objects ``tables`` (n, 4) ``x, y, θ, k``

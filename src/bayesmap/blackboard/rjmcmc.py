@@ -165,8 +165,9 @@ class Context:
 
     def table_contacts(self, table: FloatArray) -> tuple[IntArray, FloatArray]:
         """One table's contacts: the sorted ids of the stored contacts within
-        :attr:`contact_radius` of its centre, and for each the max over its legs of ρ_leg
-        (beyond that radius every ρ_leg is 0).
+        :attr:`contact_radius` of its centre that one of its legs explains (ρ_leg > 0), and
+        for each the max over its legs of ρ_leg (every other contact gets ρ_leg = 0, which
+        changes no contact's best cause).
 
         Kept per table (its exact ``x, y, θ, k``) while the store is unchanged: a chain and
         a greedy ascent visit the same tables again and again (every neighbour of a moved
@@ -177,7 +178,9 @@ class Context:
         found = self._contact_terms.get(key)
         if found is None:
             ids = np.sort(self.store.contacts_near(table[0], table[1], self.contact_radius))
-            found = (ids, self.tables_density(table[None], ids)[:, 0])
+            density = self.tables_density(table[None], ids)[:, 0]
+            explains = density > 0
+            found = (ids[explains], density[explains])
             self._contact_terms[key] = found
         return found
 

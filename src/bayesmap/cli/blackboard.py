@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -56,8 +57,14 @@ def run_command(
             bar.stop()
             print_error(" ".join(str(error).split()), out=console)
             raise typer.Exit(1) from error
-    numbers = ", ".join(f"{k} {v:.3f}" for k, v in result.headline.items() if isinstance(v, float))
+    numbers = ", ".join(
+        f"{k} {v:.3f}" if math.isfinite(v) else f"{k} undefined"
+        for k, v in result.headline.items()
+        if isinstance(v, float)
+    )
     print_note(f"wrote {out}/metrics.json, map.json, map.png: {numbers}", out=console)
+    if "note" in result.headline:
+        print_note(f"note: {result.headline['note']}", out=console)
 
 
 @app.command("world")

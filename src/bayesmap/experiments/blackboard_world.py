@@ -10,7 +10,8 @@ metrics only; the paper's model knows one table size, the catalogue's largest).
 
 Random streams: ``SeedSequence(seed)`` child 0 draws the sensor noise, child 1 runs the
 chain. Outputs: ``metrics.json``, ``map.json`` (``objects``: ``type, length, width, x, y,
-theta, existence_probability``) and ``map.png``.
+theta, existence_probability``; ``doubtful``: the MAP objects of existence probability
+below 1/2, left off the map, as records of the same form) and ``map.png``.
 """
 
 from __future__ import annotations
@@ -185,7 +186,9 @@ def _run(
         fused: FusedMap = result["fused"]
         metrics.update(scores)
         objects = fused.objects()
+        doubtful = fused.objects(doubtful=True)
     else:
+        doubtful = []
         params = paper.paper_params(world, sensor)
         result = paper.run_paper(
             world,
@@ -213,7 +216,12 @@ def _run(
         ]
     metrics.update(_per_pose(result, world))
     files = [write_json(out_dir / "metrics.json", metrics)]
-    files.append(write_json(out_dir / "map.json", {"objects": objects, "arena": world_file.arena}))
+    files.append(
+        write_json(
+            out_dir / "map.json",
+            {"objects": objects, "doubtful": doubtful, "arena": world_file.arena},
+        )
+    )
     title = f"{config.world.name}, {config.condition}, seed {config.seed}: " + (
         f"fused map ({len(objects)} objects)"
         if config.mode == "fused"
@@ -225,6 +233,14 @@ def _run(
         for k in ("fused_precision", "fused_recall", "precision", "recall")
         if k in metrics
     }
+    unseen = len(world.tables) - int(metrics.get("tables_touched", len(world.tables)))
+    if unseen:
+        headline["note"] = (
+            f"{unseen} of the world's {len(world.tables)} tables were never touched by a "
+            f"whisker at any of the {len(poses)} poses (whiskers "
+            f"{sensor.whisker_length:g} m long): no contact, so nothing can map them; add "
+            "poses within a whisker's length of their legs"
+        )
     return ExperimentResult(
         "blackboard-world",
         out_dir,

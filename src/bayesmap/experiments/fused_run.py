@@ -112,6 +112,9 @@ def fused_metrics(run: dict[str, Any], world: TablesWorld, tol: MatchTolerance) 
 
     ``fused_existence`` and ``fused_object_true`` list, per mapped object, its existence
     probability and whether it matches a true table (the data of a calibration check).
+    ``tables_touched`` counts the true tables some whisker touched at some pose: a table no
+    whisker touched left no contact, so no mapper could place it (the tour never came
+    within a whisker's length of it).
     """
     fused: FusedMap = run["fused"]
     matched, _ = match_tables(
@@ -132,5 +135,7 @@ def fused_metrics(run: dict[str, Any], world: TablesWorld, tol: MatchTolerance) 
         "fused_log_posterior": fused.log_posterior,
         "fused_evidence_rows": run["store_rows"],
         "fused_existence": [float(p) for p in fused.existence],
+        "fused_doubtful_existence": [float(p) for p in fused.doubtful_existence],
+        "tables_touched": len(set().union(*(set(t.tolist()) for t in run["touched"]))),
         "fused_object_true": true.tolist(),
     }
