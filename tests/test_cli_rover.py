@@ -38,7 +38,7 @@ def test_a_bad_world_is_one_line_without_traceback(tmp_path: Path) -> None:
     result = runner.invoke(app, ["rover", "run", "--world", str(world), "--out", str(tmp_path)])
     assert result.exit_code == 1
     assert "Traceback" not in result.output
-    assert "start/2" in result.output and "[red]x" in result.output
+    assert "start[2]" in result.output and "[red]x" in result.output
 
 
 def test_schema_prints_the_world_json_schema() -> None:

@@ -35,9 +35,9 @@ def test_the_issue_example_loads(tmp_path: Path) -> None:
     [
         ({"size": [20.0]}, "size"),
         ({"start": [1.0, 1.0]}, "start"),
-        ({"obstacles": [[[3, 3], [5, 5], [5, 3], [3, 5]]]}, "obstacles/0.*simple polygon"),
-        ({"obstacles": [[[3, 3], [4, 4], [5, 5]]]}, "obstacles/0.*positive area"),
-        ({"obstacles": [[[3, 3], [3, 3], [3, 3]]]}, "obstacles/0"),
+        ({"obstacles": [[[3, 3], [5, 5], [5, 3], [3, 5]]]}, r"obstacles\[0\].*simple polygon"),
+        ({"obstacles": [[[3, 3], [4, 4], [5, 5]]]}, r"obstacles\[0\].*positive area"),
+        ({"obstacles": [[[3, 3], [3, 3], [3, 3]]]}, r"obstacles\[0\]"),
         ({"start": [14.5, 16.5, 0.0]}, "start"),
         ({"start": [30.0, 1.0, 0.0]}, "outside"),
         ({"colour": "red"}, "colour"),

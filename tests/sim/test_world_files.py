@@ -50,6 +50,6 @@ def test_a_missing_file_is_a_format_error(tmp_path: Path) -> None:
 def test_a_schema_break_names_the_element(tmp_path: Path) -> None:
     with pytest.raises(FormatError) as caught:
         check_schema({"size": [1, "two"]}, SCHEMA, tmp_path / "w.json")
-    assert "size/1" in str(caught.value) and "w.json" in str(caught.value)
+    assert "size[1]" in str(caught.value) and "w.json" in str(caught.value)
     with pytest.raises(FormatError, match="the document"):
         check_schema({}, SCHEMA, tmp_path / "w.json")

@@ -160,7 +160,7 @@ def load_world(path: str | Path) -> WorldSpec:
     check_schema(document, WORLD_SCHEMA, file)
     width, height = (float(v) for v in document["size"])
     obstacles = [
-        _obstacle(polygon, f"obstacles/{k}", file)
+        _obstacle(polygon, f"obstacles[{k}]", file)
         for k, polygon in enumerate(document["obstacles"])
     ]
     boxes = np.array([o for o in obstacles if isinstance(o, tuple)], dtype=np.float64)

@@ -87,7 +87,7 @@ def parse_world(obj: Any, source: str = "world") -> PolygonWorld:
     for k, ring in enumerate(obj.get("obstacles", [])):
         hole = Polygon(ring)
         if not hole.is_valid:
-            raise FormatError("the obstacle crosses itself", path=source, element=f"obstacles/{k}")
+            raise FormatError("the obstacle crosses itself", path=source, element=f"obstacles[{k}]")
         holes.append(hole)
     name = str(obj.get("name", Path(source).stem))
     try:

@@ -26,13 +26,11 @@ and the element.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import jsonschema
 import numpy as np
 import shapely
 
@@ -41,6 +39,7 @@ from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray, Poses
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.sim.tables_world import TablesWorld, build_mixed, rectangle_corners
+from bayesmap.sim.world_files import check_schema, read_document
 
 __all__ = [
     "POSE_CLEARANCE",
@@ -237,7 +236,7 @@ def _position_free(x: float, y: float, tables: FloatArray) -> bool:
 
 
 def _fail(source: str, where: str, what: str) -> FormatError:
-    return FormatError(f"{source}: {where}: {what}")
+    return FormatError(what, path=source, element=where)
 
 
 def parse_world(obj: Any, source: str = "world") -> WorldFile:
@@ -248,11 +247,7 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
     FormatError
         Naming ``source`` and the offending element, e.g. ``tables[2]: crosses the wall``.
     """
-    try:
-        jsonschema.validate(obj, WORLD_SCHEMA)
-    except jsonschema.ValidationError as error:
-        where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path)
-        raise _fail(source, where.lstrip(".") or "top level", error.message) from None
+    check_schema(obj, WORLD_SCHEMA, source)
     arena = (float(obj["arena"]["width"]), float(obj["arena"]["height"]))
     rows = [
         [t["x"], t["y"], t["theta"], t["length"], t["width"], t["leg"], t.get("texture", 0.3)]
@@ -310,20 +305,9 @@ def load_world(path: str | Path) -> WorldFile:
     Raises
     ------
     FormatError
-        If the file is missing, is not JSON (with line and column) or breaks the schema.
+        If the file is missing, is not JSON (with its line) or breaks the schema.
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise FormatError(f"{path}: cannot read the world file ({error.strerror})") from None
-    try:
-        obj = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise FormatError(
-            f"{path}: line {error.lineno} column {error.colno}: not JSON ({error.msg})"
-        ) from None
-    return parse_world(obj, str(path))
+    return parse_world(read_document(path), str(Path(path)))
 
 
 def save_world(world: WorldFile, path: str | Path) -> Path:

@@ -1,14 +1,16 @@
 """Reading world files: the JSON document and its schema check, with errors naming the file.
 
-The rover's and the sonar's world files (:mod:`bayesmap.sim.rover_worlds`,
-:mod:`bayesmap.sim.sonar_worlds`) are JSON documents checked against a JSON Schema before
-their own checks; both read them through these two functions, so a bad file gets the same
-one-line :class:`~bayesmap.errors.FormatError` whichever simulator reads it.
+The whisker, rover and sonar world files (:mod:`bayesmap.sim.whisker_worlds`,
+:mod:`bayesmap.sim.rover_worlds`, :mod:`bayesmap.sim.sonar_worlds`) are JSON documents
+checked against a JSON Schema before their own checks; all three read them through these
+functions, so a bad file gets the same one-line :class:`~bayesmap.errors.FormatError`
+whichever simulator reads it.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -36,11 +38,19 @@ def read_document(path: str | Path) -> Any:
         raise FormatError(f"not JSON: {error.msg}", path=file, line=error.lineno) from None
 
 
+def element_name(path: Iterable[str | int]) -> str:
+    """The element at a JSON ``path`` as a reader writes it: ``tables[2].x``, ``size[1]``;
+    ``the document`` for the top level."""
+    name = "".join(f"[{part}]" if isinstance(part, int) else f".{part}" for part in path)
+    return name.lstrip(".") or "the document"
+
+
 def check_schema(document: Any, schema: dict[str, Any], source: str | Path) -> None:
     """Check ``document`` against ``schema``; a :class:`FormatError` naming ``source`` and
-    the offending element (a ``/``-separated path) if it breaks it."""
+    the offending element (:func:`element_name`) if it breaks it."""
     try:
         jsonschema.validate(document, schema)
     except jsonschema.ValidationError as error:
-        where = "/".join(str(part) for part in error.absolute_path) or "the document"
-        raise FormatError(error.message, path=source, element=where) from None
+        raise FormatError(
+            error.message, path=source, element=element_name(error.absolute_path)
+        ) from None
