@@ -125,12 +125,7 @@ def test_polish_keeps_a_desk_pressed_into_a_corner_where_it_stands() -> None:
     world, sensor = world_file.world(), condition("normal")
     model = FusedMapper(catalogue, arena, fused_params(sensor)).model  # the mapper's own model
     rng = np.random.default_rng(3)
-    rows = []
-    for pose in world_file.robot_poses():
-        sweeps = observe(world, pose, sensor, rng=rng).sweeps
-        hit = sweeps[np.isfinite(sweeps[:, 3])]
-        rows.append(np.column_stack([np.tile(pose[:2], (len(hit), 1)), hit[:, [1, 3, 4]]]))
-    contacts = np.concatenate(rows)
+    contacts = _tour_contacts(world_file, world, sensor, rng)
     contacts = contacts[np.hypot(contacts[:, 0] - truth[0], contacts[:, 1] - truth[1]) < 2.0]
     floor = np.maximum(
         model.clutter,
@@ -159,12 +154,7 @@ def test_polish_leg_moves_a_noisy_leg_peak_onto_the_leg() -> None:
     world, sensor = world_file.world(), condition("noisy")
     model = FusedMapper(catalogue, arena, fused_params(sensor)).model
     rng = np.random.default_rng(5)
-    rows = []
-    for pose in world_file.robot_poses():
-        sweeps = observe(world, pose, sensor, rng=rng).sweeps
-        hit = sweeps[np.isfinite(sweeps[:, 3])]
-        rows.append(np.column_stack([np.tile(pose[:2], (len(hit), 1)), hit[:, [1, 3, 4]]]))
-    contacts = np.concatenate(rows)
+    contacts = _tour_contacts(world_file, world, sensor, rng)
     floor = np.maximum(
         model.clutter,
         wall_contact_density(
@@ -179,3 +169,13 @@ def test_polish_leg_moves_a_noisy_leg_peak_onto_the_leg() -> None:
         out = polish_leg(start, contacts, counts, floor, 0.05, model)
         assert math.hypot(out[0] - leg[0], out[1] - leg[1]) < 0.015
         assert 0.0 <= out[2] < 0.5 * math.pi
+
+
+def _tour_contacts(world_file, world, sensor, rng) -> np.ndarray:
+    """Every contact of the world file's tour as rows ``root x, y, bearing, r, normal``."""
+    rows = []
+    for pose in world_file.robot_poses():
+        sweeps = observe(world, pose, sensor, rng=rng).sweeps
+        hit = sweeps[np.isfinite(sweeps[:, 3])]
+        rows.append(np.column_stack([np.tile(pose[:2], (len(hit), 1)), hit[:, [1, 3, 4]]]))
+    return np.concatenate(rows)
