@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 from bayesmap import bn
 from bayesmap.bn.model import BayesNet
 from bayesmap.cli import app, main
-from bayesmap.cli._console import print_error, print_note
+from bayesmap.cli._console import headline_text, print_error, print_note
 
 runner = CliRunner()
 DATA = Path(__file__).parent / "sonar" / "data"
@@ -35,6 +35,11 @@ def test_messages_print_brackets_literally(text: str) -> None:
     print_error(f"value {text}", out=out)
     print_note(f"wrote {text}", out=out)
     assert out.export_text() == f"error: value {text}\nwrote {text}\n"
+
+
+def test_headline_numbers_read_the_same_in_every_command() -> None:
+    headline = {"coverage": 0.019995152690256906, "precision": float("nan"), "collisions": 0}
+    assert headline_text(headline) == "coverage 0.020, precision undefined, collisions 0"
 
 
 def test_evidence_with_markup_is_echoed_literally(tmp_path: Path) -> None:

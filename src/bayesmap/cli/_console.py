@@ -13,6 +13,8 @@ Rich itself loads on the first message, so a command that prints nothing through
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from functools import cache
 from typing import TYPE_CHECKING
 
@@ -50,3 +52,18 @@ def print_note(message: object, *, out: Console | None = None) -> None:
     from rich.text import Text
 
     (out or _stderr()).print(Text(str(message)), soft_wrap=True)
+
+
+def headline_text(headline: Mapping[str, object]) -> str:
+    """A run's headline numbers on one line: ``key value, ...``.
+
+    Floats get three decimals, an undefined one (NaN, e.g. a precision over no objects)
+    reads ``undefined``; other values print as they are. Used by every ``run`` command.
+    """
+
+    def value_text(value: object) -> str:
+        if isinstance(value, float):
+            return f"{value:.3f}" if math.isfinite(value) else "undefined"
+        return str(value)
+
+    return ", ".join(f"{key} {value_text(value)}" for key, value in headline.items())

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -10,7 +9,7 @@ import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from bayesmap.cli._console import console as make_console
-from bayesmap.cli._console import print_error, print_note
+from bayesmap.cli._console import headline_text, print_error, print_note
 from bayesmap.errors import BayesmapError
 
 app = typer.Typer(
@@ -57,11 +56,7 @@ def run_command(
             bar.stop()
             print_error(" ".join(str(error).split()), out=console)
             raise typer.Exit(1) from error
-    numbers = ", ".join(
-        f"{k} {v:.3f}" if math.isfinite(v) else f"{k} undefined"
-        for k, v in result.headline.items()
-        if isinstance(v, float)
-    )
+    numbers = headline_text({k: v for k, v in result.headline.items() if k != "note"})
     print_note(f"wrote {out}/metrics.json, map.json, map.png: {numbers}", out=console)
     if "note" in result.headline:
         print_note(f"note: {result.headline['note']}", out=console)

@@ -11,22 +11,22 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import typer
-from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
+from bayesmap.cli._console import console, headline_text, print_error
 from bayesmap.errors import BayesmapError
 
 app = typer.Typer(
     help="The micro-rover (Post et al. 2016): run it on a world file, generate worlds.",
     no_args_is_help=True,
 )
-_console = Console(stderr=True)
+_console = console(stderr=True)
 LengthUnit = Literal["mm", "cm", "m"]
 AngleUnit = Literal["rad", "deg", "decideg"]
 
 
 def _fail(error: BayesmapError) -> typer.Exit:
-    typer.echo(f"error: {error}", err=True)
+    print_error(error, out=_console)
     return typer.Exit(1)
 
 
@@ -72,8 +72,7 @@ def run_command(
             result = rover_world.run(config, out, progress=hook)
         except BayesmapError as error:
             raise _fail(error) from None
-    numbers = ", ".join(f"{key} {value}" for key, value in result.headline.items())
-    typer.echo(f"{numbers}; wrote {out}")
+    typer.echo(f"{headline_text(result.headline)}; wrote {out}")
 
 
 @app.command("generate")
@@ -95,7 +94,7 @@ def generate_command(
             SeedSequence([seed, k]), size=size, name=f"rover-generated-v2-s{seed}-{k:02d}"
         )
         path = save_world(out / f"world_{k:02d}.json", spec)
-        typer.echo(f"{path}: {spec.world.width:g} m, {spec.world.n_obstacles} obstacles")
+        typer.echo(f"{path}: {spec.world.width:.1f} m, {spec.world.n_obstacles} obstacles")
 
 
 @app.command("map")

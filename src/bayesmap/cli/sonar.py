@@ -21,7 +21,7 @@ import typer
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn
 
 from bayesmap._io import RunFolder, run_folder, write_bytes, write_json
-from bayesmap.cli._console import console, print_note
+from bayesmap.cli._console import console, headline_text, print_note
 from bayesmap.errors import BayesmapError, InputError
 from bayesmap.sonar.filter import Stage
 from bayesmap.sonar.geometry import SonarGeometry
@@ -324,11 +324,7 @@ def run_command(
             result = experiment.run(
                 config, out, progress=hook, command=shlex.join(["bayesmap", *sys.argv[1:]])
             )
-    numbers = ", ".join(
-        f"{key} {value:.3f}" if isinstance(value, float) else f"{key} {value}"
-        for key, value in result.headline.items()
-    )
-    typer.echo(f"{numbers}; wrote {out}")
+    typer.echo(f"{headline_text(result.headline)}; wrote {out}")
 
 
 def _read_bag(
