@@ -64,6 +64,13 @@ def test_the_documented_example_loads_and_round_trips(tmp_path) -> None:
         assert not any(polygon.contains(shapely.Point(x, y)) for x, y in poses[:, :2])
 
 
+def test_a_world_without_poses_is_toured_like_the_paper() -> None:
+    bare = {key: value for key, value in EXAMPLE.items() if key != "poses"}
+    assert np.array_equal(
+        parse_world(bare, "bare.json").robot_poses(), parse_world(EXAMPLE, "w.json").robot_poses()
+    )
+
+
 @pytest.mark.parametrize(
     ("change", "message"),
     [

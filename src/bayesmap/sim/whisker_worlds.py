@@ -61,7 +61,7 @@ WORLD_SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "bayesmap whisker tables world",
     "type": "object",
-    "required": ["arena", "tables", "poses"],
+    "required": ["arena", "tables"],
     "additionalProperties": False,
     "properties": {
         "arena": {
@@ -92,6 +92,7 @@ WORLD_SCHEMA: dict[str, Any] = {
             },
         },
         "poses": {
+            "default": {"grid": 10},
             "oneOf": [
                 {
                     "type": "object",
@@ -267,7 +268,7 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
         for j in range(i):
             if polygon.intersects(polygons[j]):
                 raise _fail(source, f"tables[{i}]", f"the table overlaps tables[{j}]")
-    poses_obj = obj["poses"]
+    poses_obj = obj.get("poses", {"grid": 10})
     poses: Poses | None = None
     grid = (10, 0.45, 4)
     if isinstance(poses_obj, list):
