@@ -13,7 +13,7 @@ untimed question of another pattern (the network-wide set-up, which
 (``time.process_time``) of the pooled questions per tree and mode, B/A − 1 of those
 medians, and *paired*: the median over questions of B/A of each question's median.
 
-    python benchmarks/bn_ab.py /work/wt/bnperf-base . --rounds 4
+    python benchmarks/bn_ab.py 65608c5 . --rounds 4   # A and B: a commit or a source tree
 
 writes the ``bn_ab`` section of docs/benchmarks.md (``--no-write`` to only print).
 """
@@ -26,6 +26,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+from contextlib import ExitStack
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -161,35 +162,28 @@ def table(times: dict[str, dict[str, list[list[float]]]], patterns: int) -> str:
     return "\n".join(lines)
 
 
-def label(tree: Path) -> str:
-    """The tree's commit (short hash, ``+`` if its bn sources differ from it)."""
-    git = ["git", "-C", str(tree)]
-    head = subprocess.run([*git, "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
-    dirty = subprocess.run(
-        [*git, "status", "--porcelain", "src/bayesmap/bn"], capture_output=True, text=True
-    )
-    return head.stdout.strip() + ("+" if dirty.stdout.strip() else "") or str(tree)
-
-
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("a", type=Path, help="source tree A (the reference, e.g. the old commit)")
-    parser.add_argument("b", type=Path, help="source tree B")
+    parser.add_argument("a", help="source tree A (the reference): a directory or a commit")
+    parser.add_argument("b", help="source tree B: a directory or a commit")
     parser.add_argument("--networks", nargs="+", default=NETWORKS)
     parser.add_argument("--patterns", type=int, default=60)
     parser.add_argument("--rounds", type=int, default=4)
     parser.add_argument("--seed", type=int, default=13)
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args(argv)
-    trees = [args.a.resolve(), args.b.resolve()]
-    load_before = os.getloadavg()
-    times = compare(trees, args.networks, args.patterns, args.rounds, args.seed)
-    load_after = os.getloadavg()
     from benchmarks._report import machine, update_section
+    from benchmarks.bn_trees import source_tree
+
+    with ExitStack() as stack:
+        (tree_a, label_a), (tree_b, label_b) = (source_tree(t, stack) for t in (args.a, args.b))
+        load_before = os.getloadavg()
+        times = compare([tree_a, tree_b], args.networks, args.patterns, args.rounds, args.seed)
+        load_after = os.getloadavg()
 
     text = (
         "## Single questions, two source trees (`benchmarks/bn_ab.py`)\n\n"
-        f"A = `{label(trees[0])}`, B = `{label(trees[1])}`. Median CPU time "
+        f"A = {label_a}, B = {label_b}. Median CPU time "
         f"(`time.process_time`) of {args.patterns} random patterns × {args.rounds} "
         "rounds (a fresh process per tree and round; a target and 3 observed variables; "
         "cold = the pattern's first question, warm = the same pattern with other values; "
@@ -198,8 +192,8 @@ def main(argv: list[str] | None = None) -> None:
         f"Load average {load_before[0]:.2f} before, {load_after[0]:.2f} after (other jobs "
         "inflate CPU time less than wall time, but not to nothing).\n\n"
         f"{table(times, args.patterns)}\n\n"
-        f"{machine()}. Rerun: `python benchmarks/bn_ab.py A_TREE B_TREE` "
-        "(e.g. `git worktree add /tmp/base 65608c5`).\n"
+        f"{machine()}. Rerun: `python benchmarks/bn_ab.py A B` (each a source tree or a "
+        "commit, e.g. `python benchmarks/bn_ab.py 65608c5 .`).\n"
     )
     print(text)
     if not args.no_write:

@@ -1,14 +1,17 @@
 """Where a pattern's first ("cold") question spends its time, and how much of it numpy's
 per-call cost could explain.
 
-For each bnlearn network up to munin1's size: 40 random patterns (a target and 3 observed
-variables, values drawn by forward sampling, as in ``benchmarks/bn_inference.py``), each
-asked once in a process that has answered one untimed question of another pattern. Per
+For each bnlearn network of ``benchmarks/bn_inference.py`` (up to munin's size): 40 random
+patterns (a target and 3 observed variables, values drawn by forward sampling, as there),
+each asked once in a process that has answered one untimed question of another pattern. Per
 question, CPU time (``time.process_time``) of the whole call and of its parts, taken by
 wrapping the engine's functions for this run only:
 
-- *plan*: pruning and slicing (``plans.build``, with the priors of the sub-networks it
-  replaces when first needed);
+- *priors*: the prior marginals of variables (``Engine._marginal``) the question needs
+  and no earlier one computed — of the sub-networks a plan replaces by ``P(Y)``, and of
+  observed variables d-separated from the target, whose states' priors are checked for
+  impossible evidence; cached for the network's later questions;
+- *plan*: pruning and slicing (``plans.build``, priors excluded);
 - *order*: the contraction order (``plans.order_steps``) — for a one-case question this
   also builds the compiled program's steps, handed to it as the order chooses them
   (``SumProgram.add``), including the evidence-free steps contracted now (those another
@@ -18,6 +21,8 @@ wrapping the engine's functions for this run only:
   from opt_einsum's search;
 - *run*: the first run of the compiled program;
 - *rest*: everything else (evidence lookup, the ancestral-query check, normalising).
+
+Each part excludes the priors computed inside it.
 
 And the numpy ``einsum`` calls a cold question makes (compile and run), and the fixed cost of
 one such call (a 2×3 by 3×4 product, best of 5 × 2,000), whose product is the share of the
@@ -51,6 +56,7 @@ from benchmarks._report import machine, update_section  # noqa: E402
 
 import bayesmap.bn as bn  # noqa: E402
 from bayesmap.bn import elimination, plans  # noqa: E402
+from bayesmap.bn.inference import Engine  # noqa: E402
 
 MODELS = Path(pgmpy.__file__).parent / "utils" / "example_models"
 NETWORKS = [
@@ -63,19 +69,23 @@ NETWORKS = [
     "pathfinder",
     "andes",
     "munin1",
+    "pigs",
+    "link",
+    "munin",
 ]
 N_PATTERNS = 40
 N_EVIDENCE = 3
-PARTS = ("plan", "order", "compile", "run")
+PARTS = ("priors", "plan", "order", "compile", "run")
 
 
 class Meter:
-    """CPU seconds spent in wrapped functions (outermost calls only) and einsum calls."""
+    """CPU seconds spent in wrapped functions and einsum calls: outermost calls only, except
+    that a prior computed inside another part is moved from that part to *priors*."""
 
     def __init__(self) -> None:
         self.spent = dict.fromkeys(PARTS, 0.0)
         self.calls = 0
-        self._depth = 0
+        self._open: list[str] = []
 
     def reset(self) -> None:
         self.spent = dict.fromkeys(PARTS, 0.0)
@@ -83,15 +93,19 @@ class Meter:
 
     def timed(self, part: str, function: Callable[..., Any]) -> Callable[..., Any]:
         def wrapper(*args: Any, **kwargs: Any) -> Any:
-            if self._depth:  # nested (a prior's plan inside a plan): counted by the outer
-                return function(*args, **kwargs)
-            self._depth += 1
+            open_ = self._open
+            if open_ and (part != "priors" or "priors" in open_):
+                return function(*args, **kwargs)  # nested: counted by the outer call
+            open_.append(part)
             start = time.process_time()
             try:
                 return function(*args, **kwargs)
             finally:
-                self.spent[part] += time.process_time() - start
-                self._depth -= 1
+                spent = time.process_time() - start
+                open_.pop()
+                self.spent[part] += spent
+                if open_:  # a prior computed inside another part: not that part's time
+                    self.spent[open_[-1]] -= spent
 
         return wrapper
 
@@ -105,6 +119,7 @@ class Meter:
 
 def instrument(meter: Meter) -> None:
     """Wrap the engine's parts for this process (the benchmark's own run only)."""
+    Engine._marginal = meter.timed("priors", Engine._marginal)  # type: ignore[method-assign]
     plans.build = meter.timed("plan", plans.build)
     plans.order_steps = meter.timed("order", plans.order_steps)
     program = elimination.SumProgram
@@ -196,15 +211,16 @@ def markdown(rows: list[dict[str, Any]], cost: float, load: tuple[float, float])
         "questions on a fresh copy of the network, counted, not timed: the load cannot move "
         "it).",
         "",
-        "| network | cold (median) | mean | plan | order | compile | first run | rest "
+        "| network | cold (median) | mean | priors | plan | order | compile | first run | rest "
         "| einsum calls | numpy share | interpreter steps |",
-        "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|",
+        "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|",
     ]
     for r in rows:
         p = r["parts_ms"]
         share = r["calls_mean"] * cost * 1e3 / r["mean_ms"]
         lines.append(
-            f"| {r['network']} | {r['cold_ms']:.3f} | {r['mean_ms']:.3f} | {p['plan']:.3f} "
+            f"| {r['network']} | {r['cold_ms']:.3f} | {r['mean_ms']:.3f} | {p['priors']:.3f} "
+            f"| {p['plan']:.3f} "
             f"| {p['order']:.3f} | {p['compile']:.3f} | {p['run']:.3f} | {r['rest_ms']:.3f} "
             f"| {r['calls']:.0f}, {r['calls_mean']:.1f} | {share:.0%} | {r['steps']:,.0f} |"
         )

@@ -11,7 +11,7 @@ by the number of questions is the instructions per question. Instructions are no
 (cache misses and numpy's arithmetic weigh differently), but on these small questions,
 which are Python bookkeeping, they track CPU time closely.
 
-    python benchmarks/bn_cold_ir.py /work/wt/bncold-base . --networks alarm
+    python benchmarks/bn_cold_ir.py 4e2828d . --networks alarm   # A and B: a commit or a tree
 
 ``--count steps`` counts Python bytecode instructions instead (``sys.settrace`` opcode
 events, no valgrind; seconds per network): the interpreter's share, which is most of a cold
@@ -30,6 +30,7 @@ import re
 import shutil
 import subprocess
 import sys
+from contextlib import ExitStack
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -144,8 +145,8 @@ def per_question(
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("a", type=Path, help="source tree A (the reference)")
-    parser.add_argument("b", type=Path, help="source tree B")
+    parser.add_argument("a", help="source tree A (the reference): a directory or a commit")
+    parser.add_argument("b", help="source tree B: a directory or a commit")
     parser.add_argument("--networks", nargs="+", default=["alarm", "pathfinder", "win95pts"])
     parser.add_argument("--questions", type=int, default=100)
     parser.add_argument("--modes", nargs="+", default=["cold"], choices=["cold", "warm"])
@@ -160,19 +161,23 @@ def main(argv: list[str] | None = None) -> None:
     if args.count == "instructions" and shutil.which("valgrind") is None:
         raise SystemExit("bn_cold_ir: valgrind is not installed")
     from benchmarks._report import machine, update_section
+    from benchmarks.bn_trees import source_tree
 
-    trees = [args.a.resolve(), args.b.resolve()]
-    labels = [_describe(tree) for tree in trees]
-    rows = []
-    for name in args.networks:
-        base: dict[Path, int] = {}
-        for mode in args.modes:
-            a, b = (
-                per_question(tree, name, mode, args.questions, base, args.count) for tree in trees
-            )
-            rows.append((name, mode, a, b))
-            unit = "Ir" if args.count == "instructions" else "steps"
-            print(f"{name:11s} {mode}: A {a:,.0f}, B {b:,.0f} {unit}/question ({b / a - 1:+.1%})")
+    with ExitStack() as stack:
+        (tree_a, label_a), (tree_b, label_b) = (source_tree(t, stack) for t in (args.a, args.b))
+        rows = []
+        for name in args.networks:
+            base: dict[Path, int] = {}
+            for mode in args.modes:
+                a, b = (
+                    per_question(tree, name, mode, args.questions, base, args.count)
+                    for tree in (tree_a, tree_b)
+                )
+                rows.append((name, mode, a, b))
+                unit = "Ir" if args.count == "instructions" else "steps"
+                print(
+                    f"{name:11s} {mode}: A {a:,.0f}, B {b:,.0f} {unit}/question ({b / a - 1:+.1%})"
+                )
     if args.count == "instructions":
         section, unit = "bn_cold_ir", "Ir"
         title = "Instructions per question, two source trees (`benchmarks/bn_cold_ir.py`)"
@@ -187,7 +192,7 @@ def main(argv: list[str] | None = None) -> None:
     lines = [
         f"## {title}",
         "",
-        f"A = {labels[0]}, B = {labels[1]}. {what} "
+        f"A = {label_a}, B = {label_b}. {what} "
         f"per question, {args.questions} questions (a target and 3 observed variables, "
         "values forward-sampled) after the network's first question; *cold*: each a new "
         "pattern, *warm*: the same patterns re-asked with other values. Independent of the "
@@ -200,33 +205,13 @@ def main(argv: list[str] | None = None) -> None:
         lines.append(f"| {name} | {mode} | {a:,.0f} | {b:,.0f} | {b / a - 1:+.1%} |")
     lines += [
         "",
-        f"{machine()}. Rerun: `python benchmarks/bn_cold_ir.py A_TREE B_TREE"
-        + (" --count steps`." if args.count == "steps" else "`."),
+        f"{machine()}. Rerun: `python benchmarks/bn_cold_ir.py A B` (each a source tree or a commit"
+        + (", with `--count steps`)." if args.count == "steps" else ")."),
     ]
     text = "\n".join(lines)
     print(text)
     if not args.no_write:
         update_section(section, text)
-
-
-def _describe(tree: Path) -> str:
-    """The tree's commit (``+`` if it has uncommitted changes), or its path."""
-    try:
-        head = subprocess.run(
-            ["git", "-C", str(tree), "rev-parse", "--short", "HEAD"],
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "-C", str(tree), "status", "--porcelain", "--", "src"],
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return f"`{tree}`"
-    return f"`{head}{'+' if dirty else ''}`"
 
 
 if __name__ == "__main__":

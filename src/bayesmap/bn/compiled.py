@@ -118,6 +118,7 @@ class Compiled:
         """Evidence-free plan factors, shared by every plan of this version (``plans.build``)."""
         self.constants = ConstantMemo()
         """Evidence-independent contraction steps already computed (``SumProgram`` memo)."""
+        self._independent: list[bool | None] = [None] * len(self.names)
         self.layouts: dict[tuple[int, int], Any] = {}
         """Observed-first layouts of CPTs and their factors, by variable and observed family
         (``plans.build``)."""
@@ -160,14 +161,21 @@ class Compiled:
         They are when no two of them share an ancestor and none is an ancestor of another:
         every trail between two parents then passes a collider, so with no evidence they are
         d-separated (Post et al. 2016 §3.2; Pearl 1988) and ``P(parents) = Π P(parent)``.
+        Found once per variable.
         """
+        known = self._independent[var]
+        if known is not None:
+            return known
         seen = 0
+        answer = True
         for parent in self.parents[var]:
-            family = self.ancestor_masks[parent] | 1 << parent
+            family = self.lineage_masks[parent]
             if seen & family:
-                return False
+                answer = False
+                break
             seen |= family
-        return True
+        self._independent[var] = answer
+        return answer
 
     def table(self, var: int, evidence: Mapping[str, str]) -> FloatArray:
         """CPT of ``var``: stored, or asked of its data source with the query's evidence."""

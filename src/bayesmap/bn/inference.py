@@ -107,47 +107,55 @@ class Engine:
         ancestral sub-network, or to check dropped evidence), after the priors that one
         uses (:meth:`_prior_inputs`), by a work list rather than recursion, so that a long
         chain of ancestors cannot exhaust the stack. A network's first question pays only
-        for the priors it uses.
+        for the priors it uses; each variable's inputs are found once per call, and the
+        compiled network is looked up once (a deep network's question may compute hundreds
+        of priors).
         """
-        cached = self.priors.get(var)
+        priors = self.priors
+        cached = priors.get(var)
         if cached is not None:
             return cached
-        if var in self.compiled.sources:
+        compiled = self.compiled
+        if var in compiled.sources:
             raise AssertionError("data nodes have no evidence-independent prior")
         todo = [var]
+        inputs: dict[int, tuple[bool, list[int]]] = {}
         while todo:
             v = todo[-1]
-            if v in self.priors:
+            if v in priors:
                 todo.pop()
                 continue
-            missing = [u for u in self._prior_inputs(v) if u not in self.priors]
+            found = inputs.get(v)
+            if found is None:
+                found = inputs[v] = self._prior_inputs(compiled, v)
+            missing = [u for u in found[1] if u not in priors]
             if missing:
                 todo.extend(missing)
                 continue
-            self.priors[v] = self._marginal(v)
+            priors[v] = self._marginal(compiled, v, found[0])
             todo.pop()
-        return self.priors[var]
+        return priors[var]
 
-    def _prior_inputs(self, var: int) -> list[int]:
-        """The variables whose priors :meth:`_marginal` uses for ``P(var)``: its parents when
-        they are independent a priori, else the roots its plan replaces by their priors."""
-        compiled = self.compiled
+    def _prior_inputs(self, compiled: Compiled, var: int) -> tuple[bool, list[int]]:
+        """Whether the parents of ``var`` are independent a priori, and the variables whose
+        priors :meth:`_marginal` uses for ``P(var)``: its parents if they are, else the roots
+        its plan replaces by their priors."""
         if compiled.independent_parents(var):
-            return list(compiled.parents[var])
+            return True, list(compiled.parents[var])
         r_mask = compiled.lineage_masks[var]
         relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
-        return plans.clean_roots(compiled, relevant, r_mask, 1 << var)
+        return False, plans.clean_roots(compiled, relevant, r_mask, 1 << var)
 
-    def _marginal(self, var: int) -> FloatArray:
+    def _marginal(self, compiled: Compiled, var: int, independent: bool) -> FloatArray:
         """``P(var)`` once the priors it uses are cached: one ``einsum``
-        ``Σ_pa P(var | pa) Π P(parent)`` when its parents are independent a priori
+        ``Σ_pa P(var | pa) Π P(parent)`` when its parents are ``independent`` a priori
         (:meth:`Compiled.independent_parents`), else a plan of its own."""
-        compiled = self.compiled
-        parents = compiled.parents[var]
-        if compiled.independent_parents(var):
+        if independent:
+            parents = compiled.parents[var]
+            priors = self.priors
             operands: list[Any] = [compiled.cpts[var], list(range(len(parents) + 1))]
             for axis, parent in enumerate(parents, start=1):
-                operands += [self.priors[parent], [axis]]
+                operands += [priors[parent], [axis]]
             table = elimination.einsum(*operands, [0])
         else:
             plan = plans.build(compiled, QueryKind.MARGINAL, (var,), (), prior=self.prior)
