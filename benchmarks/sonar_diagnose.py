@@ -79,7 +79,7 @@ def variants(worlds: str, seeds: str, spec: str) -> None:
     """Print the baseline's and each variant's scores on one log per world and seed."""
     extra = _variants(spec or "default:")
     PIPELINES.update(extra)  # type: ignore[arg-type]
-    names = (BASELINE, *extra)
+    names = (BASELINE, "ros", *extra)
     config = Config()
     for name in worlds.split(","):
         w = world(name)
