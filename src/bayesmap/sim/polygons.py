@@ -355,7 +355,7 @@ def random_hall(rng: RNGLike = None) -> PolygonWorld:
 
     The hall is 12–22 m by 8–14 m, with a chamfered corner (1–4 m) half the time; 2–6
     pillars (0.4–0.8 m square, at any angle) and 0–4 boxes or bins (0.3–1.2 m) stand at
-    random, at least 0.7 m off the path. The path is a loop 1.5–3 m inside the walls with
+    random, at least 0.7 m off the path (those that do not fit are left out). The path is a loop 1.5–3 m inside the walls with
     a leg across the middle, so most walls are farther than the sonars reach from much
     of it (the people the logs add walk through the hall at random).
     """
@@ -392,9 +392,10 @@ def random_office(rng: RNGLike = None) -> PolygonWorld:
     """A stress world nobody tuned on: an office with desks, cabinets and door recesses.
 
     The room is 7–12 m by 6–9 m with 1–4 door recesses (0.1–0.25 m deep) in its walls;
-    3–7 desks (1.2–1.8 m by 0.6–0.9 m, turned up to ±10° from the walls' directions) and
-    0–2 cabinets (0.4–0.6 m by 0.8–1.4 m) stand at random at least 0.5 m off the path, a
-    loop 1–1.5 m inside the walls with a leg across the middle.
+    of 3–7 desks (1.2–1.8 m by 0.6–0.9 m, turned up to ±10° from the walls' directions)
+    and 0–2 cabinets (0.4–0.6 m by 0.8–1.4 m) drawn, those that fit stand at random at
+    least 0.5 m off the path (a loop 1–1.5 m inside the walls with a leg across the
+    middle), from the walls and from each other — in a small room, often only one or two.
     """
     generator = as_generator(rng)
     length = float(generator.uniform(7.0, 12.0))
