@@ -355,9 +355,9 @@ def random_hall(rng: RNGLike = None) -> PolygonWorld:
 
     The hall is 12–22 m by 8–14 m, with a chamfered corner (1–4 m) half the time; 2–6
     pillars (0.4–0.8 m square, at any angle) and 0–4 boxes or bins (0.3–1.2 m) stand at
-    random, at least 0.7 m off the path (those that do not fit are left out). The path is a loop 1.5–3 m inside the walls with
-    a leg across the middle, so most walls are farther than the sonars reach from much
-    of it (the people the logs add walk through the hall at random).
+    random, at least 0.7 m off the path (those that do not fit are left out). The path is
+    a loop 1.5–3 m inside the walls with a leg across the middle, so most walls are
+    farther than the sonars reach from much of it (the logs add people walking through).
     """
     generator = as_generator(rng)
     length = float(generator.uniform(12.0, 22.0))
