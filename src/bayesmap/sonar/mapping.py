@@ -237,7 +237,9 @@ class _LogOddsMapper(_ConeMapper):
         starts = np.flatnonzero(np.r_[True, reading[1:] != reading[:-1]])
         peak = np.maximum.reduceat(probability, starts)
         runs = np.diff(np.r_[starts, len(arc)])
-        share = (probability / np.repeat(peak, runs)) ** self.explain_away
+        share = probability / np.repeat(peak, runs)
+        if self.explain_away != 1.0:
+            share **= self.explain_away
         out = increment.copy()
         out[arc] *= share
         return out
