@@ -171,6 +171,7 @@ class _LogOddsMapper(_ConeMapper):
         n = self.geometry.n
         reach = np.where(mask, self._reach(r), 0.0)
         step = max(1, _READINGS_PER_BATCH // n)
+        footprint = self._footprint_cells(p)
         for a in range(0, len(r), step):
             b = min(a + step, len(r))
             cells = self._cells(centres[a:b].reshape(-1, 2), axis[a:b].ravel(), reach[a:b].ravel())
@@ -189,7 +190,11 @@ class _LogOddsMapper(_ConeMapper):
                     cells.reading[part],
                 )
                 self._add(piece, increment[part])
-                self._clear_footprint(p[a + i])
+                if footprint is not None:
+                    rows, cols, inside = footprint
+                    index = (rows[a + i][inside[a + i]], cols[a + i][inside[a + i]])
+                    self.log_odds_[index] = -self.clamp
+                    self.swept_[index] = True
 
     def _add(self, cells: ConeCells, increment: FloatArray) -> None:
         index = (cells.rows, cells.cols)
@@ -244,28 +249,31 @@ class _LogOddsMapper(_ConeMapper):
         out[arc] *= share
         return out
 
-    def _clear_footprint(self, pose: npt.ArrayLike) -> None:
-        """The robot stands here: cells within ``footprint`` [m] of its centre are free.
+    def _footprint_cells(
+        self, poses: FloatArray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The robot stands here: per pose, the cells within ``footprint`` [m] of its centre.
 
-        They join ``swept_`` and stay free for good: the map is of the static world, and no
-        static obstacle can stand where the robot has stood.
+        Returns ``(rows, cols, inside)``, each ``(m, k)``: candidate cells round each pose
+        and which of them lie inside the footprint and the grid; ``None`` when off. After
+        each ring these cells are set free and join ``swept_``, and stay free for good: the
+        map is of the static world, and no static obstacle can stand where the robot has
+        stood.
         """
         if self.footprint <= 0:
-            return
-        x, y = np.asarray(pose, dtype=np.float64)[:2]
+            return None
         res, (x0, y0), (ny, nx) = self.grid.resolution, self.grid.origin, self.grid.shape
         span = int(math.ceil(self.footprint / res)) + 1
-        col = int(math.floor((x - x0) / res))
-        row = int(math.floor((y - y0) / res))
-        rows = np.arange(max(row - span, 0), min(row + span + 1, ny))[:, None]
-        cols = np.arange(max(col - span, 0), min(col + span + 1, nx))[None, :]
+        offset = np.arange(-span, span + 1)
+        d_row, d_col = (g.ravel() for g in np.meshgrid(offset, offset, indexing="ij"))
+        x, y = poses[:, 0:1], poses[:, 1:2]
+        rows = np.floor((y - y0) / res).astype(np.int64) + d_row[None, :]
+        cols = np.floor((x - x0) / res).astype(np.int64) + d_col[None, :]
         inside = (x0 + (cols + 0.5) * res - x) ** 2 + (y0 + (rows + 0.5) * res - y) ** 2 <= (
             self.footprint**2
         )
-        r, c = np.nonzero(inside)
-        index = (rows[r, 0], cols[0, c])
-        self.log_odds_[index] = -self.clamp
-        self.swept_[index] = True
+        inside &= (rows >= 0) & (rows < ny) & (cols >= 0) & (cols < nx)
+        return rows, cols, inside
 
     def probability(self) -> Grid:
         """``(ny, nx)`` occupancy probability of each cell."""
