@@ -2,7 +2,8 @@
 
 ``python benchmarks/sonar_diagnose.py variants WORLDS SEEDS [NAME:OPTION=VALUE,...;...]``
 maps one simulated log per world and seed (``numpy.random.default_rng(seed)``, seeds the
-benchmark of record does not use) with the best unfiltered baseline and variants of the
+benchmark of record does not use) with the best unfiltered baseline, the ROS layer (whose
+missed-wall rate is the target's bound) and variants of the
 default pipeline (``nofilt=1`` switches its filter off; ``filter.NAME=VALUE`` sets a
 :class:`~bayesmap.sonar.filter.SpecularFilter` option; other options are
 :class:`~bayesmap.sonar.pipeline.Pipeline` fields), and prints κ, false obstacles (also
@@ -79,7 +80,7 @@ def variants(worlds: str, seeds: str, spec: str) -> None:
     """Print the baseline's and each variant's scores on one log per world and seed."""
     extra = _variants(spec or "default:")
     PIPELINES.update(extra)  # type: ignore[arg-type]
-    names = (BASELINE, *extra)
+    names = (BASELINE, "ros", *extra)
     config = Config()
     for name in worlds.split(","):
         w = world(name)

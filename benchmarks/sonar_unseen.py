@@ -4,13 +4,14 @@ Fresh realistic logs (Pioneer 16-sonar ring with its offsets, stops, people walk
 through, odometry drift, the no-echo code), drawn from seeds that neither the tuning
 (seed 1), the diagnostics (11, 101, 103) nor the benchmark of record (2007) use:
 
-- random buildings (:func:`bayesmap.sim.polygons.random_building`, world seeds
-  ``--buildings``), each driven once;
+- random buildings, halls and offices (:func:`bayesmap.sim.polygons.random_building`,
+  :func:`~bayesmap.sim.polygons.random_hall`, :func:`~bayesmap.sim.polygons.random_office`;
+  world seeds ``--buildings``, ``--halls``, ``--offices``), each driven once;
 - the five named realistic worlds, one log each from ``--seed``.
 
 Each log is mapped by the default pipeline and the unfiltered baselines, as
 ``bayesmap sonar run`` / ``reproduce sonar`` do; the section gets the per-log targets and
-one panel of maps per random building.
+one panel of maps per random world.
 Run from the repository root: ``python benchmarks/sonar_unseen.py [--jobs N]``.
 """
 
@@ -31,7 +32,7 @@ import numpy as np  # noqa: E402
 from benchmarks._report import machine, update_section  # noqa: E402
 
 from bayesmap.experiments.sonar import BASELINES, Config, run  # noqa: E402
-from bayesmap.sim.polygons import random_building  # noqa: E402
+from bayesmap.sim.polygons import random_building, random_hall, random_office  # noqa: E402
 from bayesmap.sim.sonar_worlds import save_world  # noqa: E402
 from bayesmap.sonar.pipeline import DEFAULT_PIPELINE  # noqa: E402
 
@@ -61,6 +62,8 @@ def _rows(folder: Path, label: str | None = None) -> list[str]:
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--buildings", default="31,32,33", help="world seeds of random buildings")
+    parser.add_argument("--halls", default="41,42,43", help="world seeds of random halls")
+    parser.add_argument("--offices", default="51,52,53", help="world seeds of random offices")
     parser.add_argument("--seed", type=int, default=4242, help="log seed (default 4242)")
     parser.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     args = parser.parse_args(argv)
@@ -69,17 +72,23 @@ def main(argv: list[str]) -> None:
     figures: list[str] = []
     with tempfile.TemporaryDirectory(prefix="sonar_unseen_") as scratch:
         base = Path(scratch)
-        for seed in (int(s) for s in args.buildings.split(",")):
-            building = random_building(np.random.default_rng(seed))
-            path = save_world(building, base / f"building-{seed}.json")
-            out = base / f"building-{seed}"
-            config = Config(world=path, runs=1, seed=args.seed, pipelines=PIPELINES)
-            run(config, out, progress=lambda what, done, total: print(what, flush=True))
-            rows += _rows(out, f"random building, world seed {seed}")
-            for png in sorted(out.glob("maps_*.png")):
-                target = DOCS / f"sonar_unseen_building_{seed}.png"
-                shutil.copyfile(png, target)
-                figures.append(f"**Random building, world seed {seed}**\n\n![]({target.name})\n")
+        kinds = (
+            ("building", random_building, args.buildings),
+            ("hall", random_hall, args.halls),
+            ("office", random_office, args.offices),
+        )
+        for kind, generate, seeds in kinds:
+            for seed in (int(s) for s in filter(None, seeds.split(","))):
+                drawn = generate(np.random.default_rng(seed))
+                path = save_world(drawn, base / f"{kind}-{seed}.json")
+                out = base / f"{kind}-{seed}"
+                config = Config(world=path, runs=1, seed=args.seed, pipelines=PIPELINES)
+                run(config, out, progress=lambda what, done, total: print(what, flush=True))
+                rows += _rows(out, f"random {kind}, world seed {seed}")
+                for png in sorted(out.glob("maps_*.png")):
+                    target = DOCS / f"sonar_unseen_{kind}_{seed}.png"
+                    shutil.copyfile(png, target)
+                    figures.append(f"**Random {kind}, world seed {seed}**\n\n![]({target.name})\n")
         out = base / "named"
         config = Config(runs=1, seed=args.seed, pipelines=PIPELINES, jobs=args.jobs)
         run(config, out, progress=lambda what, done, total: print(what, flush=True))
@@ -89,7 +98,8 @@ def main(argv: list[str]) -> None:
     text = "\n".join(
         [
             f"Run by `python benchmarks/sonar_unseen.py --jobs {args.jobs}` (random buildings "
-            f"{args.buildings}, log seed {args.seed}) in {minutes:.1f} min on {machine()}; "
+            f"{args.buildings}, halls {args.halls}, offices {args.offices}; log seed "
+            f"{args.seed}) in {minutes:.1f} min on {machine()}; "
             f"load average at the end {load} (a shared machine).",
             "",
             "One log each; κ margin: default minus the best unfiltered baseline (target "

@@ -53,8 +53,9 @@ def cli_example() -> str:
     return result.output.strip().splitlines()[-1].split("; wrote")[0]
 
 
-def _mean(values: list[float]) -> float:
-    finite = [v for v in values if math.isfinite(v)]
+def _mean(values: list[float | None]) -> float:
+    # A score a run could not define (no rejection to judge) is stored as null.
+    finite = [v for v in values if v is not None and math.isfinite(v)]
     return sum(finite) / len(finite) if finite else float("nan")
 
 

@@ -2,11 +2,20 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pytest
 import shapely
 
-from bayesmap.sim.polygons import REALISTIC_WORLDS, random_building, world
+from bayesmap.sim.polygons import (
+    REALISTIC_WORLDS,
+    PolygonWorld,
+    random_building,
+    random_hall,
+    random_office,
+    world,
+)
 from bayesmap.sim.sonar import EchoKind, SonarRing
 from bayesmap.sim.sonar_log import Realism, drive, odometry, simulate_log
 
@@ -67,12 +76,24 @@ def test_simulated_log_has_people_stops_no_echo_code_and_truth() -> None:
     assert np.array_equal(alone.ranges[still + 1], alone.ranges[still])
 
 
+@pytest.mark.parametrize("generate", [random_building, random_hall, random_office])
 @pytest.mark.parametrize("seed", range(8))
-def test_random_buildings_are_drivable(seed: int) -> None:
-    w = random_building(seed)
+def test_random_worlds_are_drivable(generate: Callable[[int], PolygonWorld], seed: int) -> None:
+    w = generate(seed)
     route = np.vstack([w.waypoints, w.waypoints[:1]])
     room = w.free.buffer(-0.25)
     for a, b in zip(route[:-1], route[1:], strict=True):
         if np.any(a != b):
             assert room.contains(shapely.LineString([a, b]))
-    assert random_building(seed).segments.tolist() == w.segments.tolist()
+    assert generate(seed).segments.tolist() == w.segments.tolist()
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_random_halls_and_offices_hold_what_they_promise(seed: int) -> None:
+    hall, office = random_hall(seed), random_office(seed)
+    x0, y0, x1, y1 = hall.free.bounds
+    assert 12.0 <= x1 - x0 <= 22.0 and 8.0 <= y1 - y0 <= 14.0
+    assert len(hall.free.interiors) >= 2  # pillars stand in the hall
+    x0, y0, x1, y1 = office.free.bounds
+    assert 7.0 <= x1 - x0 <= 12.0 and 6.0 <= y1 - y0 <= 9.5
+    assert len(office.free.interiors) >= 1  # desks stand in the office

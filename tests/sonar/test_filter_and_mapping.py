@@ -274,6 +274,40 @@ def test_free_lock_keeps_well_seen_free_space_free_when_a_person_steps_in() -> N
         ElfesMapper(grid, geometry, free_lock=-1.0)
 
 
+def test_explaining_away_moves_an_echos_weight_off_arc_cells_seen_free() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)  # the rear one stays silent
+    side = (2.97, 0.42)  # on the 3 m arc, 8° off the axis
+    unseen = (2.97, -0.42)  # on the arc's other side, outside the other beam
+
+    def after_echo(explain_away: float, explain_beyond: float = 0.0) -> tuple[float, float]:
+        grid = OccupancyGrid(8.0, 4.0, 0.1, origin=(-1.0, -2.0))
+        mapper = ElfesMapper(
+            grid,
+            geometry,
+            no_echo="ignore",
+            explain_away=explain_away,
+            explain_beyond=explain_beyond,
+        )
+        for _ in range(10):  # another beam runs through the side cell to a wall 4.5 m on
+            mapper.integrate([0.0, side[1], 0.0], [4.5, 6.0])
+        before = mapper.log_odds_.copy()
+        mapper.integrate([0.0, 0.0, 0.0], [3.0, 6.0])  # the echo whose arc holds both cells
+        gain = mapper.log_odds_ - before
+        return float(gain[grid.world_to_cell(*side)]), float(gain[grid.world_to_cell(*unseen)])
+
+    plain_side, plain_unseen = after_echo(0.0)
+    side_gain, unseen_gain = after_echo(1.0)
+    assert plain_side > 0.1 and plain_unseen > 0.1
+    # The cell seen free is explained away; the unseen cell takes the echo's full weight.
+    assert side_gain < 0.1 * plain_side and unseen_gain == pytest.approx(plain_unseen)
+    # Arcs nearer than explain_beyond are written as the cone model says.
+    assert after_echo(1.0, explain_beyond=3.5) == pytest.approx((plain_side, plain_unseen))
+    grid = OccupancyGrid(8.0, 4.0, 0.1)
+    for bad in ({"explain_away": -1.0}, {"explain_beyond": -0.5}):
+        with pytest.raises(ConfigError, match="explain"):
+            ElfesMapper(grid, geometry, **bad)  # type: ignore[arg-type]
+
+
 def test_ros_layer_drops_readings_above_max_range_and_marks_at_it() -> None:
     geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
     grid = OccupancyGrid(12.0, 2.0, 0.1, origin=(-6.0, -1.0))

@@ -43,7 +43,15 @@ from bayesmap._typing import FloatArray, Poses
 from bayesmap.errors import ConfigError
 from bayesmap.sim.scenarios import register, scenario
 
-__all__ = ["REALISTIC_WORLDS", "PolygonWorld", "path_poses", "random_building", "world"]
+__all__ = [
+    "REALISTIC_WORLDS",
+    "PolygonWorld",
+    "path_poses",
+    "random_building",
+    "random_hall",
+    "random_office",
+    "world",
+]
 
 
 @dataclass(frozen=True)
@@ -307,6 +315,121 @@ def random_building(rng: RNGLike = None) -> PolygonWorld:
     if not isinstance(outer, Polygon):
         raise ConfigError("random building: the outline split (unlucky draw); use another seed")
     return _make("sonar-random-building", outer, holes, waypoints)
+
+
+def _scatter(
+    generator: np.random.Generator,
+    room: Polygon,
+    path: shapely.LineString,
+    sizes: list[tuple[float, float]],
+    angle: tuple[float, float],
+    clearance: float,
+) -> list[Polygon]:
+    """Place boxes of ``sizes`` [m] at random in ``room``, ``clearance`` [m] off ``path``.
+
+    Each box turns by a uniform angle in ``angle`` [deg], keeps ``clearance`` from the
+    path, the room's walls and every box placed before it, and is drawn again (up to 50
+    times, then left out) where it does not fit.
+    """
+    x0, y0, x1, y1 = room.bounds
+    placed: list[Polygon] = []
+    inner = room.buffer(-clearance)
+    for w, h in sizes:
+        for _ in range(50):
+            x = float(generator.uniform(x0, x1))
+            y = float(generator.uniform(y0, y1))
+            turn = float(generator.uniform(*angle))
+            item = rotate(box(x - w / 2, y - h / 2, x + w / 2, y + h / 2), turn, origin="centroid")
+            if (
+                inner.contains(item)
+                and item.distance(path) > clearance
+                and all(item.distance(other) > clearance for other in placed)
+            ):
+                placed.append(item)
+                break
+    return placed
+
+
+def random_hall(rng: RNGLike = None) -> PolygonWorld:
+    """A stress world nobody tuned on: an open hall with pillars and clutter.
+
+    The hall is 12–22 m by 8–14 m, with a chamfered corner (1–4 m) half the time; 2–6
+    pillars (0.4–0.8 m square, at any angle) and 0–4 boxes or bins (0.3–1.2 m) stand at
+    random, at least 0.7 m off the path (those that do not fit are left out). The path is
+    a loop 1.5–3 m inside the walls with a leg across the middle, so most walls are
+    farther than the sonars reach from much of it (the logs add people walking through).
+    """
+    generator = as_generator(rng)
+    length = float(generator.uniform(12.0, 22.0))
+    depth = float(generator.uniform(8.0, 14.0))
+    corners = [(0.0, 0.0), (length, 0.0), (length, depth), (0.0, depth)]
+    if generator.random() < 0.5:
+        cut = float(generator.uniform(1.0, 4.0))
+        corners[2:3] = [(length, depth - cut), (length - cut, depth)]
+    outer = Polygon(corners)
+    inset = float(generator.uniform(1.5, 3.0))
+    middle = float(generator.uniform(0.4, 0.6)) * length
+    waypoints = [
+        (inset, inset),
+        (length - inset, inset),
+        (length - inset, depth - inset - 1.0),
+        (middle, depth - inset),
+        (inset, depth - inset),
+        (inset, depth / 2),
+        (middle, depth / 2),
+        (middle, inset + 0.5),
+    ]
+    path = shapely.LineString([*waypoints, waypoints[0]])
+    pillars = [(side, side) for side in generator.uniform(0.4, 0.8, size=generator.integers(2, 7))]
+    clutter = [
+        tuple(pair) for pair in generator.uniform(0.3, 1.2, size=(generator.integers(0, 5), 2))
+    ]
+    holes = _scatter(generator, outer, path, [*pillars, *clutter], (0.0, 90.0), 0.7)
+    return _make("sonar-random-hall", outer, holes, waypoints)
+
+
+def random_office(rng: RNGLike = None) -> PolygonWorld:
+    """A stress world nobody tuned on: an office with desks, cabinets and door recesses.
+
+    The room is 7–12 m by 6–9 m with 1–4 door recesses (0.1–0.25 m deep) in its walls;
+    of 3–7 desks (1.2–1.8 m by 0.6–0.9 m, turned up to ±10° from the walls' directions)
+    and 0–2 cabinets (0.4–0.6 m by 0.8–1.4 m) drawn, those that fit stand at random at
+    least 0.5 m off the path (a loop 1–1.5 m inside the walls with a leg across the
+    middle), from the walls and from each other — in a small room, often only one or two.
+    """
+    generator = as_generator(rng)
+    length = float(generator.uniform(7.0, 12.0))
+    depth = float(generator.uniform(6.0, 9.0))
+    room = box(0.0, 0.0, length, depth)
+    recesses: list[Polygon] = []
+    for _ in range(int(generator.integers(1, 5))):
+        x = float(generator.uniform(1.0, length - 1.0))
+        wall, sign = (0.0, -1.0) if generator.random() < 0.5 else (depth, 1.0)
+        recesses += _recesses((x,), wall, sign * float(generator.uniform(0.1, 0.25)))
+    outer = _union([room, *recesses])
+    inset = float(generator.uniform(1.0, 1.5))
+    middle = depth / 2
+    waypoints = [
+        (inset, inset),
+        (length - inset, inset),
+        (length - inset, depth - inset),
+        (inset, depth - inset),
+        (inset, middle),
+        (length / 2, middle),
+        (length / 2, inset + 0.6),
+    ]
+    path = shapely.LineString([*waypoints, waypoints[0]])
+    desks = [
+        (float(generator.uniform(1.2, 1.8)), float(generator.uniform(0.6, 0.9)))
+        for _ in range(int(generator.integers(3, 8)))
+    ]
+    cabinets = [
+        (float(generator.uniform(0.4, 0.6)), float(generator.uniform(0.8, 1.4)))
+        for _ in range(int(generator.integers(0, 3)))
+    ]
+    turn = (-10.0, 10.0) if generator.random() < 0.5 else (80.0, 100.0)
+    holes = _scatter(generator, room, path, [*desks, *cabinets], turn, 0.5)
+    return _make("sonar-random-office", outer, holes, waypoints)
 
 
 def world(name: str) -> PolygonWorld:

@@ -114,8 +114,16 @@ class _LogOddsMapper(_ConeMapper):
         decay: float = 0.0,
         footprint: float = 0.0,
         free_lock: float = 0.0,
+        explain_away: float = 0.0,
+        explain_beyond: float = 0.0,
     ) -> None:
         super().__init__(grid, geometry)
+        if not explain_away >= 0:
+            raise ConfigError(f"explain_away must be an exponent >= 0, got {explain_away}")
+        if not explain_beyond >= 0:
+            raise ConfigError(f"explain_beyond must be >= 0 metres, got {explain_beyond}")
+        self.explain_away = float(explain_away)
+        self.explain_beyond = float(explain_beyond)
         if not free_lock >= 0:
             raise ConfigError(f"free_lock must be >= 0 (log-odds), got {free_lock}")
         self.free_lock = float(free_lock)
@@ -163,6 +171,7 @@ class _LogOddsMapper(_ConeMapper):
         n = self.geometry.n
         reach = np.where(mask, self._reach(r), 0.0)
         step = max(1, _READINGS_PER_BATCH // n)
+        footprint = self._footprint_cells(p)
         for a in range(0, len(r), step):
             b = min(a + step, len(r))
             cells = self._cells(centres[a:b].reshape(-1, 2), axis[a:b].ravel(), reach[a:b].ravel())
@@ -181,7 +190,11 @@ class _LogOddsMapper(_ConeMapper):
                     cells.reading[part],
                 )
                 self._add(piece, increment[part])
-                self._clear_footprint(p[a + i])
+                if footprint is not None:
+                    rows, cols, inside = footprint
+                    index = (rows[a + i][inside[a + i]], cols[a + i][inside[a + i]])
+                    self.log_odds_[index] = -self.clamp
+                    self.swept_[index] = True
 
     def _add(self, cells: ConeCells, increment: FloatArray) -> None:
         index = (cells.rows, cells.cols)
@@ -197,34 +210,70 @@ class _LogOddsMapper(_ConeMapper):
             # passer-by, so its occupied evidence is not written (free evidence still is).
             locked = self.log_odds_[index] <= self.prior_log_odds - self.free_lock
             increment = np.where(locked & (increment > 0.0), 0.0, increment)
+        if self.explain_away > 0.0:
+            increment = self._explained(cells, increment)
         np.add.at(self.log_odds_, index, increment)
         updated = np.clip(self.log_odds_[index], -self.clamp, self.clamp)
         # Where the robot's body has been, no static obstacle stands: an echo there later
         # came from something passing by (a person), so swept cells stay free.
         self.log_odds_[index] = np.where(self.swept_[index], -self.clamp, updated)
 
-    def _clear_footprint(self, pose: npt.ArrayLike) -> None:
-        """The robot stands here: cells within ``footprint`` [m] of its centre are free.
+    def _explained(self, cells: ConeCells, increment: FloatArray) -> FloatArray:
+        """Share each echo's occupied evidence along its arc by what the map already knows.
 
-        They join ``swept_`` and stay free for good: the map is of the static world, and no
-        static obstacle can stand where the robot has stood.
+        An echo says that *some* cell of its arc reflected; the cone model credits every
+        arc cell alike. Here each arc cell (positive increment) gets the fraction
+        ``(p_i / max_j p_j) ** explain_away`` of it, ``p`` the current occupancy
+        probabilities of the same reading's arc cells: a cell other readings have seen
+        free is explained away by the arc cells that may still reflect, which take the
+        echo's full weight. This is one E-step of the forward sensor model's
+        expectation-maximisation (Thrun 2003, "Learning occupancy grid maps with forward
+        sensor models": the posterior share of each cell in causing the measurement),
+        taken with the map as it stands, so the update stays one pass. Only arc cells
+        farther than ``explain_beyond`` from the transducer are shared: a near arc is
+        narrow (``ρβ``: 0.9 m at 2 m for a 25° beam) and lies mostly on the surface that
+        echoed, while a far one spans pillars, walls and the free space between them.
+        """
+        arc = np.flatnonzero((increment > 0.0) & (cells.rho > self.explain_beyond))
+        if len(arc) == 0:
+            return increment
+        probability = 1.0 / (1.0 + np.exp(-self.log_odds_[cells.rows[arc], cells.cols[arc]]))
+        reading = cells.reading[arc]
+        starts = np.flatnonzero(np.r_[True, reading[1:] != reading[:-1]])
+        peak = np.maximum.reduceat(probability, starts)
+        runs = np.diff(np.r_[starts, len(arc)])
+        share = probability / np.repeat(peak, runs)
+        if self.explain_away != 1.0:
+            share **= self.explain_away
+        out = increment.copy()
+        out[arc] *= share
+        return out
+
+    def _footprint_cells(
+        self, poses: FloatArray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The robot stands here: per pose, the cells within ``footprint`` [m] of its centre.
+
+        Returns ``(rows, cols, inside)``, each ``(m, k)``: candidate cells round each pose
+        and which of them lie inside the footprint and the grid; ``None`` when off. After
+        each ring these cells are set free and join ``swept_``, and stay free for good: the
+        map is of the static world, and no static obstacle can stand where the robot has
+        stood.
         """
         if self.footprint <= 0:
-            return
-        x, y = np.asarray(pose, dtype=np.float64)[:2]
+            return None
         res, (x0, y0), (ny, nx) = self.grid.resolution, self.grid.origin, self.grid.shape
         span = int(math.ceil(self.footprint / res)) + 1
-        col = int(math.floor((x - x0) / res))
-        row = int(math.floor((y - y0) / res))
-        rows = np.arange(max(row - span, 0), min(row + span + 1, ny))[:, None]
-        cols = np.arange(max(col - span, 0), min(col + span + 1, nx))[None, :]
+        offset = np.arange(-span, span + 1)
+        d_row, d_col = (g.ravel() for g in np.meshgrid(offset, offset, indexing="ij"))
+        x, y = poses[:, 0:1], poses[:, 1:2]
+        rows = np.floor((y - y0) / res).astype(np.int64) + d_row[None, :]
+        cols = np.floor((x - x0) / res).astype(np.int64) + d_col[None, :]
         inside = (x0 + (cols + 0.5) * res - x) ** 2 + (y0 + (rows + 0.5) * res - y) ** 2 <= (
             self.footprint**2
         )
-        r, c = np.nonzero(inside)
-        index = (rows[r, 0], cols[0, c])
-        self.log_odds_[index] = -self.clamp
-        self.swept_[index] = True
+        inside &= (rows >= 0) & (rows < ny) & (cols >= 0) & (cols < nx)
+        return rows, cols, inside
 
     def probability(self) -> Grid:
         """``(ny, nx)`` occupancy probability of each cell."""
@@ -293,8 +342,12 @@ class ElfesMapper(_LogOddsMapper):
         decay: float = 0.0,
         footprint: float = 0.0,
         free_lock: float = 0.0,
+        explain_away: float = 0.0,
+        explain_beyond: float = 0.0,
     ) -> None:
-        super().__init__(grid, geometry, clamp, decay, footprint, free_lock)
+        super().__init__(
+            grid, geometry, clamp, decay, footprint, free_lock, explain_away, explain_beyond
+        )
         if no_echo not in ("cone", "clear", "ignore"):
             raise ConfigError(f"no_echo must be 'cone', 'clear' or 'ignore', got {no_echo!r}")
         if not 0.0 < clear_distance <= geometry.max_range:

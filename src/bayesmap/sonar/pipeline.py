@@ -254,6 +254,10 @@ class Pipeline:
         (saturation and decay also of Thrun's).
     p_free
         Probability deep in the free part of an eq. 1 cone (its occupied peak stays 0.7).
+    explain_away, explain_beyond
+        Share of an echo's occupied evidence along its arc by what the map already knows
+        (exponent, 0: off), for arc cells beyond ``explain_beyond`` [m] (see
+        ``ElfesMapper``).
     merge_repeats
         Count identical stationary rings once.
     filter_options
@@ -271,6 +275,8 @@ class Pipeline:
     footprint: float = 0.0
     p_free: float = 0.35
     free_lock: float = 0.0
+    explain_away: float = 0.0
+    explain_beyond: float = 0.0
     merge_repeats: bool = False
     filter_options: tuple[tuple[str, float | None], ...] = ()
 
@@ -308,6 +314,8 @@ class Pipeline:
             footprint=self.footprint,
             p_free=self.p_free,
             free_lock=self.free_lock,
+            explain_away=self.explain_away,
+            explain_beyond=self.explain_beyond,
         )
 
 
@@ -319,6 +327,8 @@ PIPELINES: dict[str, Pipeline] = {
         no_echo="clear",
         clear_distance=1.0,
         footprint=0.2,
+        explain_away=1.0,
+        explain_beyond=2.0,
         merge_repeats=True,
         filter_options=(
             ("no_echo_spread", None),
@@ -346,7 +356,8 @@ trait of ``L`` re-seen over 0.5 m of path is kept despite a trait in front, whos
 space it then stops short of (``keep_supported_echoes``, ``static_span``); ``L`` judges
 silent readings and stops free space from the start (``l_in_case_a``); no-echo readings
 clear 1 m; the robot's footprint (0.2 m) cleared and kept free; Elfes' free strength
-``p_free`` 0.35; identical stationary rings merged. ``paper``: all three stages
+``p_free`` 0.35; an echo's occupied evidence beyond 2 m shared along its arc by the
+current map (``explain_away``); identical stationary rings merged. ``paper``: all three stages
 with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single
 stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
 ``ros``: unfiltered baselines (the ROS layer exactly as ``range_sensor_layer`` does it)."""
