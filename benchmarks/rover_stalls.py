@@ -147,13 +147,12 @@ def uncertain_causes(
     free_reads, contact_reads = reads_per_cell(world, path, grid, params)
     mixed = (free_reads >= MIXED_READS) & (contact_reads >= MIXED_READS)
     reach = params.sensor_offset + informative_range(r_max=params.r_max, beta_b=params.beta_b)
-    on_map = np.pad(np.ones(grid.shape, dtype=bool), 1, constant_values=False)
-    costs = crossing_costs(
-        np.pad(grid.probability, 1, constant_values=params.prior), on_map, params, res
-    )[1:-1, 1:-1]
     x, y = path[-1, :2]
     i = min(max(int((y - grid.origin[1]) // res), 0), grid.shape[0] - 1)
     j = min(max(int((x - grid.origin[0]) // res), 0), grid.shape[1] - 1)
+    on_map = np.pad(np.ones(grid.shape, dtype=bool), 1, constant_values=False)
+    probability = np.pad(grid.probability, 1, constant_values=params.prior)
+    costs = crossing_costs(probability, on_map, params, res, rover=(i + 1, j + 1))[1:-1, 1:-1]
     labels, _ = ndimage.label(np.isfinite(costs))
     reachable = (labels == labels[i, j]) if labels[i, j] else np.zeros(grid.shape, dtype=bool)
     reachable[i, j] = True
@@ -247,12 +246,13 @@ def main() -> None:
     counts = stalled["category"].value_counts()
     summary = {k: v for k, v in metrics.items() if k != "coverage_curve"}
     summary["stalled_by_cause"] = {c: int(counts.get(c, 0)) for c in CATEGORIES}
+    blacklist = getattr(trace.explorer.target_rule, "blacklist_", set())
     causes = uncertain_causes(
         spec.world,
         trace.explorer.grid,
         trace.observable,
         np.asarray(trace.path),
-        getattr(trace.explorer.target_rule, "blacklist_", set()),
+        blacklist,
         config.rover_params(),
     )
     summary["uncertain_by_cause"] = causes
@@ -262,6 +262,7 @@ def main() -> None:
         entropy=trace.explorer.grid.entropy,
         observable=trace.observable,
         path=np.asarray(trace.path),
+        blacklist=np.asarray(sorted(blacklist), dtype=np.float64).reshape(-1, 2),
     )
     n_left = max(sum(causes.values()), 1)
     write_json(args.out / f"{name}.json", summary)
