@@ -4,9 +4,10 @@ A cycle is *stalled* when it neither lowers the number of uncertain cells nor sh
 path still to go to an unchanged target (``stalled_cycles`` in the run metrics,
 :func:`bayesmap.experiments.rover.simulate`). This script drives one run of
 ``benchmarks/rover_worlds.py``'s grid (same generator, world seed and code path) with an
-observer on every cycle, writes the per-cycle log to ``OUT/<run>.csv``, the map with the
-path to ``OUT/<run>.png`` and the run's metrics to ``OUT/<run>.json``, and splits the
-stalled cycles by what the rover was doing:
+observer on every cycle, writes the per-cycle log to ``OUT/<run>.csv``, the final maps
+and the true path to ``OUT/<run>.npz``, the map with the path to ``OUT/<run>.png`` and
+the run's metrics to ``OUT/<run>.json``, and splits the stalled cycles by what the rover
+was doing:
 
 - *no safe heading*: the footprint check refused every heading, retreats included (the
   rover stops, pivots or backs off);
@@ -18,6 +19,19 @@ stalled cycles by what the rover was doing:
 - *driving*: moving with the same target but the path still to go did not shrink (a detour
   around a hazard the map just grew, or waiting at a gap);
 - *new target*: the target changed this cycle.
+
+At the end of the run every observable cell still uncertain (entropy >= H_desired) is put
+in the first class that fits (``uncertain_by_cause`` in the JSON, :func:`uncertain_causes`):
+
+- *mixed readings* (the face band): the rangers' axes, cast on the true world along the
+  driven path within informative reach (:func:`reads_per_cell`), both crossed the cell
+  free and ended in it, each at least ``MIXED_READS`` times;
+- *behind a gap*: no cell the plan can reach on the final map (the planner's crossing
+  costs over the whole map, connected to where the rover stands) is within the rangers'
+  informative reach of it (line of sight ignored);
+- *never read*: no ranger axis entered it within informative reach (line of sight kept);
+- *given up*: on the explorer's blacklist (timed out, looked at in vain, unreachable);
+- *other*: read, but only one way or a few times, reachable, not given up.
 
 It rewrites its section of docs/benchmarks.md. Run from the repository root, e.g.::
 
@@ -36,6 +50,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from numpy.random import SeedSequence
+from scipy import ndimage
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
@@ -45,8 +60,13 @@ from benchmarks.rover_worlds import GENERATOR, WORLD_SEED  # noqa: E402
 from bayesmap._io import write_bytes, write_json  # noqa: E402
 from bayesmap.experiments import rover  # noqa: E402
 from bayesmap.experiments.rover_world import EXPLORER_RULES  # noqa: E402
+from bayesmap.grid import OccupancyGrid  # noqa: E402
 from bayesmap.rover.explorer import Decision  # noqa: E402
+from bayesmap.rover.params import RoverParams  # noqa: E402
+from bayesmap.rover.planning import crossing_costs  # noqa: E402
+from bayesmap.sensing.ir import informative_range  # noqa: E402
 from bayesmap.sim.rover_worlds import generate_world  # noqa: E402
+from bayesmap.sim.world2d import world_ray_cast  # noqa: E402
 from bayesmap.viz.rover import maps_pair_figure  # noqa: E402
 
 CATEGORIES = (
@@ -57,6 +77,100 @@ CATEGORIES = (
     "driving",
     "new target",
 )
+
+UNCERTAIN_CAUSES = ("mixed readings", "behind a gap", "never read", "given up", "other")
+MIXED_READS = 3
+"""Reads of each kind (free, ending in the cell) that make a cell's readings *mixed*."""
+
+
+def reads_per_cell(
+    world: Any, path: np.ndarray, grid: OccupancyGrid, params: RoverParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """How often each cell was crossed free and how often a read ended in it.
+
+    Every ranger's axis is cast on the true world from every pose of the path (true
+    poses), out to the informative reach of eq. 31; samples every 0.1 m before the
+    obstacle count as free reads of their cell, the obstacle's cell as a contact read.
+    """
+    res = grid.resolution
+    reach = informative_range(r_max=params.r_max, beta_b=params.beta_b)
+    poses = np.asarray(path, dtype=np.float64)
+    angles = (poses[:, 2:3] + np.asarray(params.sensor_angles)[None, :]).ravel()
+    heads = np.repeat(poses[:, :2], len(params.sensor_angles), axis=0)
+    origins = heads + params.sensor_offset * np.stack(
+        [
+            np.cos(np.repeat(poses[:, 2], len(params.sensor_angles))),
+            np.sin(np.repeat(poses[:, 2], len(params.sensor_angles))),
+        ],
+        axis=1,
+    )
+    ranges = world_ray_cast(world, origins, angles)
+    along = np.arange(0.05, reach, 0.1)
+    before = along[None, :] < np.minimum(ranges, reach)[:, None]
+    sx = origins[:, :1] + np.cos(angles)[:, None] * along[None, :]
+    sy = origins[:, 1:] + np.sin(angles)[:, None] * along[None, :]
+    free = np.zeros(grid.shape, dtype=np.int64)
+    ended = np.zeros(grid.shape, dtype=np.int64)
+
+    def count(into: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> None:
+        i = np.floor((ys - grid.origin[1]) / res).astype(np.int64)
+        j = np.floor((xs - grid.origin[0]) / res).astype(np.int64)
+        ok = (i >= 0) & (i < grid.shape[0]) & (j >= 0) & (j < grid.shape[1])
+        np.add.at(into, (i[ok], j[ok]), 1)
+
+    count(free, sx[before], sy[before])
+    hit = ranges <= reach
+    count(
+        ended,
+        origins[hit, 0] + ranges[hit] * np.cos(angles[hit]),
+        origins[hit, 1] + ranges[hit] * np.sin(angles[hit]),
+    )
+    return free, ended
+
+
+def uncertain_causes(
+    world: Any,
+    grid: OccupancyGrid,
+    observable: np.ndarray,
+    path: np.ndarray,
+    blacklist: set[tuple[float, float]],
+    params: RoverParams,
+) -> dict[str, int]:
+    """Observable cells still uncertain at the end of a run, by the first cause that fits.
+
+    The causes are the module docstring's, in its order. *Reach* is the ranger offset plus
+    the informative range of eq. 31 (:func:`~bayesmap.sensing.ir.informative_range`), as in
+    the coverage definition.
+    """
+    res = grid.resolution
+    uncertain = observable & (grid.entropy >= params.h_desired)
+    free_reads, contact_reads = reads_per_cell(world, path, grid, params)
+    mixed = (free_reads >= MIXED_READS) & (contact_reads >= MIXED_READS)
+    reach = params.sensor_offset + informative_range(r_max=params.r_max, beta_b=params.beta_b)
+    x, y = path[-1, :2]
+    i = min(max(int((y - grid.origin[1]) // res), 0), grid.shape[0] - 1)
+    j = min(max(int((x - grid.origin[0]) // res), 0), grid.shape[1] - 1)
+    on_map = np.pad(np.ones(grid.shape, dtype=bool), 1, constant_values=False)
+    probability = np.pad(grid.probability, 1, constant_values=params.prior)
+    costs = crossing_costs(probability, on_map, params, res, rover=(i + 1, j + 1))[1:-1, 1:-1]
+    labels, _ = ndimage.label(np.isfinite(costs))
+    reachable = (labels == labels[i, j]) if labels[i, j] else np.zeros(grid.shape, dtype=bool)
+    reachable[i, j] = True
+    in_view = ndimage.distance_transform_edt(~reachable, sampling=res) <= reach
+    read = (free_reads + contact_reads) > 0
+    given_up = np.zeros(grid.shape, dtype=bool)
+    for bx, by in blacklist:
+        bi, bj = int((by - grid.origin[1]) // res), int((bx - grid.origin[0]) // res)
+        if 0 <= bi < grid.shape[0] and 0 <= bj < grid.shape[1]:
+            given_up[bi, bj] = True
+    left = uncertain.copy()
+    counts: dict[str, int] = {}
+    for cause, cells in zip(
+        UNCERTAIN_CAUSES, (mixed, ~in_view, ~read, given_up, left), strict=True
+    ):
+        counts[cause] = int((left & cells).sum())
+        left &= ~cells
+    return counts
 
 
 def category(row: dict[str, Any], resolution: float) -> str:
@@ -132,6 +246,25 @@ def main() -> None:
     counts = stalled["category"].value_counts()
     summary = {k: v for k, v in metrics.items() if k != "coverage_curve"}
     summary["stalled_by_cause"] = {c: int(counts.get(c, 0)) for c in CATEGORIES}
+    blacklist = getattr(trace.explorer.target_rule, "blacklist_", set())
+    causes = uncertain_causes(
+        spec.world,
+        trace.explorer.grid,
+        trace.observable,
+        np.asarray(trace.path),
+        blacklist,
+        config.rover_params(),
+    )
+    summary["uncertain_by_cause"] = causes
+    np.savez_compressed(
+        args.out / f"{name}.npz",
+        probability=trace.explorer.grid.probability,
+        entropy=trace.explorer.grid.entropy,
+        observable=trace.observable,
+        path=np.asarray(trace.path),
+        blacklist=np.asarray(sorted(blacklist), dtype=np.float64).reshape(-1, 2),
+    )
+    n_left = max(sum(causes.values()), 1)
     write_json(args.out / f"{name}.json", summary)
     grid = trace.explorer.grid
     write_bytes(
@@ -173,6 +306,10 @@ def main() -> None:
             f"| {c} | {int(counts.get(c, 0))} | {counts.get(c, 0) / max(len(stalled), 1):.0%} |"
             for c in CATEGORIES
         ),
+        "",
+        "| observable cell still uncertain at the end | cells | share |",
+        "|---|---|---|",
+        *(f"| {c} | {n} | {n / n_left:.0%} |" for c, n in causes.items()),
         "",
         "Coverage against distance: "
         + ", ".join(f"{c:.2f} at {d:.0f} m" for d, c in checkpoints if math.isfinite(d))

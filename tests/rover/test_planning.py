@@ -188,3 +188,30 @@ def test_the_narrowest_passage_open_by_construction_is_two_metres(offset: float)
     assert np.isfinite(middling) == (offset < 1e-9)  # only when cell-aligned
     narrow = local_plan(_wall_with_gap(1.2, offset), 6.25, 2.25, wide).cost_to(*behind)
     assert np.isinf(narrow)
+
+
+def test_view_costs_without_obstacles_are_the_smallest_cost_within_view_range() -> None:
+    from scipy import ndimage
+
+    from bayesmap.rover.planning import _disk, view_costs
+
+    rng = np.random.default_rng(3)
+    cost = rng.uniform(0.0, 10.0, (15, 15))
+    cost[rng.uniform(size=cost.shape) < 0.2] = np.inf
+    expected = ndimage.minimum_filter(cost, footprint=_disk(1.0, 0.5), mode="constant", cval=np.inf)
+    got = view_costs(cost, np.zeros(cost.shape, dtype=bool), 1.0, 0.5)
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_a_target_is_not_viewed_through_a_thin_wall() -> None:
+    """The only cheap cell within view range lies behind a one-cell wall: the target's view
+    cost comes from its own side, and the plan's viewpoint is there too."""
+    from bayesmap.rover.planning import view_costs
+
+    cost = np.full((9, 9), 50.0)
+    cost[4, 2] = 1.0  # two cells left of the target, beyond the wall
+    blocked = np.zeros((9, 9), dtype=bool)
+    blocked[:, 3] = True  # a wall between column 2 and the target's column 4
+    view = view_costs(cost, blocked, 1.0, 0.5)
+    assert view[4, 4] == 50.0
+    assert view_costs(cost, np.zeros_like(blocked), 1.0, 0.5)[4, 4] == 1.0

@@ -52,3 +52,18 @@ def test_reliability_floor_removes_reversed_evidence() -> None:
     floored, _ = ir_cell_evidence(np.array([1.8]), np.zeros(1), sensors, [1.8], [True], **KW)
     assert literal[0] < 0.2  # beta_r < 1/2: the literal paper reads a contact as free space
     assert floored[0] == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize("gap", [0.26, 0.3, 0.4, 0.5])
+def test_a_contact_puts_no_obstacle_evidence_in_front_of_its_free_part(gap: float) -> None:
+    """A cell more than sigma_xy in front of the read range gets the free opinion alone,
+    exactly what a beam that read nothing would give it; within sigma_xy it is evidence of
+    an obstacle."""
+    sensors = np.array([[0.0, 0.0, 0.0]])
+    r = 0.9
+    front = np.array([r - gap])
+    read, weight = ir_cell_evidence(front, np.zeros(1), sensors, [r], [True], **KW)
+    empty, _ = ir_cell_evidence(front, np.zeros(1), sensors, [7.0], [False], **KW)
+    assert read[0] == pytest.approx(empty[0]) and read[0] < 0.2 and weight[0] == 1.0
+    face, _ = ir_cell_evidence(np.array([r - 0.2]), np.zeros(1), sensors, [r], [True], **KW)
+    assert face[0] > 0.2

@@ -10,8 +10,9 @@ hazard (a likely obstacle or its doubtful neighbour,
 demands of the drive; a passable cell within one more cell of a hazard costs
 ``_NEAR_COST`` times as much to cross, so paths keep to open ground and squeeze through a
 narrow gap only when there is no other way. A target is reached from any cell within
-``view_range`` of it (the rover looks at it from there), so cells beside an obstacle are
-reachable targets. Cells never observed count as passable (optimistic planning: the
+``view_range`` of it with a line of sight past every likely obstacle (the rover looks at
+it from there), so cells beside an obstacle are reachable targets, but not from the far
+side of a thin wall. Cells never observed count as passable (optimistic planning: the
 footprint check of :mod:`bayesmap.rover.safety` guards the drive).
 The rover then steers toward a waypoint along that path instead of at the target itself.
 Cost depends on ``d_max`` only, never on the size of the map.
@@ -22,6 +23,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -132,7 +134,8 @@ class LocalPlan:
         counting ``_NEAR_COST`` times); ``inf`` where unreachable.
     view
         ``(n, n)`` cost [m] of reaching a cell from which the rover sees each cell: the
-        smallest ``cost`` within ``view_range`` of it.
+        smallest ``cost`` within ``view_range`` of it whose line of sight to it crosses no
+        likely obstacle (:func:`view_costs`).
     row0, col0
         Grid indices of the patch's first cell (may be negative, off the map).
     resolution
@@ -143,6 +146,8 @@ class LocalPlan:
         ``(n, n)`` crossing cost per metre the plan was solved on (:func:`crossing_costs`).
     start
         Patch indices of the rover's cell, where the paths begin.
+    blocked
+        ``(n, n)`` likely obstacles (``p >= p_block``), which block a line of sight.
     """
 
     xc: FloatArray
@@ -155,6 +160,7 @@ class LocalPlan:
     view_range: float
     costs: FloatArray
     start: tuple[int, int]
+    blocked: BoolArray
     _solver: MCP_Geometric
 
     def _index(self, x: float, y: float) -> tuple[int, int] | None:
@@ -172,8 +178,9 @@ class LocalPlan:
     def _viewpoint(self, target: tuple[float, float]) -> tuple[int, int] | None:
         """The patch cell the rover heads for on the way to ``target``, or ``None``.
 
-        Inside the patch: the cheapest reachable cell within ``view_range`` of the target.
-        Outside: the patch cell that minimises path cost plus straight-line distance to it.
+        Inside the patch: the cheapest reachable cell within ``view_range`` of the target
+        that sees it (no likely obstacle on the line between them). Outside: the patch cell
+        that minimises path cost plus straight-line distance to it.
         """
         index = self._index(*target)
         if index is None:
@@ -182,6 +189,8 @@ class LocalPlan:
             if not np.isfinite(self.view[index]):
                 return None
             within = np.hypot(self.xc - target[0], self.yc - target[1]) <= self.view_range + 1e-9
+            for i, j in zip(*np.nonzero(within), strict=True):
+                within[i, j] = _sight(self.blocked, (int(i), int(j)), index)
             remaining = np.where(within, self.cost, np.inf)
         flat = int(np.argmin(remaining))
         if not np.isfinite(remaining.flat[flat]):
@@ -284,9 +293,8 @@ def local_plan(
     solver = MCP_Geometric(costs, fully_connected=True)
     cumulative, _ = solver.find_costs([(i0, j0)])
     cost = np.asarray(cumulative) * grid.resolution
-    view = ndimage.minimum_filter(
-        cost, footprint=_disk(params.view_range, grid.resolution), mode="constant", cval=np.inf
-    )
+    blocked = prob >= params.p_block
+    view = view_costs(cost, blocked, params.view_range, grid.resolution)
     return LocalPlan(
         np.asarray(xc),
         np.asarray(yc),
@@ -298,8 +306,56 @@ def local_plan(
         params.view_range,
         costs,
         (i0, j0),
+        blocked,
         solver,
     )
+
+
+def _steps(di: int, dj: int) -> list[tuple[int, int]]:
+    """Cell offsets strictly between ``(0, 0)`` and ``(di, dj)`` on the straight line
+    (sampled at a quarter cell)."""
+    n = 4 * max(abs(di), abs(dj))
+    between = {(round(di * k / n), round(dj * k / n)) for k in range(1, n)}
+    return sorted(between - {(0, 0), (di, dj)})
+
+
+def _sight(blocked: BoolArray, a: tuple[int, int], b: tuple[int, int]) -> bool:
+    """No blocked cell lies strictly between cells ``a`` and ``b`` on the line joining them."""
+    n = blocked.shape
+    for si, sj in _steps(b[0] - a[0], b[1] - a[1]):
+        i, j = a[0] + si, a[1] + sj
+        if 0 <= i < n[0] and 0 <= j < n[1] and blocked[i, j]:
+            return False
+    return True
+
+
+def _shifted(layer: npt.NDArray[np.generic], di: int, dj: int, fill: object) -> npt.NDArray[Any]:
+    """``out[i, j] = layer[i + di, j + dj]``, ``fill`` where that falls off the array."""
+    out = np.full_like(layer, fill)
+    n, m = layer.shape
+    out[max(-di, 0) : n - max(di, 0), max(-dj, 0) : m - max(dj, 0)] = layer[
+        max(di, 0) : n + min(di, 0), max(dj, 0) : m + min(dj, 0)
+    ]
+    return out
+
+
+def view_costs(
+    cost: FloatArray, blocked: BoolArray, view_range: float, resolution: float
+) -> FloatArray:
+    """For every cell, the smallest path ``cost`` of a cell within ``view_range`` [m] that
+    sees it: no ``blocked`` cell lies strictly between the two on the line joining their
+    centres. A target behind a thin wall is not looked at from the wall's other side,
+    where the rangers would read the wall and never the target."""
+    view = cost.copy()
+    offsets = np.argwhere(_disk(view_range, resolution)) - int(math.floor(view_range / resolution))
+    for di, dj in offsets.tolist():
+        if di == 0 and dj == 0:
+            continue
+        clear = np.ones(cost.shape, dtype=bool)
+        for si, sj in _steps(di, dj):
+            clear &= ~_shifted(blocked, si, sj, False)
+        view = np.minimum(view, np.where(clear, _shifted(cost, di, dj, np.inf), np.inf))
+    return view
 
 
 @functools.lru_cache(maxsize=4)

@@ -97,7 +97,11 @@ def ir_cell_evidence(
     w_r
         Angular sensitivity (angle of view) of a ranger [rad], eq. 34.
     sigma_xy
-        Standard deviation of the 2-D Gaussian spread of a contact [m].
+        Standard deviation of the 2-D Gaussian spread of a contact [m]. The spread covers
+        only cells at least ``r - sigma_xy`` from the ranger, where its free evidence
+        stops: a reading reports the nearest obstacle on its beam, so it says of the cells
+        in front of that only that they are free (the Gaussian of §4.3 places the contact,
+        it does not put obstacle evidence on the beam's own free part).
     reliability_floor
         ``beta_r`` below this is raised to it (the ``floor`` of
         :func:`~bayesmap.sensing.ir.beta_r`). The paper's ``beta_b = 0.2`` makes ``beta_r``
@@ -135,7 +139,8 @@ def ir_cell_evidence(
         beta_r(distance, r_max=r_max, beta_b=beta_b, floor=reliability_floor), prior, 0
     )
     hx, hy = sx + r * np.cos(st), sy + r * np.sin(st)
-    w_hit = np.exp(-((x - hx) ** 2 + (y - hy) ** 2) / (2.0 * sigma_xy**2)) * hit
+    behind = distance >= r - sigma_xy  # a ranger reads the nearest obstacle: none in front
+    w_hit = np.exp(-((x - hx) ** 2 + (y - hy) ** 2) / (2.0 * sigma_xy**2)) * hit * behind
     s_hit = sensor_posterior(
         beta_r(r, r_max=r_max, beta_b=beta_b, floor=reliability_floor), prior, 1
     )
