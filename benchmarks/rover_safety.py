@@ -158,7 +158,7 @@ def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
         {
             "seed": job.seed,
             "resolution": spec.resolution,
-            "max_steps": args.steps,
+            "max_steps": args.steps or rover.world_budget(spec),
             "start": spec.start,
             "gps_sigma": job.gps * rover.Config().gps_sigma,
         }
@@ -262,7 +262,8 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
         f"--steps {args.steps} --gps {','.join(f'{g:g}' for g in args.gps)} "
         f"--explorers {','.join(args.explorers)} --inits {','.join(args.inits)} "
         f"--world-seed {args.world_seed} --size {args.size:g} --passage {args.passage:g}`. "
-        f"{len(runs)} runs of at most {args.steps} cycles on fresh generated worlds; "
+        f"{len(runs)} runs of at most {args.steps or 'the full budget of'} cycles on generated "
+        "worlds; "
         "`random` is the adversarial explorer (uniformly random local targets). The rover "
         "believes the nominal GPS (σ = 0.1 m, τ = 20 s) at every multiple.",
         "",
@@ -328,7 +329,9 @@ def main() -> None:
     parser.add_argument("--size", type=float, default=20.0, help="world side [m]")
     parser.add_argument("--passage", type=float, default=1.2, help="narrowest gap [m]")
     parser.add_argument("--seeds", type=int, default=1)
-    parser.add_argument("--steps", type=int, default=2000)
+    parser.add_argument(
+        "--steps", type=int, default=2000, help="cycles per run; 0: the world's full budget"
+    )
     parser.add_argument("--gps", type=_floats, default=[1.0, 2.0], help="GPS σ multiples")
     parser.add_argument("--explorers", type=_names, default=list(EXPLORERS))
     parser.add_argument("--inits", type=_names, default=["flat", "random"])
