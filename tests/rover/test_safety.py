@@ -122,13 +122,16 @@ def test_the_body_may_not_sweep_unseen_cells_unless_already_on_them() -> None:
     assert safety.safe[0] and not safety.safe[right]
 
 
-def test_hazards_are_likely_cells_and_their_doubtful_neighbours() -> None:
+def test_hazards_are_likely_cells_their_doubtful_neighbours_and_suspect_cells() -> None:
     p = np.full((5, 5), 0.01)
     p[2, 2] = 0.9
-    p[2, 3] = 0.3  # clipped by the obstacle's edge: mixed evidence
-    p[0, 0] = 0.3  # far from any likely cell
+    p[2, 3] = 0.1  # clipped by the obstacle's edge: mixed evidence, below the prior
+    p[0, 0] = 0.1  # as doubtful, far from any likely cell: free ground
+    p[4, 0] = 0.3  # far from any likely cell, but more likely occupied than the prior
+    p[4, 4] = PARAMS.prior  # never observed: the check's unknown cells, not a hazard
     hazard = hazard_cells(p, PARAMS)
-    assert hazard[2, 2] and hazard[2, 3] and not hazard[0, 0] and not hazard[1, 1]
+    assert hazard[2, 2] and hazard[2, 3] and hazard[4, 0]
+    assert not hazard[0, 0] and not hazard[1, 1] and not hazard[4, 4]
 
 
 FORWARD = [(PARAMS.speed, 0.0)] * 5

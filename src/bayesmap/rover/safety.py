@@ -8,7 +8,8 @@ included, against
 
 - cells of the map that are likely obstacles (``p >= p_block``), each a square of the
   grid's resolution, and their neighbours not yet shown certainly free (a cell the edge of
-  an obstacle only clips gets mixed evidence and can look free-ish);
+  an obstacle only clips gets mixed evidence and can look free-ish), and cells more likely
+  occupied than the prior (:func:`hazard_cells`);
 - the points the rangers read right now (any reading above ``2 sigma_r``, before eq. 33
   confirms it), spread over the ranger's angle of view;
 - cells never observed (still at the prior): the rangers look ahead only, so a turn can
@@ -409,12 +410,19 @@ def _swept_clearance(
 
 
 def hazard_cells(probability: npt.ArrayLike, params: RoverParams) -> BoolArray:
-    """Cells the footprint keeps its margin from: likely obstacles and their doubtful neighbours.
+    """Cells the footprint keeps its margin from: likely obstacles, their doubtful neighbours,
+    and suspect cells.
 
     Likely: ``p >= p_block``. Doubtful neighbour: 8-connected to a likely cell and not
-    certainly free (``p`` above the probability whose entropy is ``h_desired``).
+    certainly free (``p`` above the probability whose entropy is ``h_desired``). Suspect:
+    more likely occupied than the prior (``p > prior``): the readings found something there,
+    if not enough to call it likely. The end of a wall the rangers saw only obliquely stays
+    at p = 0.2–0.4 for thousands of cycles, and a rover that took such cells for free ground
+    passed 0.026 m from one (docs/rover.md, "Safety"). Cells still at the prior are the
+    footprint check's unknown cells, kept off the body but without a margin.
     """
     p = np.asarray(probability, dtype=np.float64)
     likely = p >= params.p_block
     near = ndimage.binary_dilation(likely, structure=np.ones((3, 3), dtype=bool))
-    return np.asarray(likely | (near & (p >= probability_at_entropy(params.h_desired))))
+    doubtful = near & (p >= probability_at_entropy(params.h_desired))
+    return np.asarray(likely | doubtful | (p > params.prior))
