@@ -157,12 +157,12 @@ PATCH = 4
 
 
 def _map_class(p: float, prior: float, params: RoverParams) -> str:
-    """What the footprint check made of a cell of probability ``p``."""
+    """Which kind of cell ``p`` is, as the footprint check's hazards are defined."""
     if p == prior:
         return "unknown"
     if p >= params.p_block:
         return "likely"
-    return "free" if p < prior else "uncertain"
+    return "below the prior" if p < prior else "suspect (above the prior)"
 
 
 class Job(NamedTuple):
@@ -345,8 +345,15 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
         "`random` is the adversarial explorer (uniformly random local targets). The rover "
         "believes the nominal GPS (σ = 0.1 m, τ = 20 s) at every multiple.",
         "",
-        f"Machine: {machine()}; load average at the end {load[0]:.1f} / {load[1]:.1f} / "
-        f"{load[2]:.1f}; {wall / 60:.1f} min wall time for the runs this invocation made.",
+        f"Machine: {machine()}; "
+        + (
+            "runs made earlier, summarised with `--report-only`; "
+            if args.report_only
+            else f"load average at the end {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}; "
+            f"{wall / 60:.1f} min wall time for the runs this invocation made; "
+        )
+        + f"median {np.median([r['cycle_ms'] for r in runs]):.0f} ms of wall time per cycle "
+        "(inflated by the shared machine's load).",
         "",
         "| worlds | GPS × | explorer | runs | collisions | runs with clearance ≤ 0.05 m | "
         "min clearance (min / 10 % / median) [m] | cycles < "
@@ -380,8 +387,8 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
             "the clearance it predicted (for a back-off: the recent track allowed it); "
             "GPS error then; the map's p, at that cycle and at the end, at the obstacle "
             "point nearest the body, moved into the rover's frame of that cycle, and what "
-            "the check made of it then: likely, free, uncertain or unknown, i.e. still at "
-            "the prior):",
+            "the cell was then: likely (p ≥ 0.5), suspect (above the prior), unknown (at "
+            "the prior) or below the prior):",
             "",
             "| run | cycle | clearance [m] | action | passed | predicted [m] | "
             "GPS error [m] | obstacle point | map p then (end) | map then |",
