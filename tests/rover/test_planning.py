@@ -148,7 +148,7 @@ def test_the_last_plan_is_reused_only_while_nothing_it_rests_on_changed() -> Non
     grid.probability[:] = 0.01
     first = local_plan(grid, 3.2, 3.2, PARAMS)
     assert local_plan(grid, 3.3, 3.3, PARAMS, previous=first) is first  # same cell and map
-    grid.probability[8, 8] = 0.15  # below the prior and far from obstacles: not a hazard
+    grid.probability[8, 8] = 0.3  # below p_block: no crossing cost changes
     assert local_plan(grid, 3.3, 3.3, PARAMS, previous=first) is first
     moved = local_plan(grid, 3.8, 3.3, PARAMS, previous=first)  # into the next cell
     assert moved is not first

@@ -8,13 +8,13 @@ included, against
 
 - cells of the map that are likely obstacles (``p >= p_block``), each a square of the
   grid's resolution, and their neighbours not yet shown certainly free (a cell the edge of
-  an obstacle only clips gets mixed evidence and can look free-ish), and cells more likely
-  occupied than the prior (:func:`hazard_cells`);
+  an obstacle only clips gets mixed evidence and can look free-ish);
 - the points the rangers read right now (any reading above ``2 sigma_r``, before eq. 33
   confirms it), spread over the ranger's angle of view;
-- cells never observed (still at the prior): the rangers look ahead only, so a turn can
-  sweep the body over ground it has never seen; the body may not overlap such a cell,
-  unless it overlaps it already;
+- cells not shown free (:func:`unshown_cells`: never observed, or more likely occupied
+  than the prior): the rangers look ahead only, so a turn can sweep the body over ground
+  they have never shown free; the body may not overlap such a cell, unless it overlaps it
+  already;
 - the edge of the mapped area (a path may not end farther outside than it starts).
 
 The footprint must keep ``safety_margin = margin_sigmas * position_sigma`` [m] from them,
@@ -252,7 +252,8 @@ def footprint_safety(
     params
         Footprint, margin, drive and look-ahead.
     unknown_cells
-        ``(u, 2)`` centres [m] of the cells near the rover never observed.
+        ``(u, 2)`` centres [m] of the cells near the rover not shown free
+        (:func:`unshown_cells`).
     track
         ``(K, 2)`` the rover's recent track in its body frame (:func:`recent_track`); without
         it the rover never backs off.
@@ -410,19 +411,25 @@ def _swept_clearance(
 
 
 def hazard_cells(probability: npt.ArrayLike, params: RoverParams) -> BoolArray:
-    """Cells the footprint keeps its margin from: likely obstacles, their doubtful neighbours,
-    and suspect cells.
+    """Cells the footprint keeps its margin from: likely obstacles and their doubtful neighbours.
 
     Likely: ``p >= p_block``. Doubtful neighbour: 8-connected to a likely cell and not
-    certainly free (``p`` above the probability whose entropy is ``h_desired``). Suspect:
-    more likely occupied than the prior (``p > prior``): the readings found something there,
-    if not enough to call it likely. The end of a wall the rangers saw only obliquely stays
-    at p = 0.2–0.4 for thousands of cycles, and a rover that took such cells for free ground
-    passed 0.026 m from one (docs/rover.md, "Safety"). Cells still at the prior are the
-    footprint check's unknown cells, kept off the body but without a margin.
+    certainly free (``p`` above the probability whose entropy is ``h_desired``).
     """
     p = np.asarray(probability, dtype=np.float64)
     likely = p >= params.p_block
     near = ndimage.binary_dilation(likely, structure=np.ones((3, 3), dtype=bool))
-    doubtful = near & (p >= probability_at_entropy(params.h_desired))
-    return np.asarray(likely | doubtful | (p > params.prior))
+    return np.asarray(likely | (near & (p >= probability_at_entropy(params.h_desired))))
+
+
+def unshown_cells(probability: npt.ArrayLike, prior: float) -> BoolArray:
+    """Cells not shown free, which the body may not sweep into: never observed (still at the
+    prior) or *suspect*, more likely occupied than the prior.
+
+    A suspect cell holds readings that found something, if not enough to call it likely:
+    the end of a wall the rangers saw only obliquely stays at p = 0.2–0.4 for thousands of
+    cycles, and a rover that took such cells for free ground passed 0.026 m from one
+    (docs/rover.md, "Safety on worlds nobody tuned for"). Unlike the hazards they get no
+    margin, so the rover still drives up to them and looks.
+    """
+    return np.asarray(np.asarray(probability, dtype=np.float64) >= prior)
