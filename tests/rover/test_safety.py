@@ -20,7 +20,6 @@ from bayesmap.rover.safety import (
     retreat_command,
     segment_distance,
     square_distance,
-    unshown_cells,
 )
 from bayesmap.sensing.ir import ranger_poses
 from bayesmap.sim import rover as sim_rover
@@ -130,25 +129,6 @@ def test_hazards_are_likely_cells_and_their_doubtful_neighbours() -> None:
     p[0, 0] = 0.3  # far from any likely cell
     hazard = hazard_cells(p, PARAMS)
     assert hazard[2, 2] and hazard[2, 3] and not hazard[0, 0] and not hazard[1, 1]
-    # cells never observed or more likely occupied than the prior are not shown free
-    shown = ~unshown_cells(p, PARAMS.prior)
-    assert not shown[0, 0] and not shown[2, 2] and shown[1, 1]
-
-
-def test_the_body_may_not_sweep_into_a_suspect_cell() -> None:
-    """A cell above the prior beside the path (the end of a wall seen obliquely) refuses
-    the headings whose path would overlap it, not the others, and gets no margin."""
-    p = np.full((9, 9), 0.01)
-    p[3, 5] = 0.31  # centre (2.75, 1.75) on a map with origin (0, 0): ahead and to the left
-    xc, yc = np.meshgrid(np.arange(9) * 0.5 + 0.25, np.arange(9) * 0.5 + 0.25)
-    unshown = unshown_cells(p, PARAMS.prior)
-    unseen = np.stack([xc[unshown], yc[unshown]], axis=1)
-    pose = (2.0, 1.2, 0.0)
-    check = footprint_safety(
-        pose, THETA, np.zeros((0, 2)), 0.5, np.zeros((0, 2)), FIELD, PARAMS, unseen
-    )
-    left = int(np.argmin(np.abs(THETA - math.radians(50))))
-    assert not check.safe[left] and check.safe[0] and check.safe[18]
 
 
 FORWARD = [(PARAMS.speed, 0.0)] * 5

@@ -30,7 +30,6 @@ from bayesmap.rover.safety import (
     reading_points,
     recent_track,
     retreat_command,
-    unshown_cells,
 )
 from bayesmap.rover.targets import TargetRule, look_cycles
 from bayesmap.sensing.ir import ranger_poses
@@ -283,7 +282,7 @@ class Explorer:
         reach = p.lookahead + p.footprint_radius + p.safety_margin + grid.resolution
         xc, yc, prob = local_patch(grid, grid.probability, pose[0], pose[1], reach, 0.0)
         likely = hazard_cells(prob, p)
-        unknown = unshown_cells(prob, grid.prior)
+        unknown = prob == grid.prior
         sensors = ranger_poses(pose, p.sensor_angles, p.sensor_offset)
         self.recent_hits_.append(
             reading_points(sensors, self.mapper_.last_ranges_, self.mapper_.last_above_noise_, p)

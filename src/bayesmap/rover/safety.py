@@ -11,10 +11,9 @@ included, against
   an obstacle only clips gets mixed evidence and can look free-ish);
 - the points the rangers read right now (any reading above ``2 sigma_r``, before eq. 33
   confirms it), spread over the ranger's angle of view;
-- cells not shown free (:func:`unshown_cells`: never observed, or more likely occupied
-  than the prior): the rangers look ahead only, so a turn can sweep the body over ground
-  they have never shown free; the body may not overlap such a cell, unless it overlaps it
-  already;
+- cells never observed (still at the prior): the rangers look ahead only, so a turn can
+  sweep the body over ground it has never seen; the body may not overlap such a cell,
+  unless it overlaps it already;
 - the edge of the mapped area (a path may not end farther outside than it starts).
 
 The footprint must keep ``safety_margin = margin_sigmas * position_sigma`` [m] from them,
@@ -252,8 +251,7 @@ def footprint_safety(
     params
         Footprint, margin, drive and look-ahead.
     unknown_cells
-        ``(u, 2)`` centres [m] of the cells near the rover not shown free
-        (:func:`unshown_cells`).
+        ``(u, 2)`` centres [m] of the cells near the rover never observed.
     track
         ``(K, 2)`` the rover's recent track in its body frame (:func:`recent_track`); without
         it the rover never backs off.
@@ -420,16 +418,3 @@ def hazard_cells(probability: npt.ArrayLike, params: RoverParams) -> BoolArray:
     likely = p >= params.p_block
     near = ndimage.binary_dilation(likely, structure=np.ones((3, 3), dtype=bool))
     return np.asarray(likely | (near & (p >= probability_at_entropy(params.h_desired))))
-
-
-def unshown_cells(probability: npt.ArrayLike, prior: float) -> BoolArray:
-    """Cells not shown free, which the body may not sweep into: never observed (still at the
-    prior) or *suspect*, more likely occupied than the prior.
-
-    A suspect cell holds readings that found something, if not enough to call it likely:
-    the end of a wall the rangers saw only obliquely stays at p = 0.2–0.4 for thousands of
-    cycles, and a rover that took such cells for free ground passed 0.026 m from one
-    (docs/rover.md, "Safety on worlds nobody tuned for"). Unlike the hazards they get no
-    margin, so the rover still drives up to them and looks.
-    """
-    return np.asarray(np.asarray(probability, dtype=np.float64) >= prior)
