@@ -60,11 +60,15 @@ from bayesmap.rover.explorer import Decision  # noqa: E402
 from bayesmap.rover.mapping import UncertainBlocks  # noqa: E402
 from bayesmap.rover.params import RoverParams  # noqa: E402
 from bayesmap.rover.planning import LocalPlan  # noqa: E402
+from bayesmap.rover.targets import EntropyTarget, FrontierTarget, TargetRule  # noqa: E402
 from bayesmap.sim.rover_worlds import generate_world  # noqa: E402
-from bayesmap.sim.world2d import BoxWorld, world_distance  # noqa: E402
+from bayesmap.sim.world2d import BoxWorld, box_world, world_distance  # noqa: E402
 
 WORLD_SEED = 4242
 """Generator seed of the stress worlds (not the 2026 of ``rover_worlds.py``'s grid)."""
+
+PAPER_RUNS = list(rover.RUNS)
+"""The paper's four runs (``--paper``), as ``bayesmap reproduce rover`` runs them."""
 
 EXPLORERS = {
     "paper": "entropy",
@@ -125,6 +129,42 @@ class RandomTarget:
             self._target = None
 
 
+class Watched:
+    """A target rule passed through, keeping the map it was last shown: the harness reads the
+    map as it stood at each cycle, where a near miss happened, not as it ended."""
+
+    def __init__(self, rule: TargetRule) -> None:
+        self.rule = rule
+        self.grid: OccupancyGrid | None = None
+
+    def select(
+        self,
+        grid: OccupancyGrid,
+        pose: npt.ArrayLike,
+        plan: LocalPlan,
+        uncertain: UncertainBlocks,
+    ) -> tuple[float, float] | None:
+        self.grid = grid
+        return self.rule.select(grid, pose, plan, uncertain)
+
+    def reject(self, target: tuple[float, float]) -> None:
+        self.rule.reject(target)
+
+
+PATCH = 4
+"""Cells on each side of the rover's cell whose probability the harness keeps every cycle
+(2 m at 0.5 m cells: beyond the footprint check's reach of 1.6 m)."""
+
+
+def _map_class(p: float, prior: float, params: RoverParams) -> str:
+    """Which kind of cell ``p`` is, as the footprint check's hazards are defined."""
+    if p == prior:
+        return "unknown"
+    if p >= params.p_block:
+        return "likely"
+    return "below the prior" if p < prior else "suspect (above the prior)"
+
+
 class Job(NamedTuple):
     world: int
     explorer: str
@@ -134,7 +174,8 @@ class Job(NamedTuple):
 
 
 def job_name(job: Job) -> str:
-    return f"w{job.world:02d}-{job.explorer}-{job.init}-gps{job.gps:g}-seed{job.seed}"
+    where = PAPER_RUNS[-1 - job.world] if job.world < 0 else f"w{job.world:02d}"
+    return f"{where}-{job.explorer}-{job.init}-gps{job.gps:g}-seed{job.seed}"
 
 
 def _nearest_obstacle_point(world: BoxWorld, x: float, y: float) -> tuple[float, float]:
@@ -148,29 +189,49 @@ def _nearest_obstacle_point(world: BoxWorld, x: float, y: float) -> tuple[float,
 
 def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
     """Drive one short run; return its metrics and the near misses with their causes."""
-    spec = generate_world(
-        SeedSequence([args.world_seed, job.world]),
-        size=args.size,
-        passage=args.passage,
-        name=f"rover-safety-w{args.world_seed}-{job.world:02d}",
-    )
-    config = rover.Config.model_validate(
-        {
-            "seed": job.seed,
-            "resolution": spec.resolution,
-            "max_steps": args.steps,
-            "start": spec.start,
-            "gps_sigma": job.gps * rover.Config().gps_sigma,
-        }
-    )
+    gps_sigma = job.gps * rover.Config().gps_sigma
+    if job.world < 0:  # the paper's field, as `bayesmap reproduce rover` runs it
+        name = PAPER_RUNS[-1 - job.world]
+        world = box_world(rover.RUNS[name][0])
+        config = rover.Config.model_validate({"runs": (name,), "gps_sigma": gps_sigma})
+    else:
+        spec = generate_world(
+            SeedSequence([args.world_seed, job.world]),
+            size=args.size,
+            passage=args.passage,
+            name=f"rover-safety-w{args.world_seed}-{job.world:02d}",
+        )
+        world = spec.world
+        config = rover.Config.model_validate(
+            {
+                "seed": job.seed,
+                "resolution": spec.resolution,
+                "max_steps": args.steps or rover.world_budget(spec),
+                "start": spec.start,
+                "gps_sigma": gps_sigma,
+            }
+        )
     params = config.rover_params()
-    rule = RandomTarget(params, SeedSequence([job.seed, 7])) if job.explorer == "random" else None
+    rule = Watched(
+        RandomTarget(params, SeedSequence([job.seed, 7]))
+        if job.explorer == "random"
+        else FrontierTarget(params)
+        if job.explorer == "frontier"
+        else EntropyTarget(params)
+    )
     headings = np.asarray(params.headings)
     cycles: list[dict[str, Any]] = []
+    patches: list[tuple[int, int, np.ndarray]] = []  # per cycle: first row, first col, p
 
     def observe(step: int, pose: np.ndarray, decision: Decision, stalled: bool) -> None:
         index = int(np.argmin(np.abs(wrap_angle(headings - decision.heading))))
         safety = decision.safety
+        grid = rule.grid
+        assert grid is not None  # the rule is asked before the observer
+        row, col = (int(v) for v in grid.world_to_cell(pose[0], pose[1]))
+        r0, c0 = max(row - PATCH, 0), max(col - PATCH, 0)
+        patch = grid.probability[r0 : row + PATCH + 1, c0 : col + PATCH + 1]
+        patches.append((r0, c0, patch.copy()))
         cycles.append(
             {
                 "estimate": [float(v) for v in pose],
@@ -180,6 +241,7 @@ def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
                 "retreat": bool(safety.retreat),
                 "predicted": float(safety.clearance[index]),
                 "here": float(safety.here),
+                "back_clear": bool(safety.back_clear),
             }
         )
 
@@ -188,7 +250,7 @@ def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
         explorer_module._HEMMED_TURNS = 0  # this worker process only, restored below
     try:
         trace = rover.simulate(
-            spec.world,
+            world,
             config,
             EXPLORERS[job.explorer],
             job.init == "random",
@@ -199,10 +261,10 @@ def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
         )
     finally:
         explorer_module._HEMMED_TURNS = remembered
-    metrics = rover.run_metrics(trace, spec.world, config, EXPLORERS[job.explorer])
+    metrics = rover.run_metrics(trace, world, config, EXPLORERS[job.explorer])
     path = np.asarray(trace.path)
     radius = config.sim_params().radius
-    clearance = np.array([world_distance(spec.world, p[0], p[1]) - radius for p in path])
+    clearance = np.array([world_distance(world, p[0], p[1]) - radius for p in path])
     grid = trace.explorer.grid
     near = []
     # path[k + 1] is where the decision of cycle k took the rover
@@ -213,13 +275,20 @@ def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
         estimate = np.asarray(cycle["estimate"])
         error = estimate[:2] - true[:2]
         after = path[k + 1]
-        ox, oy = _nearest_obstacle_point(spec.world, float(after[0]), float(after[1]))
+        ox, oy = _nearest_obstacle_point(world, float(after[0]), float(after[1]))
         mx, my = ox + error[0], oy + error[1]  # the obstacle point in the rover's frame now
         inside = grid.extent[0] <= mx < grid.extent[1] and grid.extent[2] <= my < grid.extent[3]
-        p_map = None
+        p_map = p_then = None
+        then = "off the map"
         if inside:
             row, col = (int(v) for v in grid.world_to_cell(mx, my))
             p_map = round(float(grid.probability[row, col]), 3)
+            r0, c0, patch = patches[int(k)]
+            then = "beyond the check's reach"
+            if 0 <= row - r0 < patch.shape[0] and 0 <= col - c0 < patch.shape[1]:
+                p_then = float(patch[row - r0, col - c0])
+                then = _map_class(p_then, params.prior, params)
+                p_then = round(p_then, 3)
         action = (
             "back off"
             if cycle["command"][0] < 0
@@ -234,11 +303,13 @@ def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
                 "cycle": int(k),
                 "clearance_m": round(float(clearance[k + 1]), 4),
                 "action": action,
-                "heading_passed": cycle["safe"],
+                "heading_passed": cycle["back_clear"] if action == "back off" else cycle["safe"],
                 "predicted_m": round(cycle["predicted"], 4),
                 "gps_error_m": round(float(np.hypot(*error)), 3),
                 "obstacle": [round(ox, 2), round(oy, 2)],
                 "map_p_at_obstacle": p_map,
+                "map_p_then": p_then,
+                "map_then": then,
             }
         )
     summary = {k: v for k, v in metrics.items() if k != "coverage_curve"}
@@ -246,6 +317,11 @@ def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
     summary["near_cycles"] = int((clearance[1:] < args.near).sum())
     summary["near_misses"] = near
     return summary
+
+
+def _metres(value: float | None) -> str:
+    """A distance for the table; JSON writes an infinite one (nothing near) as null."""
+    return "∞" if value is None else f"{value:.3f}"
 
 
 def _quantiles(values: list[float]) -> str:
@@ -261,26 +337,41 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
         f"`python benchmarks/rover_safety.py --worlds {args.worlds} --seeds {args.seeds} "
         f"--steps {args.steps} --gps {','.join(f'{g:g}' for g in args.gps)} "
         f"--explorers {','.join(args.explorers)} --inits {','.join(args.inits)} "
-        f"--world-seed {args.world_seed} --size {args.size:g} --passage {args.passage:g}`. "
-        f"{len(runs)} runs of at most {args.steps} cycles on fresh generated worlds; "
+        f"--world-seed {args.world_seed} --size {args.size:g} --passage {args.passage:g}"
+        + (f" --paper {','.join(args.paper)}" if args.paper else "")
+        + "`. "
+        f"{len(runs)} runs: at most {args.steps or 'the full budget of'} cycles on each "
+        "generated world, the paper's runs at their full length; "
         "`random` is the adversarial explorer (uniformly random local targets). The rover "
         "believes the nominal GPS (σ = 0.1 m, τ = 20 s) at every multiple.",
         "",
-        f"Machine: {machine()}; load average at the end {load[0]:.1f} / {load[1]:.1f} / "
-        f"{load[2]:.1f}; {wall / 60:.1f} min wall time for the runs this invocation made.",
+        f"Machine: {machine()}; "
+        + (
+            "runs made earlier, summarised with `--report-only`; "
+            if args.report_only
+            else f"load average at the end {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}; "
+            f"{wall / 60:.1f} min wall time for the runs this invocation made; "
+        )
+        + f"median {np.median([r['cycle_ms'] for r in runs]):.0f} ms of wall time per cycle "
+        "(inflated by the shared machine's load).",
         "",
-        "| GPS × | explorer | runs | collisions | runs with clearance ≤ 0.05 m | "
+        "| worlds | GPS × | explorer | runs | collisions | runs with clearance ≤ 0.05 m | "
         "min clearance (min / 10 % / median) [m] | cycles < "
         f"{args.near:g} m | coverage (median) |",
-        "|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
-    for gps, explorer in itertools.product(args.gps, args.explorers):
-        group = [r for r in runs if r["gps"] == gps and r["explorer"] == explorer]
+    for paper, gps, explorer in itertools.product((False, True), args.gps, args.explorers):
+        group = [
+            r
+            for r in runs
+            if r["gps"] == gps and r["explorer"] == explorer and (r["world"] < 0) == paper
+        ]
         if not group:
             continue
         clear = [r["min_clearance_m"] for r in group if r["min_clearance_m"] is not None]
         lines.append(
-            f"| {gps:g} | {explorer} | {len(group)} | {sum(r['collisions'] for r in group)} | "
+            f"| {'paper' if paper else 'generated'} | {gps:g} | {explorer} | {len(group)} | "
+            f"{sum(r['collisions'] for r in group)} | "
             f"{sum(c <= 0.05 for c in clear)} | {_quantiles(clear) if clear else '—'} | "
             f"{sum(r['near_cycles'] for r in group)} | "
             f"{np.median([r['coverage'] for r in group]):.3f} |"
@@ -293,20 +384,23 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
             "",
             f"The {min(len(misses), args.table_misses)} closest cycles (true clearance after "
             "the cycle; *passed*: the footprint check judged the chosen heading safe, with "
-            "the clearance it predicted; GPS error then; the map's p at the obstacle point "
-            "nearest the body, moved into the rover's frame of that cycle):",
+            "the clearance it predicted (for a back-off: the recent track allowed it); "
+            "GPS error then; the map's p, at that cycle and at the end, at the obstacle "
+            "point nearest the body, moved into the rover's frame of that cycle, and what "
+            "the cell was then: likely (p ≥ 0.5), suspect (above the prior), unknown (at "
+            "the prior) or below the prior):",
             "",
             "| run | cycle | clearance [m] | action | passed | predicted [m] | "
-            "GPS error [m] | obstacle point | map p there |",
-            "|---|---|---|---|---|---|---|---|---|",
+            "GPS error [m] | obstacle point | map p then (end) | map then |",
+            "|---|---|---|---|---|---|---|---|---|---|",
         ]
         for r, m in misses[: args.table_misses]:
             lines.append(
                 f"| {job_name(Job(r['world'], r['explorer'], r['init'], r['seed'], r['gps']))} "
                 f"| {m['cycle']} | {m['clearance_m']:.3f} | {m['action']} | "
-                f"{'yes' if m['heading_passed'] else 'no'} | {m['predicted_m']:.3f} | "
+                f"{'yes' if m['heading_passed'] else 'no'} | {_metres(m['predicted_m'])} | "
                 f"{m['gps_error_m']:.3f} | ({m['obstacle'][0]}, {m['obstacle'][1]}) | "
-                f"{m['map_p_at_obstacle']} |"
+                f"{m.get('map_p_then')} ({m['map_p_at_obstacle']}) | {m.get('map_then', '—')} |"
             )
     else:
         lines += ["", f"No cycle came closer than {args.near:g} m."]
@@ -328,10 +422,18 @@ def main() -> None:
     parser.add_argument("--size", type=float, default=20.0, help="world side [m]")
     parser.add_argument("--passage", type=float, default=1.2, help="narrowest gap [m]")
     parser.add_argument("--seeds", type=int, default=1)
-    parser.add_argument("--steps", type=int, default=2000)
+    parser.add_argument(
+        "--steps", type=int, default=2000, help="cycles per run; 0: the world's full budget"
+    )
     parser.add_argument("--gps", type=_floats, default=[1.0, 2.0], help="GPS σ multiples")
     parser.add_argument("--explorers", type=_names, default=list(EXPLORERS))
     parser.add_argument("--inits", type=_names, default=["flat", "random"])
+    parser.add_argument(
+        "--paper",
+        type=_names,
+        default=[],
+        help=f"also the paper's runs (full length, seed 2016), any of {','.join(PAPER_RUNS)}",
+    )
     parser.add_argument("--near", type=float, default=0.1, help="near-miss clearance [m]")
     parser.add_argument("--max-near", type=int, default=20, help="closest cycles kept per run")
     parser.add_argument("--table-misses", type=int, default=12)
@@ -343,12 +445,17 @@ def main() -> None:
     unknown = set(args.explorers) - set(EXPLORERS)
     if unknown:
         parser.error(f"unknown explorer(s) {sorted(unknown)}; choose from {list(EXPLORERS)}")
+    if set(args.paper) - set(PAPER_RUNS):
+        parser.error(f"unknown paper run(s) {args.paper}; choose from {PAPER_RUNS}")
     args.out.mkdir(parents=True, exist_ok=True)
     jobs = [
         Job(w, e, i, s, g)
         for g, w, e, i, s in itertools.product(
             args.gps, range(args.worlds), args.explorers, args.inits, range(args.seeds)
         )
+    ] + [  # the paper's runs: their own entropy initialisation and seed
+        Job(-1 - PAPER_RUNS.index(name), e, "random" if rover.RUNS[name][1] else "flat", 0, g)
+        for g, name, e in itertools.product(args.gps, args.paper, args.explorers)
     ]
     todo = (
         []

@@ -48,6 +48,16 @@ def test_backing_off_comes_before_a_retreat_when_the_obstacle_is_ahead() -> None
     assert _explorer()._drive(np.pi, 0.0, safety, 18) == (-PARAMS.speed, 0.0)
 
 
+def test_without_a_safe_heading_or_the_track_behind_a_body_on_a_hazard_stops() -> None:
+    """No heading safe, backing off would leave the recent track, and the body overlaps a
+    hazard: turning in place would sweep it, so the rover stops; clear, it turns."""
+    blocked = np.zeros(PARAMS.n_headings, dtype=bool)
+    stuck = Safety(blocked, np.zeros(PARAMS.n_headings), -0.05, True, False, False, False)
+    assert _explorer()._drive(np.pi, 0.0, stuck, 18) == (0.0, 0.0)
+    clear = Safety(blocked, np.zeros(PARAMS.n_headings), 0.05, True, False, False, True)
+    assert _explorer()._drive(np.pi, 0.0, clear, 18) == (0.0, PARAMS.pivot_rate)
+
+
 def test_a_safe_heading_outside_a_retreat_follows_the_drive_law() -> None:
     safety = _safety(retreat=False, ahead=True, back_clear=True, here=0.5)
     heading = float(np.asarray(PARAMS.headings)[18])

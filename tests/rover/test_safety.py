@@ -7,17 +7,22 @@ import math
 import numpy as np
 import pytest
 
+from bayesmap.geometry import to_robot
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.safety import (
+    back_off_on_track,
     drive_command,
     footprint_safety,
     hazard_cells,
     predicted_centres,
     reading_points,
+    recent_track,
     retreat_command,
+    segment_distance,
     square_distance,
 )
 from bayesmap.sensing.ir import ranger_poses
+from bayesmap.sim import rover as sim_rover
 
 PARAMS = RoverParams(n_headings=36)
 THETA = np.asarray(PARAMS.headings)
@@ -126,21 +131,99 @@ def test_hazards_are_likely_cells_and_their_doubtful_neighbours() -> None:
     assert hazard[2, 2] and hazard[2, 3] and not hazard[0, 0] and not hazard[1, 1]
 
 
-def test_backing_off_is_allowed_only_away_from_obstacles() -> None:
-    ahead = footprint_safety(
-        (0.0, 0.0, 0.0), THETA, np.array([[0.6, 0.0]]), 0.5, np.zeros((0, 2)), FIELD, PARAMS
-    )
+FORWARD = [(PARAMS.speed, 0.0)] * 5
+"""Five cycles straight ahead: the track behind the rover is 0.5 m of straight line."""
+
+
+def test_backing_off_is_allowed_only_onto_the_recent_track() -> None:
+    track = recent_track(FORWARD, PARAMS)
+    np.testing.assert_allclose(track[-1], [-5 * PARAMS.speed * PARAMS.dt, 0.0], atol=1e-12)
+    cells = np.array([[3.6, 1.0]])
+    no_hits = np.zeros((0, 2))
+    pose = (3.0, 1.0, 0.0)
+    ahead = footprint_safety(pose, THETA, cells, 0.5, no_hits, FIELD, PARAMS, None, track)
     assert ahead.ahead and ahead.back_clear and ahead.here < PARAMS.safety_margin
-    boxed = footprint_safety(
-        (0.0, 0.0, 0.0),
-        THETA,
-        np.array([[0.6, 0.0], [-0.6, 0.0]]),
-        0.5,
-        np.zeros((0, 2)),
-        FIELD,
-        PARAMS,
-    )
-    assert not boxed.back_clear
+    # without a track (a rover that has not moved), it never backs off
+    assert not footprint_safety(pose, THETA, cells, 0.5, no_hits, FIELD, PARAMS).back_clear
+    # after turning in place by a quarter turn the ground straight behind was never occupied
+    turned = recent_track([*FORWARD, (0.0, PARAMS.pivot_rate)], PARAMS)
+    assert not back_off_on_track(turned, np.zeros((0, 2)), PARAMS)
+    # a remembered ranger point on the track behind contradicts it; one under the body not
+    assert not back_off_on_track(track, np.array([[-0.25, 0.05]]), PARAMS)
+    assert back_off_on_track(track, np.array([[0.15, 0.0]]), PARAMS)
+
+
+def test_the_track_is_the_body_s_own_path_dead_reckoned_backward() -> None:
+    """The track retraces the commands exactly: it matches the simulator's own integration of
+    arcs and pivots, expressed in the body frame at the end."""
+    rng = np.random.default_rng(5)
+    sim = sim_rover.SimulatedRoverParams(gps_sigma=1e-9)
+    limit = PARAMS.speed / PARAMS.min_turn_radius
+    commands = [
+        (PARAMS.speed, float(rng.uniform(-limit, limit)))
+        if rng.random() < 0.7
+        else (0.0, float(rng.uniform(-1, 1) * PARAMS.pivot_rate))
+        for _ in range(12)
+    ]
+    state = sim_rover.initial((2.0, -1.0, 0.4), sim, rng=rng)
+    centres = [state.pose[:2].copy()]
+    for command in commands:
+        state = sim_rover.transition(state, command, sim, rng=rng)
+        centres.append(state.pose[:2].copy())
+    track = recent_track(commands, PARAMS)
+    # every cycle's end is a vertex of the track (the pivots' centres repeat)
+    expected = to_robot(state.pose, np.array(centres[::-1]))
+    for point in expected:
+        assert np.hypot(*(track - point).T).min() < 1e-9
+
+
+def test_a_back_off_never_leaves_the_recent_track() -> None:
+    """Random drives (arcs, pivots, back-offs whenever allowed) in the simulator: each
+    back-off's centre stays within the tolerance of where the centre truly was in the last
+    ``track_cycles`` cycles, sampled along the true path."""
+    rng = np.random.default_rng(11)
+    sim = sim_rover.SimulatedRoverParams(gps_sigma=1e-9)
+    fine = sim_rover.SimulatedRoverParams(gps_sigma=1e-9, dt=PARAMS.dt / 20)
+    limit = PARAMS.speed / PARAMS.min_turn_radius
+    state = sim_rover.initial((0.0, 0.0, 0.0), sim, rng=rng)
+    commands: list[tuple[float, float]] = []
+    paths: list[np.ndarray] = []  # per cycle, the true centres along it
+    backed = refused = 0
+    for _ in range(600):
+        track = recent_track(commands[-PARAMS.track_cycles :], PARAMS)
+        if rng.random() < 0.5:
+            if back_off_on_track(track, np.zeros((0, 2)), PARAMS):
+                command = (-PARAMS.speed, 0.0)
+                backed += 1
+            else:
+                refused += 1
+                continue
+        elif rng.random() < 0.7:
+            command = (PARAMS.speed, float(rng.uniform(-limit, limit)))
+        else:
+            command = (0.0, float(rng.uniform(-1, 1) * PARAMS.pivot_rate))
+        path = [state.pose[:2].copy()]
+        moved = state
+        for _ in range(20):
+            moved = sim_rover.transition(moved, command, fine, rng=rng)
+            path.append(moved.pose[:2].copy())
+        if command[0] < 0:
+            recent = np.concatenate(paths[-PARAMS.track_cycles :])
+            gap = segment_distance(np.array(path), recent[:-1], recent[1:]).min(axis=1)
+            assert gap.max() <= PARAMS.track_tolerance + 1e-9
+        state = sim_rover.transition(state, command, sim, rng=rng)
+        commands.append(command)
+        paths.append(np.array(path))
+    assert backed > 50 and refused > 50  # both verdicts were exercised
+
+
+def test_a_pivot_that_sweeps_a_known_hazard_is_refused() -> None:
+    """The body turning in place covers its own disc: a hazard cell under it (the map drawn
+    in an older GPS frame) refuses the turn; one beside it does not."""
+    under = _safety([(0.3, 0.0)])
+    assert under.here < 0 and not under.pivot_clear
+    beside = _safety([(0.5, 0.0)])
+    assert 0 <= beside.here < PARAMS.safety_margin and beside.pivot_clear
 
 
 def _corridor(lower: float, upper: float, x_end: float) -> np.ndarray:

@@ -28,6 +28,7 @@ from bayesmap.rover.safety import (
     footprint_safety,
     hazard_cells,
     reading_points,
+    recent_track,
     retreat_command,
 )
 from bayesmap.rover.targets import TargetRule, look_cycles
@@ -111,6 +112,9 @@ class Explorer:
     recent_hits_
         The points read by the rangers in the last ``hit_memory`` cycles [m]: the footprint
         keeps its margin from them as from the map, without the map's cell quantisation.
+    commands_
+        The commands of the last ``track_cycles`` cycles, oldest first: the rover's recent
+        track, which a back-off may reverse into (:func:`~bayesmap.rover.safety.recent_track`).
     hemmed_
         Map-sized layer: on the cells where the rover was hemmed in (inside the margin, no
         heading keeping it), the number of times it was hemmed in there, for
@@ -131,6 +135,7 @@ class Explorer:
         self.mapper_ = IRMapper(grid, params)
         self.network_ = DecisionNetwork(params, evaluator)
         self.recent_hits_: deque[FloatArray] = deque(maxlen=params.hit_memory)
+        self.commands_: deque[tuple[float, float]] = deque(maxlen=params.track_cycles)
         self._theta = np.asarray(params.headings)
         self._retreat: int | None = None
         self.hemmed_ = np.zeros(grid.shape)
@@ -194,6 +199,7 @@ class Explorer:
         self._retreat = index if safety.retreat and safe[index] else None
         heading = float(self._theta[index])
         command = (0.0, 0.0) if target is None else self._drive(heading, psi, safety, index)
+        self.commands_.append(command)
         cost = math.nan if target is None else plan.remaining(x, y, target)
         self._check_progress(target, cost)
         return Decision(command, heading, target, p_move, p_o, safety, cost)
@@ -285,13 +291,15 @@ class Explorer:
         hits = hits[np.hypot(hits[:, 0] - pose[0], hits[:, 1] - pose[1]) <= reach]
         cells = np.stack([xc[likely], yc[likely]], axis=1)
         unseen = np.stack([xc[unknown], yc[unknown]], axis=1)
+        track = recent_track(self.commands_, p)
         return footprint_safety(
-            pose, self._theta, cells, grid.resolution, hits, grid.extent, p, unseen
+            pose, self._theta, cells, grid.resolution, hits, grid.extent, p, unseen, track
         )
 
     def _drive(self, heading: float, psi: float, safety: Safety, index: int) -> tuple[float, float]:
-        """Drive toward a safe heading; otherwise back off, retreat along the heading when
-        it is a retreat (:attr:`Safety.retreat`), or stop and turn in place.
+        """Drive toward a safe heading; otherwise back off along the recent track, retreat
+        along the heading when it is a retreat (:attr:`Safety.retreat`), or turn in place
+        where the turning body overlaps no hazard (:attr:`Safety.pivot_clear`), or stop.
 
         A retreat drives straight on once the estimated heading is within half the spacing
         of the discrete headings of it: the compass's noise (2° in the simulator) never lets
@@ -307,5 +315,7 @@ class Explorer:
         if safety.safe[index] and abs(error) <= math.pi / p.n_headings:
             return (p.speed, 0.0)
         if safety.safe[index]:
-            return retreat_command(heading, psi, p)
-        return (0.0, math.copysign(p.pivot_rate, error if error != 0 else 1.0))
+            command = retreat_command(heading, psi, p)
+        else:
+            command = (0.0, math.copysign(p.pivot_rate, error if error != 0 else 1.0))
+        return command if command[0] != 0.0 or safety.pivot_clear else (0.0, 0.0)

@@ -78,6 +78,12 @@ class RoverParams:
     hit_memory
         Cycles for which the points the rangers read stay obstacles to the footprint check
         (about the GPS error's correlation time, so they stay where the map put them).
+    track_cycles
+        Cycles of the rover's own recent track (dead-reckoned from its commands) that a
+        back-off may reverse into (:func:`bayesmap.rover.safety.recent_track`).
+    track_tolerance
+        How far [m] a back-off's centre may stray from that track: the straight reverse
+        of one cycle's tightest forward arc strays 0.0125 m from it.
     view_range
         A target is reached when the rover stands this close to it [m]: it goes to the
         nearest point it can reach within this distance and turns to look at the target
@@ -115,6 +121,8 @@ class RoverParams:
     margin_sigmas: float = 3.0
     lookahead: float = 0.6
     hit_memory: int = 50
+    track_cycles: int = 15
+    track_tolerance: float = 0.02
     target_timeout: int = 60
     view_range: float = 1.0
 
@@ -146,7 +154,11 @@ class RoverParams:
             )
             > 0,
             "position_sigma, margin_sigmas >= 0": min(self.position_sigma, self.margin_sigmas) >= 0,
-            "target_timeout, hit_memory >= 1": min(self.target_timeout, self.hit_memory) >= 1,
+            "target_timeout, hit_memory, track_cycles >= 1": min(
+                self.target_timeout, self.hit_memory, self.track_cycles
+            )
+            >= 1,
+            "track_tolerance >= 0": self.track_tolerance >= 0,
         }
         failed = [name for name, ok in checks.items() if not ok]
         if failed:

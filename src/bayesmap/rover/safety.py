@@ -21,14 +21,22 @@ so the margin grows with the position uncertainty. When the rover stands inside 
 and no heading keeps it (hemmed in, e.g. in a corridor narrower than its margin), retreats
 are allowed instead: pivot onto a heading, then drive straight along it, where the
 footprint never comes closer to a hazard than it is now. The result is the evidence of the
-decision network's ``Footprint`` node (:mod:`bayesmap.rover.network`). All of this is an
-addition to the paper.
+decision network's ``Footprint`` node (:mod:`bayesmap.rover.network`).
+
+Where no heading is safe the rover backs off, turns in place or stops. The rangers look
+ahead only, so what lies behind is known from the map alone, drawn in GPS frames that may
+be 0.2 m away from the current one; instead, a back-off may reverse only into ground the
+body itself occupied in the last ``track_cycles`` cycles (:func:`recent_track`, dead-reckoned
+from the rover's own commands, so it does not depend on the GPS) and where no remembered
+ranger point lies; a turn in place only when the body, turning, overlaps no hazard
+(:attr:`Safety.pivot_clear`). All of this is an addition to the paper.
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,7 +44,7 @@ import numpy.typing as npt
 from scipy import ndimage
 
 from bayesmap._typing import BoolArray, FloatArray
-from bayesmap.geometry import to_world, wrap_angle
+from bayesmap.geometry import to_robot, to_world, wrap_angle
 from bayesmap.grid.entropy import probability_at_entropy
 from bayesmap.rover.params import RoverParams
 
@@ -190,12 +198,18 @@ class Safety:
         Whether the nearest obstacle lies ahead of the rover (within ±90° of its heading),
         so that backing off moves away from it.
     back_clear
-        Whether backing off one cycle keeps the footprint at least as clear as it is now.
+        Whether backing off one cycle (straight back at ``speed``) keeps the body on its
+        recent track (:func:`back_off_on_track`): ground it occupied itself, where no
+        remembered ranger point lies.
     retreat
         Whether the rover stands inside the margin and no heading keeps it, so that
         ``safe`` lists the retreats instead: headings the rover can pivot onto and drive
         straight along without the footprint coming closer to a hazard than ``here``
         (:func:`retreat_command`).
+    pivot_clear
+        Whether the body, turning in place, keeps off every hazard. The footprint is a disc
+        about the centre the rover turns on, so what it sweeps is what it covers now, and
+        this is ``here >= 0``.
     """
 
     safe: BoolArray
@@ -204,6 +218,7 @@ class Safety:
     ahead: bool
     back_clear: bool
     retreat: bool = False
+    pivot_clear: bool = True
 
 
 def footprint_safety(
@@ -215,6 +230,7 @@ def footprint_safety(
     extent: tuple[float, float, float, float],
     params: RoverParams,
     unknown_cells: npt.ArrayLike | None = None,
+    track: npt.ArrayLike | None = None,
 ) -> Safety:
     """Check every candidate heading's swept footprint (see the module docstring).
 
@@ -236,6 +252,9 @@ def footprint_safety(
         Footprint, margin, drive and look-ahead.
     unknown_cells
         ``(u, 2)`` centres [m] of the cells near the rover never observed.
+    track
+        ``(K, 2)`` the rover's recent track in its body frame (:func:`recent_track`); without
+        it the rover never backs off.
     """
     cells = np.asarray(obstacle_cells, dtype=np.float64).reshape(-1, 2)
     hits = np.asarray(reading_hits, dtype=np.float64).reshape(-1, 2)
@@ -261,19 +280,83 @@ def footprint_safety(
         _, clearance, allowed = check(straight_centres(pose, headings, params))
         safe = (clearance >= here - _ROUNDING) & allowed
     points = np.concatenate([cells, hits])
-    ahead, back_clear = False, True
+    ahead = False
     if points.size:
         dx, dy = points[:, 0] - pose[0], points[:, 1] - pose[1]
         k = int(np.argmin(np.hypot(dx, dy)))
         ahead = bool(abs(float(wrap_angle(math.atan2(dy[k], dx[k]) - pose[2]))) < math.pi / 2)
-        step = params.speed * params.dt
-        bx, by = pose[0] - step * math.cos(pose[2]), pose[1] - step * math.sin(pose[2])
-        back = np.minimum(
-            square_distance(bx, by, cells[:, 0], cells[:, 1], resolution / 2).min(initial=np.inf),
-            np.hypot(hits[:, 0] - bx, hits[:, 1] - by).min(initial=np.inf),
-        )
-        back_clear = bool(back - params.footprint_radius >= here)
-    return Safety(np.asarray(safe), np.asarray(clearance), here, ahead, back_clear, retreat)
+    back_clear = track is not None and back_off_on_track(
+        np.asarray(track, dtype=np.float64), to_robot(pose, hits), params
+    )
+    return Safety(
+        np.asarray(safe), np.asarray(clearance), here, ahead, back_clear, retreat, here >= 0.0
+    )
+
+
+_TRACK_SUBSTEPS = 4
+"""Samples of the recent track per cycle: 2.5 cm apart at full speed."""
+
+
+def recent_track(commands: Sequence[tuple[float, float]], params: RoverParams) -> FloatArray:
+    """``(K, 2)`` centres [m] the rover's body occupied while it executed ``commands``, in
+    its body frame now (x ahead, y to the left), from ``(0, 0)`` back in time.
+
+    ``commands`` are the ``(speed, yaw rate)`` of the last cycles, oldest first, the newest
+    just executed (:attr:`~bayesmap.rover.explorer.Decision.command`). Each is retraced
+    backward (``(-v, -w)`` along the same exact arc, ``_TRACK_SUBSTEPS`` samples per cycle),
+    so the track is dead reckoning from the rover's own drive and does not depend on the
+    GPS, whose fixes of one cycle to the next differ by 0.02 m per axis (σ_GPS 0.1 m,
+    τ = 20 s), a third of the clearance to keep. Drive limits are the caller's: a command
+    the drive clips is retraced as commanded.
+    """
+    x = y = psi = 0.0
+    points = [(0.0, 0.0)]
+    h = params.dt / _TRACK_SUBSTEPS
+    for v, w in reversed(commands):
+        for _ in range(_TRACK_SUBSTEPS):
+            if v == 0.0:  # a pivot: the centre stays, only the heading turns
+                psi -= w * h
+                continue
+            turn = -w * h
+            chord = -v * h * float(np.sinc(turn / (2.0 * math.pi)))
+            x += chord * math.cos(psi + turn / 2.0)
+            y += chord * math.sin(psi + turn / 2.0)
+            psi += turn
+            points.append((x, y))
+    return np.asarray(points, dtype=np.float64)
+
+
+def back_off_on_track(track: FloatArray, hits: FloatArray, params: RoverParams) -> bool:
+    """Whether backing off one cycle, straight at ``speed``, keeps the body on its track.
+
+    Every sampled centre of the back-off (body frame: ``(-s, 0)`` for ``s`` up to
+    ``speed * dt``) must lie within ``track_tolerance`` of the polyline of ``track``
+    (:func:`recent_track`), so the body covers ground it occupied itself; and no ranger
+    point of ``hits`` (body frame) may lie under the body on the way, which would
+    contradict that the ground is free (points under the body where it stands now are
+    no reason to stay there).
+    """
+    if len(track) < 2:
+        return False
+    s = np.linspace(0.0, params.speed * params.dt, 5)[1:]
+    centres = np.stack([-s, np.zeros_like(s)], axis=1)
+    on_track = segment_distance(centres, track[:-1], track[1:]).min(axis=1)
+    if (on_track > params.track_tolerance).any():
+        return False
+    radius = params.footprint_radius
+    behind = hits[np.hypot(hits[:, 0], hits[:, 1]) >= radius]
+    under = np.hypot(centres[:, None, 0] - behind[:, 0], centres[:, None, 1] - behind[:, 1])
+    return bool(under.min(initial=np.inf) >= radius)
+
+
+def segment_distance(points: FloatArray, start: FloatArray, end: FloatArray) -> FloatArray:
+    """``(n, m)`` distances [m] from ``(n, 2)`` points to ``m`` segments ``start -> end``."""
+    d = end - start
+    length2 = np.maximum((d**2).sum(axis=1), 1e-18)
+    rel = points[:, None, :] - start[None, :, :]
+    t = np.clip((rel * d[None]).sum(axis=2) / length2, 0.0, 1.0)
+    closest = start[None] + t[..., None] * d[None]
+    return np.asarray(np.hypot(*(points[:, None, :] - closest).transpose(2, 0, 1)))
 
 
 def straight_centres(
