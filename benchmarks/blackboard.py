@@ -17,7 +17,10 @@ Targets (issue 9): normal and noiseless fused precision and recall ≥ 0.97 in e
 and no wall phantom; noisy ≥ 0.6; type accuracy ≥ 0.95 (normal); whole run < 30 s, median
 per pose < 50 ms. Each run's row goes to its own file in ``results/benchmarks/blackboard/``
 as it finishes, and a run whose file exists is not measured again (so an interrupted
-benchmark resumes; ``--fresh`` re-measures); ``--jobs N`` runs N at a time in separate
+benchmark resumes; ``--fresh`` re-measures), with the commit it measured; the tables are
+rewritten from *every* stored run, so the grid grows over separate invocations (e.g. the
+slow noisy part alone: ``--conditions noisy --seeds 1``; ``--report-only`` measures nothing
+and only rewrites the tables). ``--jobs N`` runs N at a time in separate
 processes (timings then share the cores: use ``--jobs 1`` on a quiet machine for speed).
 The tables go to docs/benchmarks.md (section ``blackboard``) and docs/blackboard-results.md
 (section ``blackboard-worlds``). Run from the repository root as
@@ -31,6 +34,7 @@ import json
 import os
 import shutil
 import statistics
+import subprocess
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -233,10 +237,32 @@ def run_file(index: int, name: str, seed: int) -> Path:
     return RUNS / f"{name}-world{index:03d}-seed{seed}.json"
 
 
+def _commit() -> str:
+    """The short hash of the code a run measured (``unknown`` outside a git checkout)."""
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
+        )
+    except OSError:
+        return "unknown"
+    return out.stdout.strip() or "unknown"
+
+
+def stored_runs() -> list[dict[str, Any]]:
+    """Every run kept under ``results/benchmarks/blackboard/``, whichever invocation made it,
+    in the order seed, condition, world."""
+    rows = [json.loads(path.read_text(encoding="utf-8")) for path in RUNS.glob("*.json")]
+    return sorted(rows, key=lambda r: (r["seed"], r["condition"], r["world"]))
+
+
 def measure(task: tuple[int, int, str, int]) -> dict[str, Any]:
     """Run one (world, plain, condition, seed) task and write its row to its own file."""
     index, plain, name, seed = task
-    row = run_one(index, plain, name, seed) | {"load_average": os.getloadavg()[0]}
+    row = run_one(index, plain, name, seed) | {
+        "load_average": os.getloadavg()[0],
+        "plain": plain,
+        "commit": _commit(),
+    }
     path = run_file(index, name, seed)
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(row), encoding="utf-8")
@@ -279,8 +305,6 @@ def main() -> None:
     # seed 0 of every world first, then the fresh worlds, then the other seeds: an
     # interrupted run still covers every world
     tasks = [*grid[0], *validation, *[t for seed in grid[1:] for t in seed]] if grid else []
-    if args.report_only:
-        tasks = [t for t in tasks if run_file(t[0], t[2], t[3]).exists()]
     todo = [
         t
         for t in tasks
@@ -291,7 +315,9 @@ def main() -> None:
         for row in pool.map(measure, todo):
             keys = ("world", "condition", "seed", "fused_precision", "fused_recall", "wall_s")
             print(json.dumps({k: row[k] for k in keys}), flush=True)
-    rows = [json.loads(run_file(t[0], t[2], t[3]).read_text()) for t in tasks]
+    # the tables cover every stored run, so the grid grows over separate invocations (e.g.
+    # the slow noisy runs on their own: --conditions noisy)
+    rows = stored_runs()
     paper = [] if args.no_paper else paper_check()
     command = " ".join(a for a in sys.argv[1:] if a != "--report-only")
     grid_rows = [r for r in rows if r["world"] not in fresh_worlds]
@@ -300,12 +326,15 @@ def main() -> None:
     summary = target_lines(grid_rows)
     calibration = calibration_lines(grid_rows + fresh_rows)
     loads = [r["load_average"] for r in rows if "load_average" in r]
+    commits = ", ".join(sorted({str(r.get("commit", "unknown")) for r in rows}))
     head = (
         f"Machine: {machine()}, shared with other jobs: the 1-minute load average at the end "
         f"of the runs was {min(loads):.1f}–{max(loads):.1f} (timings taken under load are "
         f"upper bounds). {len({r['world'] for r in rows})} generated worlds (the first "
         f"{args.plain} plain, the rest stress worlds; all mix two table sizes), conditions × "
-        f"seeds as listed; {args.jobs} run(s) at a time."
+        f"seeds as listed: every run kept in results/benchmarks/blackboard/, measured by "
+        f"separate invocations at commit(s) {commits} "
+        f"({args.jobs} run(s) at a time in the last one)."
         if loads
         else f"Machine: {machine()}."
     )
@@ -327,9 +356,9 @@ def main() -> None:
             *calibration,
             "",
             "Per world: docs/blackboard-results.md, section “Generated worlds”. "
-            f"Command: `python benchmarks/blackboard.py {command}` "
-            "(runs kept in results/benchmarks/blackboard/ are not measured again; `--fresh` "
-            "re-measures).",
+            f"Last command: `python benchmarks/blackboard.py {command}`; the tables hold every "
+            "run kept in results/benchmarks/blackboard/ (runs kept are not measured again; "
+            "`--fresh` re-measures; `--report-only` only rewrites these tables).",
             *(
                 [
                     "",

@@ -509,6 +509,8 @@ def evaluate(state: ChainState, ctx: Context, move: Move) -> tuple[float, FloatA
     if added and not arena_contains(np.array(added), ctx.catalogue, ctx.model.arena).all():
         return -math.inf, np.zeros(len(added))
     overlaps = _overlaps(added, others, ctx) - _overlaps(removed, others, ctx)
+    if overlaps > 0 and ctx.model.log_overlap == -math.inf:
+        return -math.inf, np.zeros(len(added))  # a forbidden overlap: nothing else matters
     changed = [*removed, *added]
     radius = ctx.contact_radius
     own = [ctx.table_contacts(t) for t in changed]
@@ -697,8 +699,9 @@ def greedy_ascent(
     the contact gain of c and all its possible refills together
     (:meth:`Context.contact_gain`, each contact counted once at its best cause among them)
     − Σ_{h ∈ H} cost(h). An exchange is *ruled out* untried when the smaller is below
-    zero. Once tried, a refill is skipped when the exchange's actual loss exceeds the sum
-    of the refills' positive gains alone. Refills that could never join after c — those
+    zero. Once tried, the refills stop as soon as the exchange's gain so far plus the gains
+    alone of the refills not yet tried cannot exceed zero (the exchange could no longer be
+    kept, whatever they add). Refills that could never join after c — those
     whose gain alone is not positive, and, when overlaps are forbidden (log ε_c = −∞),
     those c overlaps — are neither tried nor counted in the bound (in the noisy condition
     most refills near a removed table overlap the candidate that replaces it, and counting
@@ -749,9 +752,12 @@ def greedy_ascent(
             if not math.isfinite(gain):
                 continue
             if len(hit):
-                if gain + refill_gain[near].sum() < -_BOUND_SLACK:
-                    continue  # even every refill at its gain alone could not pay for it
-                for other in candidates[near]:
+                # what the refills not yet tried could still add, at most (their gains alone)
+                left = float(refill_gain[near].sum())
+                for other, other_gain in zip(candidates[near], refill_gain[near], strict=True):
+                    if gain + left <= 1e-9:
+                        break  # even every remaining refill could not make it pay: not kept
+                    left -= other_gain
                     if _holds(trial.tables, other):
                         continue
                     birth = Move(MoveKind.BIRTH, (), (other,))
