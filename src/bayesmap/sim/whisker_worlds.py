@@ -109,7 +109,7 @@ WORLD_SCHEMA: dict[str, Any] = {
                     "minItems": 1,
                     "items": {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3},
                 },
-            ]
+            ],
         },
         "catalogue": {
             "type": "array",
