@@ -48,14 +48,15 @@ def test_backing_off_comes_before_a_retreat_when_the_obstacle_is_ahead() -> None
     assert _explorer()._drive(np.pi, 0.0, safety, 18) == (-PARAMS.speed, 0.0)
 
 
-def test_without_a_safe_heading_or_the_track_behind_a_body_on_a_hazard_stops() -> None:
-    """No heading safe, backing off would leave the recent track, and the body overlaps a
-    hazard: turning in place would sweep it, so the rover stops; clear, it turns."""
+@pytest.mark.parametrize("here", [-0.05, 0.05])
+def test_without_a_safe_heading_or_the_track_behind_the_rover_turns_in_place(here) -> None:
+    """No heading safe and backing off would leave the recent track: the rover turns in
+    place toward the network's choice, even where the map puts a hazard under its body (a
+    disc turning on its centre covers no new ground; a rover that stopped there stood
+    still for the rest of its run)."""
     blocked = np.zeros(PARAMS.n_headings, dtype=bool)
-    stuck = Safety(blocked, np.zeros(PARAMS.n_headings), -0.05, True, False, False, False)
-    assert _explorer()._drive(np.pi, 0.0, stuck, 18) == (0.0, 0.0)
-    clear = Safety(blocked, np.zeros(PARAMS.n_headings), 0.05, True, False, False, True)
-    assert _explorer()._drive(np.pi, 0.0, clear, 18) == (0.0, PARAMS.pivot_rate)
+    hemmed = Safety(blocked, np.zeros(PARAMS.n_headings), here, True, False, False)
+    assert _explorer()._drive(np.pi, 0.0, hemmed, 18) == (0.0, PARAMS.pivot_rate)
 
 
 def test_a_safe_heading_outside_a_retreat_follows_the_drive_law() -> None:

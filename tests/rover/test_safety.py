@@ -217,15 +217,6 @@ def test_a_back_off_never_leaves_the_recent_track() -> None:
     assert backed > 50 and refused > 50  # both verdicts were exercised
 
 
-def test_a_pivot_that_sweeps_a_known_hazard_is_refused() -> None:
-    """The body turning in place covers its own disc: a hazard cell under it (the map drawn
-    in an older GPS frame) refuses the turn; one beside it does not."""
-    under = _safety([(0.3, 0.0)])
-    assert under.here < 0 and not under.pivot_clear
-    beside = _safety([(0.5, 0.0)])
-    assert 0 <= beside.here < PARAMS.safety_margin and beside.pivot_clear
-
-
 def _corridor(lower: float, upper: float, x_end: float) -> np.ndarray:
     """Wall cells (0.5 m squares) along y = ``lower`` and ``upper`` from x = -3.5 to
     ``x_end``, closed at ``x_end``: a dead end opening toward -x."""

@@ -299,7 +299,7 @@ class Explorer:
     def _drive(self, heading: float, psi: float, safety: Safety, index: int) -> tuple[float, float]:
         """Drive toward a safe heading; otherwise back off along the recent track, retreat
         along the heading when it is a retreat (:attr:`Safety.retreat`), or turn in place
-        where the turning body overlaps no hazard (:attr:`Safety.pivot_clear`), or stop.
+        (a round body turning on its centre covers no new ground).
 
         A retreat drives straight on once the estimated heading is within half the spacing
         of the discrete headings of it: the compass's noise (2° in the simulator) never lets
@@ -315,7 +315,5 @@ class Explorer:
         if safety.safe[index] and abs(error) <= math.pi / p.n_headings:
             return (p.speed, 0.0)
         if safety.safe[index]:
-            command = retreat_command(heading, psi, p)
-        else:
-            command = (0.0, math.copysign(p.pivot_rate, error if error != 0 else 1.0))
-        return command if command[0] != 0.0 or safety.pivot_clear else (0.0, 0.0)
+            return retreat_command(heading, psi, p)
+        return (0.0, math.copysign(p.pivot_rate, error if error != 0 else 1.0))

@@ -28,8 +28,10 @@ ahead only, so what lies behind is known from the map alone, drawn in GPS frames
 be 0.2 m away from the current one; instead, a back-off may reverse only into ground the
 body itself occupied in the last ``track_cycles`` cycles (:func:`recent_track`, dead-reckoned
 from the rover's own commands, so it does not depend on the GPS) and where no remembered
-ranger point lies; a turn in place only when the body, turning, overlaps no hazard
-(:attr:`Safety.pivot_clear`). All of this is an addition to the paper.
+ranger point lies. A turn in place is always allowed: the body is a disc about the point it
+turns on, so turning covers no ground it does not cover already (refusing it where the map
+put a hazard under the body, from an older GPS frame, left the rover standing still for
+thousands of cycles). All of this is an addition to the paper.
 """
 
 from __future__ import annotations
@@ -206,10 +208,6 @@ class Safety:
         ``safe`` lists the retreats instead: headings the rover can pivot onto and drive
         straight along without the footprint coming closer to a hazard than ``here``
         (:func:`retreat_command`).
-    pivot_clear
-        Whether the body, turning in place, keeps off every hazard. The footprint is a disc
-        about the centre the rover turns on, so what it sweeps is what it covers now, and
-        this is ``here >= 0``.
     """
 
     safe: BoolArray
@@ -218,7 +216,6 @@ class Safety:
     ahead: bool
     back_clear: bool
     retreat: bool = False
-    pivot_clear: bool = True
 
 
 def footprint_safety(
@@ -288,9 +285,7 @@ def footprint_safety(
     back_clear = track is not None and back_off_on_track(
         np.asarray(track, dtype=np.float64), to_robot(pose, hits), params
     )
-    return Safety(
-        np.asarray(safe), np.asarray(clearance), here, ahead, back_clear, retreat, here >= 0.0
-    )
+    return Safety(np.asarray(safe), np.asarray(clearance), here, ahead, back_clear, retreat)
 
 
 _TRACK_SUBSTEPS = 4
