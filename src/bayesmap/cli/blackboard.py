@@ -53,6 +53,7 @@ def run_command(
         try:
             result = blackboard_world.run(config, out, progress=hook)
         except BayesmapError as error:
+            bar.remove_task(task)  # no empty bar left above the error
             bar.stop()
             print_error(" ".join(str(error).split()), out=console)
             raise typer.Exit(1) from error
