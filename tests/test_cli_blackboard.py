@@ -28,13 +28,18 @@ ROOM = {
 }
 
 
-def test_run_writes_metrics_map_and_figure(tmp_path: Path) -> None:
+def _run(tmp_path: Path, room: dict) -> tuple[Path, dict, str]:
+    """``bayesmap blackboard run`` on ``room``: its output folder, metrics and printed text."""
     world = tmp_path / "room.json"
-    world.write_text(json.dumps(ROOM))
+    world.write_text(json.dumps(room))
     out = tmp_path / "out"
     result = runner.invoke(app, ["blackboard", "run", "--world", str(world), "--out", str(out)])
     assert result.exit_code == 0, result.output
-    metrics = json.loads((out / "metrics.json").read_text())
+    return out, json.loads((out / "metrics.json").read_text()), result.output
+
+
+def test_run_writes_metrics_map_and_figure(tmp_path: Path) -> None:
+    out, metrics, _ = _run(tmp_path, ROOM)
     for key in (
         "fused_precision",
         "fused_recall",
@@ -68,16 +73,11 @@ def test_a_tour_that_touches_no_table_says_why_its_map_is_empty(tmp_path: Path) 
     room["poses"] = [
         [x, y, h * math.pi / 2] for x in (0.5, 3.5) for y in (0.5, 2.5) for h in range(4)
     ]
-    world = tmp_path / "corners.json"
-    world.write_text(json.dumps(room))
-    out = tmp_path / "out"
-    result = runner.invoke(app, ["blackboard", "run", "--world", str(world), "--out", str(out)])
-    assert result.exit_code == 0, result.output
-    metrics = json.loads((out / "metrics.json").read_text())
+    _, metrics, output = _run(tmp_path, room)
     assert metrics["fused_objects"] == 0 and metrics["fused_precision"] is None
     assert metrics["tables_touched"] == 0
-    assert "1 of the world's 1 tables were never touched by a whisker" in result.output
-    assert "fused_precision undefined" in result.output
+    assert "1 of the world's 1 tables were never touched by a whisker" in output
+    assert "fused_precision undefined" in output
 
 
 def test_a_bad_world_is_one_line_naming_the_element(tmp_path: Path) -> None:
