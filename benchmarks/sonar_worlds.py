@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks._report import machine, update_section  # noqa: E402
 from scipy.stats import binomtest  # noqa: E402
 
-from bayesmap.experiments.sonar import BASELINES, Config, run  # noqa: E402
+from bayesmap.experiments.sonar import BASELINES, TARGETED, Config, run  # noqa: E402
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 
@@ -67,18 +67,18 @@ def pooled_ci(hits: float, total: float) -> str:
     return f"{hits / total:.2f} [{interval.low:.2f}, {interval.high:.2f}]"
 
 
-def targets_table(metrics: dict) -> str:
-    """The issue's targets per world for the default pipeline, each marked met or missed."""
+def targets_table(metrics: dict, pipeline: str) -> str:
+    """The issue's targets per world for ``pipeline``, each marked met or missed."""
     by_world: dict[str, dict[str, dict[str, list[float]]]] = {}
     for record in metrics["runs"]:
         table = by_world.setdefault(record["world"], {})
         for name, scores in record["pipelines"].items():
             for key, value in scores.items():
                 table.setdefault(name, {}).setdefault(key, []).append(value)
-    default = metrics["default"]
+    default = pipeline
     lines = [
-        "| world | κ default | best baseline (κ) | κ margin (≥ +0.10) | missed wall − ROS (≤ 0) "
-        "| path cells occupied (0) | rej. precision / recall (≥ 0.85) "
+        f"| world | κ {pipeline} | best baseline (κ) | κ margin (≥ +0.10) "
+        "| missed wall − ROS (≤ 0) | path cells occupied (0) | rej. precision / recall (≥ 0.85) "
         "| specular readings | pooled precision [95 % CI] | pooled recall [95 % CI] |",
         "|---|---|---|---|---|---|---|---:|---|---|",
     ]
@@ -106,7 +106,7 @@ def targets_table(metrics: dict) -> str:
         )
     runs = len(metrics["runs"]) // max(len(by_world), 1)
     return (
-        f"### The issue's targets, world by world (default pipeline, {runs} runs each)\n\n"
+        f"### The issue's targets, world by world ({pipeline} pipeline, {runs} runs each)\n\n"
         + "\n".join(lines)
         + "\n\nPrecision and recall are means over runs; the pooled columns count every "
         "reading of the world's runs together (Wilson 95 % interval, `scipy.stats.binomtest`).\n"
@@ -137,7 +137,10 @@ def main(argv: list[str]) -> None:
             "is inflated by other jobs)."
         )
     summary = (folder / "summary.md").read_text(encoding="utf-8")
-    targets = targets_table(json.loads((folder / "metrics.json").read_text(encoding="utf-8")))
+    metrics = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))
+    targets = "\n".join(
+        targets_table(metrics, name) for name in TARGETED if name in metrics["pipelines"]
+    )
     body = summary.split("\n", 1)[1].replace("\n## ", "\n### ")
     figures = []
     for png in sorted(folder.glob("maps_*.png")):

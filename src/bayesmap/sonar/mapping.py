@@ -17,14 +17,14 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._typing import FloatArray, Grid
+from bayesmap._typing import BoolArray, FloatArray, Grid
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid, Window
 from bayesmap.sensing.sonar import elfes_inverse_model, log_odds
 from bayesmap.sensing.sonar_baselines import ros_bayes_update, ros_sensor_model, thrun_inverse_model
 from bayesmap.sonar.geometry import ConeCells, SonarGeometry, cone_cells
 
-__all__ = ["ElfesMapper", "NoEcho", "RosRangeLayerMapper", "ThrunMapper"]
+__all__ = ["ElfesMapper", "NoEcho", "RosRangeLayerMapper", "ThrunMapper", "surface_in_cone"]
 
 NoEcho = Literal["cone", "clear", "ignore"]
 """How a mapper treats a no-echo reading (see :class:`ElfesMapper`)."""
@@ -140,6 +140,9 @@ class _LogOddsMapper(_ConeMapper):
         self.prior_log_odds = float(log_odds(prior))
         self.log_odds_: Grid = np.full(grid.shape, self.prior_log_odds)
         self.swept_: np.ndarray = np.zeros(grid.shape, dtype=bool)
+        self.reference_: Grid | None = None
+        """A map of the whole log (a forward-model sweep's E-step), or ``None``: streaming."""
+        self.free_stop = False
 
     def _reach(self, ranges: FloatArray) -> FloatArray:
         """How far each reading's cone is updated [m]."""
@@ -179,6 +182,8 @@ class _LogOddsMapper(_ConeMapper):
             if limit is not None:
                 beyond = cells.rho > limit[a:b].ravel()[cells.reading]
                 increment = np.where(beyond & (increment < 0.0), 0.0, increment)
+            if self.free_stop and self.reference_ is not None:
+                increment = self._first_hit(cells, r[a:b].ravel(), increment)
             bounds = np.searchsorted(cells.reading, n * np.arange(b - a + 1))
             for i in range(b - a):
                 part = slice(bounds[i], bounds[i + 1])
@@ -237,7 +242,11 @@ class _LogOddsMapper(_ConeMapper):
         arc = np.flatnonzero((increment > 0.0) & (cells.rho > self.explain_beyond))
         if len(arc) == 0:
             return increment
-        probability = 1.0 / (1.0 + np.exp(-self.log_odds_[cells.rows[arc], cells.cols[arc]]))
+        where = (cells.rows[arc], cells.cols[arc])
+        if self.reference_ is not None:
+            probability = self.reference_[where]
+        else:
+            probability = 1.0 / (1.0 + np.exp(-self.log_odds_[where]))
         reading = cells.reading[arc]
         starts = np.flatnonzero(np.r_[True, reading[1:] != reading[:-1]])
         peak = np.maximum.reduceat(probability, starts)
@@ -248,6 +257,27 @@ class _LogOddsMapper(_ConeMapper):
         out = increment.copy()
         out[arc] *= share
         return out
+
+    def _first_hit(self, cells: ConeCells, ranges: FloatArray, increment: FloatArray) -> FloatArray:
+        """Stop each reading's free evidence at the first surface ``reference_`` holds.
+
+        The forward sensor model's first hit (Thrun 2003): a beam cannot pass a surface, so
+        a reading whose echo lies beyond a cell the whole-log map holds occupied (``p > ½``,
+        within half the cone's half-width of its axis, more than ``2σ`` before the echo)
+        either missed that surface (specular) or the surface is not there; its free space
+        stops one cell beyond it, so the surface's own cell still hears the evidence
+        against it but the cells behind it do not.
+        """
+        assert self.reference_ is not None
+        sigma = max(self.geometry.sigma, self.grid.resolution)
+        reach = ranges[cells.reading]
+        central = np.abs(cells.theta) <= self.geometry.beam_width / 4.0
+        held = self.reference_[cells.rows, cells.cols] > 0.5
+        surface = central & held & (cells.rho < reach - 2.0 * sigma)
+        first = np.full(len(ranges), np.inf)
+        np.minimum.at(first, cells.reading[surface], cells.rho[surface])
+        behind = cells.rho > first[cells.reading] + self.grid.resolution
+        return np.where(behind & (increment < 0.0), 0.0, increment)
 
     def _footprint_cells(
         self, poses: FloatArray
@@ -275,6 +305,29 @@ class _LogOddsMapper(_ConeMapper):
         inside &= (rows >= 0) & (rows < ny) & (cols >= 0) & (cols < nx)
         return rows, cols, inside
 
+    def surface_ahead(self, poses: npt.ArrayLike, ranges: npt.ArrayLike) -> BoolArray:
+        """Which silent readings of ``m`` rings the map says should have met a surface.
+
+        Returns ``(m, n)``: ``True`` for a no-echo reading whose cone, cast on the map as it
+        stands (:func:`surface_in_cone`), meets a cell held occupied (log-odds above the
+        prior) within the max range; such a silence lost its echo (specular). Echoes and
+        silences whose cone the map holds free or unknown are ``False``.
+        """
+        r = np.asarray(ranges, dtype=np.float64)
+        centres, axis = self.geometry.sensors_many(np.asarray(poses, dtype=np.float64))
+        silent = ~self.geometry.echo(r)
+        out = np.zeros(r.shape, dtype=bool)
+        if np.any(silent):
+            out[silent] = surface_in_cone(
+                self.log_odds_ > self.prior_log_odds,
+                self.grid,
+                centres[silent],
+                axis[silent],
+                self.geometry.max_range,
+                self.geometry.beam_width / 2.0,
+            )
+        return out
+
     def probability(self) -> Grid:
         """``(ny, nx)`` occupancy probability of each cell."""
         return np.asarray(1.0 / (1.0 + np.exp(-self.log_odds_)))
@@ -288,6 +341,38 @@ class _LogOddsMapper(_ConeMapper):
         ny, nx = self.grid.shape
         self.grid.set_probability(Window(0, ny, 0, nx), self.probability())
         return self.grid
+
+
+def surface_in_cone(
+    occupied: np.ndarray,
+    grid: OccupancyGrid,
+    centres: FloatArray,
+    axis: FloatArray,
+    reach: float,
+    half_width: float,
+) -> BoolArray:
+    """Whether each cone meets an ``occupied`` cell within ``reach`` [m].
+
+    The cone of each transducer (``centres`` ``(k, 2)`` [m], ``axis`` ``(k,)`` [rad]) is
+    cast as rays spread evenly across ``±half_width``, at most half a cell apart at
+    ``reach`` and sampled every half cell from the transducer out. This is the forward
+    model's question for a silence: would the map, as it stands, have returned an echo
+    in this cone?
+    """
+    k = len(axis)
+    if k == 0:
+        return np.zeros(0, dtype=bool)
+    step = grid.resolution / 2.0
+    rays = math.ceil(2.0 * half_width * reach / step) + 1
+    distance = np.arange(step, reach + step / 2.0, step)
+    bearings = axis[:, None] + np.linspace(-half_width, half_width, rays)[None, :]
+    x = centres[:, 0, None, None] + distance[None, None, :] * np.cos(bearings)[:, :, None]
+    y = centres[:, 1, None, None] + distance[None, None, :] * np.sin(bearings)[:, :, None]
+    rows, cols = grid.world_to_cell(x, y)
+    inside = grid.in_bounds(rows, cols)
+    hit = np.zeros(rows.shape, dtype=bool)
+    hit[inside] = occupied[rows[inside], cols[inside]]
+    return np.asarray(hit.any(axis=(1, 2)))
 
 
 class ElfesMapper(_LogOddsMapper):
@@ -318,6 +403,19 @@ class ElfesMapper(_LogOddsMapper):
         Radius [m] round the robot's centre marked free at every ring (the robot is there),
         as the ROS costmap's footprint clearing does, and kept free afterwards (the cells
         join ``swept_``: a later echo there is a passer-by); 0: off.
+    free_lock, explain_away, explain_beyond
+        See docs/sonar.md (*Map model choices*): an echo at a well-seen free cell is not
+        written; an echo's occupied evidence beyond ``explain_beyond`` [m] is shared along
+        its arc by the map, ``(p_i / max_j p_j) ** explain_away``.
+    forward_sweeps
+        Sweeps of the forward-model refinement run when the map is synced (0: none). Each
+        sweep rebuilds the log-odds from every mapped reading with the previous sweep's
+        map of the *whole* log as the E-step's reference (Thrun 2003, forward sensor
+        models): an echo's occupied evidence is shared along its arc by that map
+        (exponent ``forward_gamma`` for arc cells beyond ``forward_beyond`` [m]), and
+        with ``forward_free_stop`` a reading's free space ends at the first surface the
+        map holds on its beam. The mapped rings are kept for it (``16 × 8`` bytes per ring
+        of 16 readings, plus the mask and free limits).
 
     Attributes
     ----------
@@ -344,10 +442,32 @@ class ElfesMapper(_LogOddsMapper):
         free_lock: float = 0.0,
         explain_away: float = 0.0,
         explain_beyond: float = 0.0,
+        forward_sweeps: int = 0,
+        forward_gamma: float = 1.0,
+        forward_beyond: float = 2.0,
+        forward_free_stop: bool = False,
+        forward_no_echo: float = 0.0,
     ) -> None:
         super().__init__(
             grid, geometry, clamp, decay, footprint, free_lock, explain_away, explain_beyond
         )
+        if not (forward_sweeps >= 0 and forward_gamma > 0 and forward_beyond >= 0):
+            raise ConfigError(
+                "forward_sweeps must be >= 0, forward_gamma > 0 and forward_beyond >= 0 m, "
+                f"got {forward_sweeps}, {forward_gamma}, {forward_beyond}"
+            )
+        self.forward_sweeps = int(forward_sweeps)
+        self.forward_gamma = float(forward_gamma)
+        self.forward_beyond = float(forward_beyond)
+        self.forward_free_stop = bool(forward_free_stop)
+        if not 0.0 <= forward_no_echo <= geometry.max_range:
+            raise ConfigError(
+                f"forward_no_echo must be in [0, max range = {geometry.max_range}] m, "
+                f"got {forward_no_echo}"
+            )
+        self.forward_no_echo = float(forward_no_echo)
+        self._mapped: list[tuple[FloatArray, FloatArray, np.ndarray, FloatArray | None]] = []
+        self._refined = 0
         if no_echo not in ("cone", "clear", "ignore"):
             raise ConfigError(f"no_echo must be 'cone', 'clear' or 'ignore', got {no_echo!r}")
         if not 0.0 < clear_distance <= geometry.max_range:
@@ -371,6 +491,53 @@ class ElfesMapper(_LogOddsMapper):
             p_occ=p_occ,
             p_free=p_free,
         )
+
+    def integrate_many(
+        self,
+        poses: npt.ArrayLike,
+        ranges: npt.ArrayLike,
+        use: npt.ArrayLike | None = None,
+        free_limit: npt.ArrayLike | None = None,
+    ) -> None:
+        """Add ``m`` rings in order (see :meth:`_LogOddsMapper.integrate_many`)."""
+        super().integrate_many(poses, ranges, use, free_limit)
+        if self.forward_sweeps > 0 and self.reference_ is None:
+            r = np.asarray(ranges, dtype=np.float64)
+            mask = np.ones(r.shape, dtype=bool) if use is None else np.asarray(use, dtype=bool)
+            limit = None if free_limit is None else np.asarray(free_limit, dtype=np.float64)
+            self._mapped.append((np.asarray(poses, dtype=np.float64), r, mask, limit))
+
+    def refine(self) -> None:
+        """Run the forward-model sweeps over every ring mapped so far (see the class).
+
+        Sweep ``s`` resets the layer to the prior and integrates the stored rings again in
+        their order, with the map sweep ``s - 1`` ended with (the streaming map for the
+        first) as ``reference_``: the E-step sees the whole log, the M-step is the usual
+        log-odds sum, so the map is the same function of the log however it was batched.
+        """
+        if self.forward_sweeps == 0 or self._refined == len(self._mapped):
+            return
+        streaming = (self.explain_away, self.explain_beyond, self.free_stop, self.rings_)
+        silence = (self.no_echo, self.clear_distance)
+        self.explain_away, self.explain_beyond = self.forward_gamma, self.forward_beyond
+        self.free_stop = self.forward_free_stop
+        if self.forward_no_echo > 0.0:
+            self.no_echo, self.clear_distance = "clear", self.forward_no_echo
+        for _ in range(self.forward_sweeps):
+            self.reference_ = self.probability()
+            self.log_odds_ = np.full(self.grid.shape, self.prior_log_odds)
+            self.swept_ = np.zeros(self.grid.shape, dtype=bool)
+            for poses, ranges, mask, limit in self._mapped:
+                super().integrate_many(poses, ranges, mask, limit)
+        self.explain_away, self.explain_beyond, self.free_stop, self.rings_ = streaming
+        self.no_echo, self.clear_distance = silence
+        self.reference_ = None
+        self._refined = len(self._mapped)
+
+    def sync(self) -> OccupancyGrid:
+        """Refine (when ``forward_sweeps``), then write the map into the grid."""
+        self.refine()
+        return super().sync()
 
     def _reach(self, ranges: FloatArray) -> FloatArray:
         echo = ranges < self.geometry.max_range
