@@ -22,13 +22,19 @@ map, fed by an oracle that rejects exactly the readings the simulator labels spe
 in a second pair, the echoes from people too), and prints κ beside the default pipeline's
 and the baseline's own.
 
+``python benchmarks/sonar_diagnose.py speed WORLDS SEED`` times the default and the
+forward pipeline (filter and map, CPU seconds) on one log per world and prints readings per
+CPU second with the load average (a loaded machine inflates CPU time too).
+
 WORLDS is a comma-separated list of registered world names.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import os
 import sys
+import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -51,7 +57,7 @@ from bayesmap.sim.polygons import world  # noqa: E402
 from bayesmap.sim.sonar import EchoKind, cast_rays  # noqa: E402
 from bayesmap.sim.sonar_log import simulate_log  # noqa: E402
 from bayesmap.sonar.filter import RingVerdict, Stage  # noqa: E402
-from bayesmap.sonar.pipeline import PIPELINES, grid_for_poses, map_log  # noqa: E402
+from bayesmap.sonar.pipeline import PIPELINES, build_map, grid_for_poses, map_log  # noqa: E402
 
 BASELINE = "elfes-ignore-no-echo"
 
@@ -218,6 +224,28 @@ def ceiling(worlds: str, seeds: str) -> None:
             print(f"{name} seed {seed}: κ " + "; ".join(line), flush=True)
 
 
+def speed(worlds: str, seed: str) -> None:
+    """Print readings per CPU second of the default and the forward pipeline, and the load."""
+    config = Config()
+    geometry = ring_geometry(make_ring(config))
+    for name in worlds.split(","):
+        log = simulate_log(
+            world(name), make_ring(config), config.realism, rng=np.random.default_rng(int(seed))
+        )
+        for pipeline in ("default", "forward"):
+            started = time.process_time()
+            build_map(
+                log.odometry, log.ranges, geometry, config.resolution, pipeline=PIPELINES[pipeline]
+            )
+            cpu = time.process_time() - started
+            load = " / ".join(f"{v:.1f}" for v in os.getloadavg())
+            print(
+                f"{name} seed {seed} {pipeline}: {log.ranges.size:,} readings in {cpu:.2f} CPU s, "
+                f"{log.ranges.size / cpu:,.0f} readings per CPU second (load average {load})",
+                flush=True,
+            )
+
+
 def main(argv: list[str]) -> None:
     if len(argv) >= 3 and argv[0] == "variants":
         variants(argv[1], argv[2], argv[3] if len(argv) > 3 else "")
@@ -225,6 +253,8 @@ def main(argv: list[str]) -> None:
         ceiling(argv[1], argv[2])
     elif len(argv) == 3 and argv[0] == "labels":
         labels(argv[1], argv[2])
+    elif len(argv) == 3 and argv[0] == "speed":
+        speed(argv[1], argv[2])
     else:
         raise SystemExit(__doc__)
 
