@@ -1,5 +1,4 @@
-"""The cold path of exact inference: contraction orders, batch memo, pruned evidence checks
-(priors and witnesses)."""
+"""The cold path of exact inference: contraction orders, batch memo, pruned evidence checks."""
 
 from __future__ import annotations
 
@@ -13,7 +12,6 @@ from tests.bn.helpers import brute_posterior, random_net, sample_evidence
 
 from bayesmap.bn import BayesNet, elimination, plans
 from bayesmap.bn.tuning import Tuning
-from bayesmap.bn.witnesses import Witnesses
 from bayesmap.errors import InputError
 
 SEEDS = st.integers(0, 2**31 - 1)
@@ -414,19 +412,3 @@ def test_a_costly_network_order_gives_way_to_the_plans_own() -> None:
     expected = plans._eliminate(walker, labels, (0,), compiled.card.__getitem__)
     assert expected is not None
     assert restricted == (expected[0], expected[1], expected[3])
-
-
-@FAST
-@given(seed=SEEDS, zeros=st.sampled_from([0.0, 0.3, 0.6]))
-def test_witnesses_prove_only_possible_states(seed: int, zeros: float) -> None:
-    """A state a witness proves possible has a positive prior; without zeros in the CPTs
-    every state is proven."""
-    net = random_net(seed, n_vars=8, max_card=4, zero_fraction=zeros)
-    engine = net._engine
-    compiled = engine.compiled
-    witnesses = Witnesses(compiled)
-    for v in reversed(compiled.topo):  # children first: ancestors built on demand
-        proven = witnesses.proven(v)
-        assert not (proven & ~(engine.prior(v) > 0.0)).any()
-        if zeros == 0.0:
-            assert proven.all()

@@ -122,9 +122,6 @@ class Compiled:
         self.elimination_positions: dict[int, int] | None = None
         """Each variable's position in the network-wide elimination order, once a question
         has needed it (``plans.network_positions``)."""
-        self.witnesses: Any = None
-        """Assignments of positive probability that prove states possible, once a question
-        has needed them (``witnesses.Witnesses``, built by the engine)."""
         self.layouts: dict[tuple[int, int], Any] = {}
         """Observed-first layouts of CPTs and their factors, by variable and observed family
         (``plans.build``)."""

@@ -43,7 +43,6 @@ from bayesmap.bn.numbers import FLOATS, FixedPoint
 from bayesmap.bn.plans import Plan, QueryKind
 from bayesmap.bn.propositions import Proposition
 from bayesmap.bn.tuning import TUNING, Tuning
-from bayesmap.bn.witnesses import Witnesses
 from bayesmap.errors import InputError
 
 Evidence = Mapping[str, str | int]
@@ -170,11 +169,9 @@ class Engine:
 
         Evidence in a component d-separated from the targets does not change the answer and
         is not contracted; each such observed state (``values(v)``: an index or an index
-        array) must still have a nonzero prior marginal. Most states are proven possible by
-        the network's witnesses (:mod:`bayesmap.bn.witnesses`, built once per network
-        version), and only the others by their prior (computed on first use). Variables
-        below a data node have no cached prior and are not checked; nor are
-        zero-probability *combinations* of states that are each possible.
+        array) must still have a nonzero prior marginal. Variables below a data node have no
+        cached prior and are not checked; nor are zero-probability *combinations* of states
+        that are each possible.
         """
         compiled = self.compiled
         checkable = plan.cache.checkable
@@ -182,16 +179,8 @@ class Engine:
             checkable = plan.cache.checkable = tuple(
                 v for v in plan.dropped if not compiled.source_mask & compiled.lineage_masks[v]
             )
-        if not checkable:
-            return
-        witnesses = compiled.witnesses
-        if witnesses is None:
-            witnesses = compiled.witnesses = Witnesses(compiled)
         for v in checkable:
-            state = values(v)  # an index or an index array
-            if witnesses.proven(v)[state].all():
-                continue  # proven possible without a prior
-            if not (self.prior(v)[state] > 0.0).all():  # a numpy bool or bool array
+            if not (self.prior(v)[values(v)] > 0.0).all():  # a numpy bool or bool array
                 raise InputError(case())
 
     def evidence_ids(self, evidence: Evidence) -> dict[int, int]:
