@@ -517,10 +517,11 @@ def _eliminate(
             if not chosen:
                 continue
             if constant is not None:
-                if batch is not deferred and not all(map(free, chosen)):
+                fixed = all(map(free, chosen))
+                if not fixed and batch is not deferred:
                     deferred.append(u)
                     continue
-                constant.append(all(map(free, chosen)))
+                constant.append(fixed)
             union, kept = walker.join(chosen)
             entries = math.prod(map(size_of, union))
             total += entries
@@ -550,8 +551,10 @@ def network_positions(compiled: Compiled) -> dict[int, int]:
     variables linked. A plan's interaction graph is a subgraph of it (evidence, barren
     variables and replaced sub-networks only remove vertices and edges), and eliminating a
     subgraph's vertices in the order they take in the whole graph fills in no edge that
-    the whole graph's elimination did not (Koller & Friedman 2009, §9.4.3.1): the
-    restricted order is never wider than the network-wide one, and costs no search.
+    the whole graph's elimination did not (Koller & Friedman 2009, §9.4.3.1), so the
+    restricted order is never wider than the network-wide one and costs no search.
+    :func:`order_steps` moves the evidence-free sub-trees first, which that bound does not
+    cover; its cost check does.
     """
     positions = compiled.elimination_positions
     if positions is None:
