@@ -116,7 +116,7 @@ def measure(name: str, n_patterns: int, n_observed: int, seed: int) -> dict[str,
     engine = Engine(net, net.tuning)
     compiled = engine.compiled
     start = time.process_time()
-    plans.network_positions(compiled)
+    plans.network_order(compiled)
     network_ms = (time.process_time() - start) * 1e3
     rng = np.random.default_rng(seed)
     n = len(compiled.names)

@@ -395,8 +395,9 @@ def test_the_network_order_restricted_to_a_plan_contracts_exactly(seed: int, alw
 
 
 def test_a_costly_network_order_gives_way_to_the_plans_own() -> None:
-    """Where the restricted order's arithmetic would pass the bound, the plan's own
-    min-weight order is used; within it, the restricted order (no ranking)."""
+    """Where the restricted order's arithmetic would pass the bound, or its network-wide
+    weights say it would, the plan's own min-weight order is used; within it, the
+    restricted order (no ranking)."""
     net = random_net(3, n_vars=12, max_card=4)
     compiled = net._engine.compiled
     scopes = [(v, *compiled.parents[v]) for v in range(len(compiled.names))]
@@ -405,8 +406,10 @@ def test_a_costly_network_order_gives_way_to_the_plans_own() -> None:
     never = replace(Tuning(), network_order_per_factor=-1)
     assert plans.order_steps(compiled, scopes, (0,), network=flags, tuning=never) == own
     ready = replace(Tuning(), network_order_per_factor=1 << 62)
+    dense = replace(ready, network_order_slack=0)  # the network-wide weights exceed any limit
+    assert plans.order_steps(compiled, scopes, (0,), network=flags, tuning=dense) == own
     restricted = plans.order_steps(compiled, scopes, (0,), network=flags, tuning=ready)
-    positions = plans.network_positions(compiled)
+    positions, _ = plans.network_order(compiled)
     labels = sorted({u for scope in scopes for u in scope} - {0}, key=positions.__getitem__)
     walker = elimination.Walker(scopes, (0,))
     expected = plans._eliminate(walker, labels, (0,), compiled.card.__getitem__)

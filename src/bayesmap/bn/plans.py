@@ -14,7 +14,7 @@ Building one:
    are dropped (their factors only scale the answer). Factors whose every variable is
    observed become scalar checks (a zero means impossible evidence).
 4. **Contraction order** (:func:`order_steps`): for a one-case question, the network-wide
-   min-weight elimination order (:func:`network_positions`, computed once per network)
+   min-weight elimination order (:func:`network_order`, computed once per network)
    restricted to the plan's variables, evidence-free sub-trees first — no search per
    pattern; where that order's arithmetic is not negligible, and for batches, a greedy
    min-weight order of the plan's own (pruned, sliced) factors (:func:`elimination_rank`),
@@ -418,11 +418,13 @@ def order_steps(
 
     With ``network`` (a one-case question: whether each factor is evidence-free), the
     order is first the network-wide one restricted to these factors' variables
-    (:func:`network_positions`), the evidence-free sub-trees first (:func:`_eliminate`),
+    (:func:`network_order`), the evidence-free sub-trees first (:func:`_eliminate`),
     which needs no search. It is kept when it costs at most
     ``tuning.network_order_per_factor`` multiply-adds per factor: then all of its
     arithmetic is worth less than a fraction of the contraction calls' fixed cost, and no
-    order could save more than that; the walk stops as soon as it passes that bound.
+    order could save more than that; the walk stops as soon as it passes that bound, and
+    is not tried when the labels' network-wide elimination weights exceed it by more than
+    ``tuning.network_order_slack`` (a dense part of the network).
     Otherwise (or without ``network``) the order is the greedy min-weight order of the
     factors themselves (:func:`elimination_rank`). If the order costs more than
     ``tuning.greedy_above`` multiply-adds (and ``tuning.greedy_per_factor`` per factor),
@@ -436,8 +438,10 @@ def order_steps(
 
     ``emit`` (e.g. :meth:`SumProgram.add <bayesmap.bn.elimination.SumProgram.add>`) is
     given each step of the returned order with the labels it keeps (the last step's in
-    any order), the entries of its operands' product and their labels; the steps are
-    recorded as the order is walked and replayed once it is decided, so no order is
+    any order), the entries of its operands' product and their labels. A min-weight order
+    that is sure to be kept — the weights of its eliminations, which bound its cost, stay
+    under the search threshold — is emitted step by step as it is walked; any other order's
+    steps are recorded as it is walked and replayed once it is decided, so no order is
     walked twice.
     """
     card = compiled.card
@@ -452,22 +456,38 @@ def order_steps(
         return [(0,)], [tuple(output)], entries
     steps: Steps | None = None
     if network is not None and not extra and not search:
-        walker = Walker(scopes, output)
-        positions = network_positions(compiled)
-        wanted = set(output)
-        summed = [u for u in walker.holders if u not in wanted]
-        summed.sort(key=positions.__getitem__)
+        positions, weights = network_order(compiled)
+        summed = dict.fromkeys(chain.from_iterable(scopes))
+        for u in output:
+            summed.pop(u, None)
         limit = tuning.network_order_per_factor * n
-        steps = _eliminate(walker, summed, output, size_of, list(network), limit)
+        # the network-wide weights of these labels bound the restricted order's steps (up to
+        # the kept output labels, before the evidence-free steps move first); far above the
+        # limit, the order is not worth a walk
+        if sum(map(weights.__getitem__, summed)) <= tuning.network_order_slack * limit:
+            walker = Walker(scopes, output)
+            ordered = sorted(summed, key=positions.__getitem__)
+            steps = _eliminate(walker, ordered, output, size_of, list(network), limit)
+    emitted = None
     if steps is None:
         walker = Walker(scopes, output)
-        rank, _ = elimination_rank(scopes, output, card)
+        rank, bound = elimination_rank(scopes, output, card)
+        for w in extra:
+            bound *= extra[w]  # a label left out of the graph (the case axis) widens every step
+        bound += math.prod(map(size_of, output))  # the last step, over the output labels at most
+        may_search = search or (
+            bound > tuning.greedy_above and bound > tuning.greedy_per_factor * n
+        )
         # the ranked labels in rank order, then the labels not ranked (the case axis)
         unranked = [u for u in walker.holders if u < 0 and u not in output] if extra else []
-        steps = _eliminate(walker, [*rank, *unranked], output, size_of)
+        # the order is final unless opt_einsum's search may replace it: then emitted as walked
+        emitted = None if may_search or unranked else emit
+        steps = _eliminate(walker, [*rank, *unranked], output, size_of, emit=emitted)
         assert steps is not None  # no limit
     path, kept_steps, records, total = steps
     if search or (total > tuning.greedy_above and total > tuning.greedy_per_factor * n):
+        if emitted is not None:
+            raise AssertionError("an emitted order's cost exceeded its bound")
         sets = [frozenset(scope) for scope in scopes]
         table = {u: card[u] if u >= 0 else extra[u] for u in walker.holders}
         greedy = _greedy(sets, frozenset(output), table)
@@ -477,7 +497,7 @@ def order_steps(
                 for step in walk(scopes, output, greedy):
                     emit(step.inputs, step.kept, math.prod(map(size_of, step.union)), step.union)
             return greedy, None, greedy_total
-    if emit is not None:
+    if emit is not None and emitted is None:
         for chosen, kept, (entries, union) in zip(path, kept_steps, records, strict=True):
             emit(chosen, kept, entries, union)
     return path, kept_steps, total
@@ -490,6 +510,7 @@ def _eliminate(
     size_of: Callable[[int], int],
     constant: list[bool] | None = None,
     limit: int | None = None,
+    emit: Callable[[tuple[int, ...], tuple[int, ...], int, Iterable[int]], None] | None = None,
 ) -> Steps | None:
     """Sum ``labels`` out in this order (each with the factors then holding it), then
     multiply what is left into ``output``: the steps, as :data:`Steps` (``None`` as soon
@@ -500,6 +521,9 @@ def _eliminate(
     after the rest, in the same order: the evidence-free sub-trees are contracted first,
     into steps a program computes once (and shares between patterns), so the steps a
     question repeats for new values are the few that join the evidence.
+
+    ``emit`` (an order known to be final) is given each step as it is taken, and the steps'
+    entries and labels are then not recorded.
     """
     holders = walker.holders
     path: list[tuple[int, ...]] = []
@@ -529,7 +553,10 @@ def _eliminate(
                 return None
             path.append(chosen)
             kept_steps.append(kept)
-            records.append((entries, union))
+            if emit is None:
+                records.append((entries, union))
+            else:
+                emit(chosen, kept, entries, union)
     rest = tuple(walker.open)
     if len(rest) > 1 or not path:
         path.append(rest)
@@ -539,29 +566,35 @@ def _eliminate(
         total += entries
         if limit is not None and total > limit:
             return None
-        records.append((entries, last))
+        if emit is None:
+            records.append((entries, last))
+        else:
+            emit(rest, tuple(output), entries, last)
     return path, kept_steps, records, total
 
 
-def network_positions(compiled: Compiled) -> dict[int, int]:
-    """Each variable's position in a network-wide elimination order, computed once per
-    network version (:attr:`Compiled.elimination_positions`).
+def network_order(compiled: Compiled) -> tuple[dict[int, int], dict[int, int]]:
+    """Each variable's position in a network-wide elimination order and the weight of its
+    elimination there (the entries of its factor with its neighbours then), computed once
+    per network version (:attr:`Compiled.network_order`).
 
     The greedy min-weight order (:func:`elimination_rank`) of the moral graph, every CPT's
     variables linked. A plan's interaction graph is a subgraph of it (evidence, barren
     variables and replaced sub-networks only remove vertices and edges), and eliminating a
     subgraph's vertices in the order they take in the whole graph fills in no edge that
     the whole graph's elimination did not (Koller & Friedman 2009, §9.4.3.1), so the
-    restricted order is never wider than the network-wide one and costs no search.
-    :func:`order_steps` moves the evidence-free sub-trees first, which that bound does not
-    cover; its cost check does.
+    restricted order is no wider than the network-wide one — each step within its
+    variable's weight here, up to the labels the plan keeps (its targets) — and costs no
+    search. :func:`order_steps` moves the
+    evidence-free sub-trees first, which that bound does not cover; its cost check does.
     """
-    positions = compiled.elimination_positions
-    if positions is None:
+    known = compiled.network_order
+    if known is None:
         families = [(v, *ps) for v, ps in enumerate(compiled.parents)]
-        positions, _ = elimination_rank(families, (), compiled.card)
-        compiled.elimination_positions = positions
-    return positions
+        weights: dict[int, int] = {}
+        positions, _ = elimination_rank(families, (), compiled.card, weights)
+        known = compiled.network_order = (positions, weights)
+    return known
 
 
 _SCAN_UP_TO = 32
@@ -574,6 +607,7 @@ def elimination_rank(
     scopes: Sequence[Sequence[int]],
     output: Sequence[int],
     card: Sequence[int],
+    weights: dict[int, int] | None = None,
 ) -> tuple[dict[int, int], int]:
     """Position of each summed-out label in a greedy min-weight elimination order, and the
     sum of the weights of its eliminations.
@@ -593,6 +627,7 @@ def elimination_rank(
     the evidence-free steps (with it, min-weight spreads the axis early and a batch costs
     30× more on alarm). The summed weights bound the multiply-adds of the steps that sum
     these labels out in this order (each step's operands lie within the label's factor).
+    ``weights``, if given, receives each label's weight when it is summed out.
     """
     neighbours: dict[int, set[int]] = {}
     for scope in scopes:
@@ -633,6 +668,8 @@ def elimination_rank(
         del current[u]
         rank[u] = len(rank)
         bound += w
+        if weights is not None:
+            weights[u] = w
         around = neighbours.pop(u)
         size = card[u]
         for x in around:

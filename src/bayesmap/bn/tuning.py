@@ -50,7 +50,10 @@ class Tuning:
         (restricted to its variables) when that order costs at most this many multiply-adds
         per factor (a quarter of ``call_cost``: the arithmetic then weighs less than the
         calls' fixed cost, whatever the order); above, a min-weight order of the plan's own
-        is built and the cheaper kept.
+        is used.
+    network_order_slack
+        ... and it is not even tried when its variables' weights in the network-wide
+        elimination (which bound its steps) sum to more than this many times that limit.
     search_above
         Greedy orders of the pluggable-arithmetic contractions (MAP, fixed point) costing
         more multiply-adds than this are improved by a random-greedy search.
@@ -78,6 +81,7 @@ class Tuning:
     greedy_above: int = 1 << 20
     greedy_per_factor: int = 1 << 15
     network_order_per_factor: int = 1000
+    network_order_slack: int = 16
     search_above: float = 1e8
     search_repeats: int = 16
     split_above: int = 1 << 12
