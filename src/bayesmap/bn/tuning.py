@@ -40,8 +40,8 @@ class Tuning:
     one_step_operands
         See ``one_step``.
     greedy_above
-        The network-wide contraction order is compared with opt_einsum's greedy search on
-        the plan itself only above this many multiply-adds ...
+        A plan's min-weight contraction order is compared with opt_einsum's greedy search
+        on the plan only above this many multiply-adds ...
     greedy_per_factor
         ... and this many per factor: below, even a much better order saves less time than
         the search costs (~30–40 µs per factor).
