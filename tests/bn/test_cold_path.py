@@ -360,3 +360,58 @@ def test_one_pass_program_puts_the_last_steps_labels_in_the_outputs_order(consta
     assert path == [(0, 1)] and kept == [(0, 2)]
     got = program() if constant else program(*arrays)
     np.testing.assert_array_equal(got, np.einsum("ab,bc->ca", *arrays))
+
+
+@FAST
+@given(seed=SEEDS, always=st.booleans())
+def test_the_network_order_restricted_to_a_plan_contracts_exactly(seed: int, always: bool) -> None:
+    """The network-wide order restricted to a plan (kept whatever it costs, or only where
+    its arithmetic is negligible) gives einsum's answer, and its evidence-free steps come
+    before every step that joins evidence."""
+    net = random_net(seed, n_vars=9, max_card=3)
+    rng = np.random.default_rng(seed)
+    scopes, arrays, output = _sliced_factors(net, rng)
+    compiled = net._engine.compiled
+    tuning = replace(Tuning(), network_order_per_factor=1 << 62) if always else Tuning()
+    constant = [bool(c) for c in rng.integers(0, 2, size=len(scopes))]
+    program = elimination.SumProgram(
+        scopes, output, [a if c else a.shape for a, c in zip(arrays, constant, strict=True)], None
+    )
+    path, kept, _ = plans.order_steps(
+        compiled, scopes, output, emit=program.add, network=constant, tuning=tuning
+    )
+    program.finish()
+    args: list[object] = []
+    for array, scope in zip(arrays, scopes, strict=True):
+        args += [array, list(scope)]
+    inputs = [a for a, c in zip(arrays, constant, strict=True) if not c]
+    np.testing.assert_allclose(program(*inputs), np.einsum(*args, list(output)), rtol=1e-12)
+    if always and kept is not None:
+        joined = constant.copy()
+        for step in path:
+            joined.append(all(joined[k] for k in step))
+        steps = joined[len(scopes) : -1]  # the last step multiplies what is left
+        assert steps == sorted(steps, reverse=True)  # evidence-free steps first
+
+
+def test_a_costly_network_order_gives_way_to_the_plans_own() -> None:
+    """Where the restricted order's arithmetic would pass the bound, or its network-wide
+    weights say it would, the plan's own min-weight order is used; within it, the
+    restricted order (no ranking)."""
+    net = random_net(3, n_vars=12, max_card=4)
+    compiled = net._engine.compiled
+    scopes = [(v, *compiled.parents[v]) for v in range(len(compiled.names))]
+    flags = [True] * len(scopes)
+    own = plans.order_steps(compiled, scopes, (0,))
+    never = replace(Tuning(), network_order_per_factor=-1)
+    assert plans.order_steps(compiled, scopes, (0,), network=flags, tuning=never) == own
+    ready = replace(Tuning(), network_order_per_factor=1 << 62)
+    dense = replace(ready, network_order_slack=0)  # the network-wide weights exceed any limit
+    assert plans.order_steps(compiled, scopes, (0,), network=flags, tuning=dense) == own
+    restricted = plans.order_steps(compiled, scopes, (0,), network=flags, tuning=ready)
+    positions, _ = plans.network_order(compiled)
+    labels = sorted({u for scope in scopes for u in scope} - {0}, key=positions.__getitem__)
+    walker = elimination.Walker(scopes, (0,))
+    expected = plans._eliminate(walker, labels, (0,), compiled.card.__getitem__)
+    assert expected is not None
+    assert restricted == (expected[0], expected[1], expected[3])

@@ -119,6 +119,9 @@ class Compiled:
         self.constants = ConstantMemo()
         """Evidence-independent contraction steps already computed (``SumProgram`` memo)."""
         self._independent: list[bool | None] = [None] * len(self.names)
+        self.network_order: tuple[dict[int, int], dict[int, int]] | None = None
+        """Each variable's position and weight in the network-wide elimination order, once
+        a question has needed it (``plans.network_order``)."""
         self.layouts: dict[tuple[int, int], Any] = {}
         """Observed-first layouts of CPTs and their factors, by variable and observed family
         (``plans.build``)."""

@@ -176,7 +176,12 @@ def single_program(plan: Plan, compiled: Compiled, tuning: Tuning) -> tuple[Any,
             scopes, plan.targets, specs, None, memo=memo, tuning=tuning
         )
         plan.cache.single_order = plans.order_steps(
-            compiled, scopes, plan.targets, emit=program.add, tuning=tuning
+            compiled,
+            scopes,
+            plan.targets,
+            emit=program.add,
+            network=[not f.observed for f in plan.factors],
+            tuning=tuning,
         )
         program.finish()
     if not observed:
@@ -193,7 +198,11 @@ def single_order(
     if entry is None:
         scopes = [f.free for f in plan.factors]
         entry = plan.cache.single_order = plans.order_steps(
-            compiled, scopes, plan.targets, tuning=tuning
+            compiled,
+            scopes,
+            plan.targets,
+            network=[not f.observed for f in plan.factors],
+            tuning=tuning,
         )
     return entry
 

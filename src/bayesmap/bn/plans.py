@@ -13,12 +13,15 @@ Building one:
    components that hold no target are independent of the targets given the evidence and
    are dropped (their factors only scale the answer). Factors whose every variable is
    observed become scalar checks (a zero means impossible evidence).
-4. **Contraction order** (:func:`order`): a greedy min-weight elimination order of the
-   plan's own (pruned, sliced) factors (:func:`elimination_rank`) — nothing network-wide,
-   so a network's first question costs no more than any new pattern; when that order
-   would build a large intermediate, opt_einsum's greedy search on the plan is asked too
-   and the cheaper of the two is used. :class:`~bayesmap.bn.elimination.SumProgram` replays
-   it with every evidence-independent sub-tree pre-contracted once.
+4. **Contraction order** (:func:`order_steps`): for a one-case question, the network-wide
+   min-weight elimination order (:func:`network_order`, computed once per network)
+   restricted to the plan's variables, evidence-free sub-trees first — no search per
+   pattern; where that order's arithmetic is not negligible, and for batches, a greedy
+   min-weight order of the plan's own (pruned, sliced) factors (:func:`elimination_rank`),
+   the cheaper kept; when an order would build a large intermediate, opt_einsum's greedy
+   search on the plan is asked too and the cheapest is used.
+   :class:`~bayesmap.bn.elimination.SumProgram` replays it with every evidence-independent
+   sub-tree pre-contracted once.
 
 Variable sets are Python-int bit masks (bit ``i`` = variable id ``i``), so pruning costs a
 few integer operations per relevant variable, not a walk over the network.
@@ -374,6 +377,11 @@ def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int
     return chosen
 
 
+Steps = tuple[list[tuple[int, ...]], list[tuple[int, ...]], list[tuple[int, Iterable[int]]], int]
+"""An order walked: SSA path, the labels each step keeps, each step's entries and labels,
+and the total multiply-adds."""
+
+
 def order(
     compiled: Compiled,
     scopes: Sequence[Sequence[int]],
@@ -398,16 +406,28 @@ def order_steps(
     *,
     search: bool = False,
     emit: Callable[[tuple[int, ...], tuple[int, ...], int, Iterable[int]], None] | None = None,
+    network: Sequence[bool] | None = None,
     tuning: Tuning = TUNING,
 ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int]:
     """A contraction order (opt_einsum SSA path), the labels each step keeps, and its cost.
 
-    The greedy elimination order of these factors (:func:`elimination_rank`): each
-    variable, in that order, has the factors holding it multiplied and summed over it (a variable
-    no other factor holds is summed at once); a last step multiplies what is left into
-    ``output``. The cost is the number of multiply-adds (the sizes of the steps' index
-    unions). If that costs more than ``tuning.greedy_above`` multiply-adds (and
-    ``tuning.greedy_per_factor`` per factor),
+    An elimination order of these factors: each variable, in that order, has the factors
+    holding it multiplied and summed over it (a variable no other factor holds is summed
+    at once); a last step multiplies what is left into ``output``. The cost is the number
+    of multiply-adds (the sizes of the steps' index unions).
+
+    With ``network`` (a one-case question: whether each factor is evidence-free), the
+    order is first the network-wide one restricted to these factors' variables
+    (:func:`network_order`), the evidence-free sub-trees first (:func:`_eliminate`),
+    which needs no search. It is kept when it costs at most
+    ``tuning.network_order_per_factor`` multiply-adds per factor: then all of its
+    arithmetic is worth less than a fraction of the contraction calls' fixed cost, and no
+    order could save more than that; the walk stops as soon as it passes that bound, and
+    is not tried when the labels' network-wide elimination weights exceed it by more than
+    ``tuning.network_order_slack`` (a dense part of the network).
+    Otherwise (or without ``network``) the order is the greedy min-weight order of the
+    factors themselves (:func:`elimination_rank`). If the order costs more than
+    ``tuning.greedy_above`` multiply-adds (and ``tuning.greedy_per_factor`` per factor),
     :func:`opt_einsum.paths.ssa_greedy_optimize` is run on these factors as well and the
     order with the fewer multiply-adds is kept (its kept labels are then ``None``: they are
     not computed here). ``sizes`` gives the size of labels that are not variables (the case
@@ -418,11 +438,11 @@ def order_steps(
 
     ``emit`` (e.g. :meth:`SumProgram.add <bayesmap.bn.elimination.SumProgram.add>`) is
     given each step of the returned order with the labels it keeps (the last step's in
-    any order) and the entries of its operands' product. Where the min-weight order is
-    sure to be kept — the weights of its eliminations, which bound its cost, stay under
-    the search threshold — each step is emitted as it is chosen, so the order and the
-    compiled program are built in one pass over the factors; otherwise once the order is
-    decided.
+    any order), the entries of its operands' product and their labels. A min-weight order
+    that is sure to be kept — the weights of its eliminations, which bound its cost, stay
+    under the search threshold — is emitted step by step as it is walked; any other order's
+    steps are recorded as it is walked and replayed once it is decided, so no order is
+    walked twice.
     """
     card = compiled.card
     extra = sizes or {}
@@ -434,45 +454,42 @@ def order_steps(
         if emit is not None:
             emit((0,), tuple(output), entries, scopes[0])
         return [(0,)], [tuple(output)], entries
-    walker = Walker(scopes, output)
-    holders = walker.holders
-    rank, bound = elimination_rank(scopes, output, card)
-    for w in extra:
-        bound *= extra[w]  # a label left out of the graph (the case axis) widens every step
-    bound += math.prod(map(size_of, output))  # the last step, over the output labels at most
-    may_search = search or (bound > tuning.greedy_above and bound > tuning.greedy_per_factor * n)
-    # the ranked labels in rank order (``rank`` is filled in that order), then the labels
-    # not ranked (the case axis)
-    unranked = [u for u in holders if u < 0 and u not in output] if extra else []
-    now = None if may_search or unranked else emit
-    path: list[tuple[int, ...]] = []
-    kept_steps: list[tuple[int, ...]] = []
-    total = 0
-    for u in (*rank, *unranked):
-        chosen = tuple(holders[u])
-        if not chosen:
-            continue
-        union, kept = walker.join(chosen)
-        entries = math.prod(map(size_of, union))
-        total += entries
-        path.append(chosen)
-        kept_steps.append(kept)
-        if now is not None:
-            now(chosen, kept, entries, union)
-    rest = tuple(walker.open)
-    if len(rest) > 1 or not path:
-        path.append(rest)
-        kept_steps.append(tuple(output))
-        labels = dict.fromkeys(chain.from_iterable([walker.live[k] for k in rest]))
-        entries = math.prod(map(size_of, labels))
-        total += entries
-        if now is not None:
-            now(rest, tuple(output), entries, labels)
+    steps: Steps | None = None
+    if network is not None and not extra and not search:
+        positions, weights = network_order(compiled)
+        summed = dict.fromkeys(chain.from_iterable(scopes))
+        for u in output:
+            summed.pop(u, None)
+        limit = tuning.network_order_per_factor * n
+        # the network-wide weights of these labels bound the restricted order's steps (up to
+        # the kept output labels, before the evidence-free steps move first); far above the
+        # limit, the order is not worth a walk
+        if sum(map(weights.__getitem__, summed)) <= tuning.network_order_slack * limit:
+            walker = Walker(scopes, output)
+            ordered = sorted(summed, key=positions.__getitem__)
+            steps = _eliminate(walker, ordered, output, size_of, list(network), limit)
+    emitted = None
+    if steps is None:
+        walker = Walker(scopes, output)
+        rank, bound = elimination_rank(scopes, output, card)
+        for w in extra:
+            bound *= extra[w]  # a label left out of the graph (the case axis) widens every step
+        bound += math.prod(map(size_of, output))  # the last step, over the output labels at most
+        may_search = search or (
+            bound > tuning.greedy_above and bound > tuning.greedy_per_factor * n
+        )
+        # the ranked labels in rank order, then the labels not ranked (the case axis)
+        unranked = [u for u in walker.holders if u < 0 and u not in output] if extra else []
+        # the order is final unless opt_einsum's search may replace it: then emitted as walked
+        emitted = None if may_search or unranked else emit
+        steps = _eliminate(walker, [*rank, *unranked], output, size_of, emit=emitted)
+        assert steps is not None  # no limit
+    path, kept_steps, records, total = steps
     if search or (total > tuning.greedy_above and total > tuning.greedy_per_factor * n):
-        if now is not None:
+        if emitted is not None:
             raise AssertionError("an emitted order's cost exceeded its bound")
         sets = [frozenset(scope) for scope in scopes]
-        table = {u: card[u] if u >= 0 else extra[u] for u in holders}
+        table = {u: card[u] if u >= 0 else extra[u] for u in walker.holders}
         greedy = _greedy(sets, frozenset(output), table)
         greedy_total = _cost(sets, set(output), greedy, table)
         if greedy_total < _cost(sets, set(output), path, table):
@@ -480,10 +497,104 @@ def order_steps(
                 for step in walk(scopes, output, greedy):
                     emit(step.inputs, step.kept, math.prod(map(size_of, step.union)), step.union)
             return greedy, None, greedy_total
-    if emit is not None and now is None:
-        for chosen, step in zip(path, walk(scopes, output, path), strict=True):
-            emit(chosen, step.kept, math.prod(map(size_of, step.union)), step.union)
+    if emit is not None and emitted is None:
+        for chosen, kept, (entries, union) in zip(path, kept_steps, records, strict=True):
+            emit(chosen, kept, entries, union)
     return path, kept_steps, total
+
+
+def _eliminate(
+    walker: Walker[int],
+    labels: Iterable[int],
+    output: Sequence[int],
+    size_of: Callable[[int], int],
+    constant: list[bool] | None = None,
+    limit: int | None = None,
+    emit: Callable[[tuple[int, ...], tuple[int, ...], int, Iterable[int]], None] | None = None,
+) -> Steps | None:
+    """Sum ``labels`` out in this order (each with the factors then holding it), then
+    multiply what is left into ``output``: the steps, as :data:`Steps` (``None`` as soon
+    as they cost more than ``limit`` multiply-adds).
+
+    With ``constant`` (whether each input is evidence-free), a label is passed over while
+    a factor holding it depends on the evidence, and the passed-over labels are summed out
+    after the rest, in the same order: the evidence-free sub-trees are contracted first,
+    into steps a program computes once (and shares between patterns), so the steps a
+    question repeats for new values are the few that join the evidence.
+
+    ``emit`` (an order known to be final) is given each step as it is taken, and the steps'
+    entries and labels are then not recorded.
+    """
+    holders = walker.holders
+    path: list[tuple[int, ...]] = []
+    kept_steps: list[tuple[int, ...]] = []
+    records: list[tuple[int, Iterable[int]]] = []
+    total = 0
+    rounds: list[Iterable[int]] = [labels]
+    if constant is not None:
+        free = constant.__getitem__
+        deferred: list[int] = []
+        rounds.append(deferred)
+    for batch in rounds:
+        for u in batch:
+            chosen = tuple(holders[u])
+            if not chosen:
+                continue
+            if constant is not None:
+                fixed = all(map(free, chosen))
+                if not fixed and batch is not deferred:
+                    deferred.append(u)
+                    continue
+                constant.append(fixed)
+            union, kept = walker.join(chosen)
+            entries = math.prod(map(size_of, union))
+            total += entries
+            if limit is not None and total > limit:
+                return None
+            path.append(chosen)
+            kept_steps.append(kept)
+            if emit is None:
+                records.append((entries, union))
+            else:
+                emit(chosen, kept, entries, union)
+    rest = tuple(walker.open)
+    if len(rest) > 1 or not path:
+        path.append(rest)
+        kept_steps.append(tuple(output))
+        last = dict.fromkeys(chain.from_iterable([walker.live[k] for k in rest]))
+        entries = math.prod(map(size_of, last))
+        total += entries
+        if limit is not None and total > limit:
+            return None
+        if emit is None:
+            records.append((entries, last))
+        else:
+            emit(rest, tuple(output), entries, last)
+    return path, kept_steps, records, total
+
+
+def network_order(compiled: Compiled) -> tuple[dict[int, int], dict[int, int]]:
+    """Each variable's position in a network-wide elimination order and the weight of its
+    elimination there (the entries of its factor with its neighbours then), computed once
+    per network version (:attr:`Compiled.network_order`).
+
+    The greedy min-weight order (:func:`elimination_rank`) of the moral graph, every CPT's
+    variables linked. A plan's interaction graph is a subgraph of it (evidence, barren
+    variables and replaced sub-networks only remove vertices and edges), and eliminating a
+    subgraph's vertices in the order they take in the whole graph fills in no edge that
+    the whole graph's elimination did not (Koller & Friedman 2009, §9.4.3.1), so the
+    restricted order is no wider than the network-wide one — each step within its
+    variable's weight here, up to the labels the plan keeps (its targets) — and costs no
+    search. :func:`order_steps` moves the
+    evidence-free sub-trees first, which that bound does not cover; its cost check does.
+    """
+    known = compiled.network_order
+    if known is None:
+        families = [(v, *ps) for v, ps in enumerate(compiled.parents)]
+        weights: dict[int, int] = {}
+        positions, _ = elimination_rank(families, (), compiled.card, weights)
+        known = compiled.network_order = (positions, weights)
+    return known
 
 
 _SCAN_UP_TO = 32
@@ -496,6 +607,7 @@ def elimination_rank(
     scopes: Sequence[Sequence[int]],
     output: Sequence[int],
     card: Sequence[int],
+    weights: dict[int, int] | None = None,
 ) -> tuple[dict[int, int], int]:
     """Position of each summed-out label in a greedy min-weight elimination order, and the
     sum of the weights of its eliminations.
@@ -515,6 +627,7 @@ def elimination_rank(
     the evidence-free steps (with it, min-weight spreads the axis early and a batch costs
     30× more on alarm). The summed weights bound the multiply-adds of the steps that sum
     these labels out in this order (each step's operands lie within the label's factor).
+    ``weights``, if given, receives each label's weight when it is summed out.
     """
     neighbours: dict[int, set[int]] = {}
     for scope in scopes:
@@ -555,6 +668,8 @@ def elimination_rank(
         del current[u]
         rank[u] = len(rank)
         bound += w
+        if weights is not None:
+            weights[u] = w
         around = neighbours.pop(u)
         size = card[u]
         for x in around:

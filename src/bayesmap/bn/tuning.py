@@ -40,11 +40,20 @@ class Tuning:
     one_step_operands
         See ``one_step``.
     greedy_above
-        The network-wide contraction order is compared with opt_einsum's greedy search on
-        the plan itself only above this many multiply-adds ...
+        A plan's min-weight contraction order is compared with opt_einsum's greedy search
+        on the plan only above this many multiply-adds ...
     greedy_per_factor
         ... and this many per factor: below, even a much better order saves less time than
         the search costs (~30–40 µs per factor).
+    network_order_per_factor
+        A one-case question's plan is contracted in the network-wide elimination order
+        (restricted to its variables) when that order costs at most this many multiply-adds
+        per factor (a quarter of ``call_cost``: the arithmetic then weighs less than the
+        calls' fixed cost, whatever the order); above, a min-weight order of the plan's own
+        is used.
+    network_order_slack
+        ... and it is not even tried when its variables' weights in the network-wide
+        elimination (which bound its steps) sum to more than this many times that limit.
     search_above
         Greedy orders of the pluggable-arithmetic contractions (MAP, fixed point) costing
         more multiply-adds than this are improved by a random-greedy search.
@@ -71,6 +80,8 @@ class Tuning:
     one_step_operands: int = 16
     greedy_above: int = 1 << 20
     greedy_per_factor: int = 1 << 15
+    network_order_per_factor: int = 1000
+    network_order_slack: int = 16
     search_above: float = 1e8
     search_repeats: int = 16
     split_above: int = 1 << 12
