@@ -29,9 +29,11 @@ reversible-jump ratio. Two detectors:
    a local maximum of its own contacts' likelihood, Σ n_i log(floor_i + max_legs
    ρ_leg(i)); both by Nelder–Mead, optionally first with the noise scales widened (a wide
    basin for a start far off) and then at the model's. The fused mapper's final pass fits
-   the legs, pairs the fitted legs and polishes each table once at the model's scales. A
-   candidate depends on the stored data only, never on the chain's state, so the birth
-   density below is still exactly the density of what is drawn.
+   the legs, pairs the fitted legs, places each table on its fitted legs in closed form
+   (:func:`place_on_legs`, rigid least squares) and polishes only the leader of each
+   place, briefly, at the model's scales. A candidate depends on the stored data only,
+   never on the chain's state, so the birth density below is still exactly the density of
+   what is drawn.
 
 The birth density is a mixture: with probability ``uniform_share`` a table uniform in the
 window (centre), angle and type; otherwise a candidate chosen by weight and jittered by

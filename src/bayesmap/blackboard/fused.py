@@ -8,7 +8,8 @@ an :class:`~bayesmap.blackboard.evidence.EvidenceStore` and runs one reversible-
 types — across poses. Each :meth:`FusedMapper.step` stores a pose's sweeps and moves the
 chain a little inside a window around the robot (data-driven births from the legs seen
 there); :meth:`FusedMapper.finish` fits the legs seen anywhere to their contacts, pairs
-the fitted legs into polished table candidates and runs the chain over the whole arena: a
+the fitted legs into table candidates placed on them in closed form (the leaders
+polished) and runs the chain over the whole arena: a
 tempered burn-in, a stretch at β = 1, then annealing and a greedy ascent through those
 candidates (:func:`~bayesmap.blackboard.rjmcmc.greedy_ascent`) only to read off the MAP
 map; finally the chain, restarted at the MAP as the coldest replica of a parallel-tempering
