@@ -29,9 +29,11 @@ reversible-jump ratio. Two detectors:
    a local maximum of its own contacts' likelihood, Σ n_i log(floor_i + max_legs
    ρ_leg(i)); both by Nelder–Mead, optionally first with the noise scales widened (a wide
    basin for a start far off) and then at the model's. The fused mapper's final pass fits
-   the legs, pairs the fitted legs and polishes each table once at the model's scales. A
-   candidate depends on the stored data only, never on the chain's state, so the birth
-   density below is still exactly the density of what is drawn.
+   the legs, pairs the fitted legs, places each table on its fitted legs in closed form
+   (:func:`place_on_legs`, rigid least squares) and polishes only the leader of each
+   place, briefly, at the model's scales. A candidate depends on the stored data only,
+   never on the chain's state, so the birth density below is still exactly the density of
+   what is drawn.
 
 The birth density is a mixture: with probability ``uniform_share`` a table uniform in the
 window (centre), angle and type; otherwise a candidate chosen by weight and jittered by
@@ -65,6 +67,7 @@ __all__ = [
     "draw_birth",
     "draw_near",
     "near_density",
+    "place_on_legs",
     "polish_leg",
     "polish_table",
     "table_candidates",
@@ -228,6 +231,57 @@ def table_candidates(
     gaps = np.linalg.norm(corners[:, :, None, :] - p[None, None], axis=-1)
     support = (gaps.min(axis=2) < spacing_tol).sum(axis=1)
     return tables, np.exp(support_gain * (support - 2.0))
+
+
+def place_on_legs(
+    tables: FloatArray,
+    legs: FloatArray,
+    catalogue: tuple[ObjectType, ...],
+    tol: float,
+) -> FloatArray:
+    """Tables ``(c, 4)`` each moved to the rigid least-squares fit of its supported corners
+    onto the legs that support them (2-D Kabsch/Procrustes, in closed form).
+
+    A corner is supported by the nearest of ``legs`` (p, ≥ 2) ``x, y`` if it lies within
+    ``tol`` [m]; which corner goes to which leg is the candidate's own (it was built from
+    them, so the rectangle's symmetries and the choice of supported corners are already
+    fixed). With the corners' offsets m_j in the table's frame and the legs' positions
+    q_j, both centred on their means m̄, q̄, the rotation that minimises Σ_j |R m_j + t −
+    q_j|² has angle atan2(Σ m_j × q_j, Σ m_j · q_j) (cross and dot products of the centred
+    pairs) and t = q̄ − R m̄ (Umeyama 1991, eqs. 40–42, without scaling; Kabsch 1976). A
+    candidate with fewer than two supported corners is returned as it is. With fitted legs
+    (:func:`polish_leg`, a centimetre or two from their true place) this is where a polish
+    of the table against its contacts (:func:`polish_table`) lands to within about that.
+    The result is moved inside the arena by the caller, as every candidate is.
+    """
+    tables = np.asarray(tables, dtype=np.float64).reshape(-1, 4).copy()
+    if not len(tables) or len(legs) < 2:
+        return tables
+    corners = leg_centres(tables, catalogue)[..., :2]  # (c, 4, 2)
+    gaps = np.linalg.norm(corners[:, :, None, :] - legs[None, None, :, :2], axis=-1)
+    nearest = gaps.argmin(axis=2)
+    used = gaps.min(axis=2) < tol  # (c, 4)
+    target = legs[nearest, :2]  # (c, 4, 2)
+    at_origin = np.column_stack([np.zeros((len(tables), 3)), tables[:, 3]])
+    local = leg_centres(at_origin, catalogue)[..., :2]  # the corners in the table's frame
+    w = used.astype(np.float64)
+    n = w.sum(axis=1)
+    ok = n >= 2
+    n_safe = np.maximum(n, 1.0)[:, None]
+    m_bar = (w[..., None] * local).sum(axis=1) / n_safe
+    q_bar = (w[..., None] * target).sum(axis=1) / n_safe
+    m = local - m_bar[:, None]
+    q = target - q_bar[:, None]
+    dot = (w * (m[..., 0] * q[..., 0] + m[..., 1] * q[..., 1])).sum(axis=1)
+    cross = (w * (m[..., 0] * q[..., 1] - m[..., 1] * q[..., 0])).sum(axis=1)
+    theta = np.arctan2(cross, dot)
+    c, s = np.cos(theta), np.sin(theta)
+    centre = q_bar - np.column_stack(
+        [c * m_bar[:, 0] - s * m_bar[:, 1], s * m_bar[:, 0] + c * m_bar[:, 1]]
+    )
+    tables[ok, :2] = centre[ok]
+    tables[ok, 2] = np.mod(theta[ok], math.pi)
+    return tables
 
 
 class BirthProposal(NamedTuple):

@@ -8,7 +8,8 @@ an :class:`~bayesmap.blackboard.evidence.EvidenceStore` and runs one reversible-
 types — across poses. Each :meth:`FusedMapper.step` stores a pose's sweeps and moves the
 chain a little inside a window around the robot (data-driven births from the legs seen
 there); :meth:`FusedMapper.finish` fits the legs seen anywhere to their contacts, pairs
-the fitted legs into polished table candidates and runs the chain over the whole arena: a
+the fitted legs into table candidates placed on them in closed form (the leaders
+polished) and runs the chain over the whole arena: a
 tempered burn-in, a stretch at β = 1, then annealing and a greedy ascent through those
 candidates (:func:`~bayesmap.blackboard.rjmcmc.greedy_ascent`) only to read off the MAP
 map; finally the chain, restarted at the MAP as the coldest replica of a parallel-tempering
@@ -38,10 +39,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bayesmap._rng import RNGLike, as_generator
-from bayesmap._typing import FloatArray
+from bayesmap._typing import FloatArray, IntArray
 from bayesmap.blackboard.data_driven import (
     BirthProposal,
     LegVotes,
+    place_on_legs,
     polish_leg,
     polish_table,
     table_candidates,
@@ -61,6 +63,7 @@ from bayesmap.blackboard.sweep_model import (
     arena_contains,
     check_catalogue,
     contact_cutoff,
+    into_arena,
 )
 from bayesmap.blackboard.tempering import geometric_ladder, tempered_run
 from bayesmap.errors import ConfigError, InputError
@@ -271,10 +274,11 @@ def _suppress_duplicates(
     xy: float,
     theta: float,
     periods: FloatArray,
-) -> tuple[FloatArray, FloatArray]:
+) -> tuple[IntArray, FloatArray]:
     """Non-maximum suppression: in order of ``scores``, each table (n, 4) keeps every
     table of its type within ``xy`` [m] and ``theta`` [rad] (modulo its type's symmetry
-    ``periods`` (n,)) out of the set and takes their weights."""
+    ``periods`` (n,)) out of the set and takes their weights. Returns the indices of the
+    tables kept and their summed weights."""
     order = np.argsort(-scores, kind="stable")
     taken = np.zeros(len(tables), dtype=bool)
     keep: list[int] = []
@@ -293,7 +297,7 @@ def _suppress_duplicates(
         taken |= close
         keep.append(int(i))
         summed.append(float(weights[close].sum()))
-    return tables[keep], np.asarray(summed)
+    return np.asarray(keep, dtype=np.int64), np.asarray(summed)
 
 
 class FusedMapper:
@@ -346,51 +350,64 @@ class FusedMapper:
             self.arena, params.sigma_r, 0.5 * min(t.leg for t in self.catalogue), params.reach
         )
 
-    def _polished(self, tables: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Candidates (built from fitted legs) merged where they coincide (4 cm, 0.06 rad
-        grid; weights summed), thinned to one per table, each moved by
-        :func:`~bayesmap.blackboard.data_driven.polish_table` against its stored contacts.
+    def _polished(
+        self, tables: FloatArray, weights: FloatArray, legs: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """Candidates built from the fitted ``legs`` (p, 3), each placed on its legs in
+        closed form, thinned, and the few that lead their neighbourhood polished against
+        their stored contacts.
 
-        Thinning (non-maximum suppression): candidates of a type within half the map's
-        tolerance (``match_xy``/2, ``match_theta``/2) of a better one — a larger gain alone
-        (:meth:`~bayesmap.blackboard.rjmcmc.Context.gain_alone`) — describe the same table
-        (two such tables could not both stand: they overlap), and polishing the better one
-        moves it where polishing either would; the better one keeps their summed weight. Each
-        table seen by three or four legs yields a dozen leg pairs, each two or three
-        candidates, so this halves what is polished in the noisy condition.
+        1. *Placement.* A candidate rests on the two to four fitted legs within
+           ``spacing_tol`` of its corners; its pose is the rigid least-squares fit of those
+           corners onto those legs (:func:`~bayesmap.blackboard.data_driven.place_on_legs`,
+           Kabsch/Procrustes in closed form), moved inside the arena. The legs were fitted
+           to the exact bearings (:meth:`_fitted_legs`), so this is where a polish against
+           the contacts would take the candidate, to within a centimetre and about 0.01 rad.
+        2. *Scoring, once.* Each placed candidate's log π gain over an empty room
+           (:meth:`~bayesmap.blackboard.rjmcmc.Context.gain_alone`). A candidate whose gain
+           is not positive can never be a MAP table (with other tables present its gain is
+           no larger: each contact takes its best cause) and is dropped: the noisy
+           condition's hundreds of crossings of bearings that fit no table.
+        3. *Thinning* (non-maximum suppression): candidates of a type within half the map's
+           tolerance (``match_xy``/2, ``match_theta``/2) of one of larger gain describe the
+           same table (two such tables could not both stand: they overlap); the better one
+           keeps their summed weight.
+        4. *Polish of the leaders.* The candidate of largest gain within the map's whole
+           tolerance of each place — the ones that compete for the map — gets one short
+           Nelder–Mead round against its contacts
+           (:func:`~bayesmap.blackboard.data_driven.polish_table` at the model's noise
+           scales, 12 evaluations from the placed start, contacts whose whisker line passes
+           within 15 cm of a leg): the centimetre and the hundredth of a radian that legs
+           fitted one by one leave, worth several nats on a well-seen table. The others
+           stay where they were placed (the chain's births jitter about them, and its
+           random walk refines what it keeps).
 
-        The legs were fitted (:meth:`_fitted_legs`), so a candidate starts within a few
-        centimetres and degrees of its table: one Nelder–Mead round at the model's noise
-        scales (no widened basin), reading the contacts whose whisker line passes within
-        15 cm of a leg (elsewhere ρ_leg is nil wherever such a polish can take the table:
-        the across cut is 8 σ_⊥ = 8 cm), finishes the fit the two legs of a pair cannot
-        give (the table's angle from legs a metre apart).
-
-        Used by :meth:`finish` (polishing every window's candidates at every pose would cost
-        more than the whole run); the result depends on the stored data alone, never on the
-        chain, as a proposal must. Polished candidates that land on the same grid point are
-        merged again, and a candidate that cannot pay for itself even alone — its log π gain
-        over an empty room (:meth:`~bayesmap.blackboard.rjmcmc.Context.gain_alone`) is not
-        positive — is dropped: with other tables present its gain is no larger (each contact
-        takes its best cause), so it can never be a MAP table, and the noisy condition's
-        hundreds of crossings of bearings that fit no table stop costing the greedy ascent a
-        trial each.
+        Candidates that land on the same 4 cm, 0.06 rad grid point are merged (weights
+        summed) before placement and after each move. The result depends on the stored
+        data alone, never on the chain, as a proposal must. Used by :meth:`finish`.
         """
         if not len(tables):
             return tables, weights
         ctx, store, p = self._ctx, self.store_, self.params
         tables, summed = _merge_coincident(tables, weights)
-        periods = np.array([_symmetry(self.catalogue[int(k)]) for k in tables[:, 3]])
-        tables, summed = _suppress_duplicates(
-            tables,
-            summed,
-            np.array([ctx.gain_alone(table) for table in tables]),
-            0.5 * p.match_xy,
-            0.5 * p.match_theta,
-            periods,
+        placed = place_on_legs(tables, legs, self.catalogue, p.spacing_tol)
+        tables, summed = _merge_coincident(
+            into_arena(placed, self.catalogue, self.arena)[0], summed
         )
-        out = np.empty((len(tables), 4))
-        for row, table in enumerate(tables):
+        gains = np.array([ctx.gain_alone(table) for table in tables])
+        pays = gains > 0
+        tables, summed, gains = tables[pays], summed[pays], gains[pays]
+        periods = np.array([_symmetry(self.catalogue[int(k)]) for k in tables[:, 3]])
+        keep, summed = _suppress_duplicates(
+            tables, summed, gains, 0.5 * p.match_xy, 0.5 * p.match_theta, periods
+        )
+        tables, gains, periods = tables[keep], gains[keep], periods[keep]
+        leaders, _ = _suppress_duplicates(
+            tables, np.zeros(len(tables)), gains, p.match_xy, p.match_theta, periods
+        )
+        out = tables.copy()
+        for row in leaders:
+            table = tables[row]
             ids = store.contacts_near(table[0], table[1], ctx.contact_radius + 0.1)
             rows = store.rows_[ids]
             out[row] = polish_table(
@@ -401,10 +418,10 @@ class FusedMapper:
                 self.catalogue,
                 self.model,
                 widen=(1.0,),
+                max_evals=12,
                 line_gap=0.15,
             )
-        pays = np.array([ctx.gain_alone(table) for table in out]) > 0
-        return _merge_coincident(out[pays], summed[pays])
+        return _merge_coincident(out, summed)
 
     def _fitted_legs(self, legs: FloatArray) -> FloatArray:
         """Leg candidates ``(p, 3)`` ``x, y, votes`` each moved by
@@ -459,7 +476,7 @@ class FusedMapper:
             legs, self.catalogue, self.arena, self.params.spacing_tol
         )
         if polish:
-            tables, weights = self._polished(tables, weights)
+            tables, weights = self._polished(tables, weights, legs)
         keep = (
             (tables[:, 0] >= box[0])
             & (tables[:, 0] <= box[2])
