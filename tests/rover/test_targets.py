@@ -48,3 +48,43 @@ def test_when_all_that_is_left_was_given_up_the_blacklist_is_forgiven() -> None:
     assert rule.blacklist_ == set()
     grid.entropy[20, 20] = 0.05
     assert rule.select(grid, pose, plan, UncertainBlocks(grid.entropy >= PARAMS.h_desired)) is None
+
+
+def _ringed_target() -> tuple[OccupancyGrid, EntropyTarget, tuple[float, float]]:
+    """A map with an uncertain cell (10.25, 10.25) inside a ring of likely obstacles, and two
+    less uncertain cells elsewhere; the ringed cell was given up."""
+    grid = OccupancyGrid(14.0, 14.0, 0.5, prior=PARAMS.prior)
+    grid.probability[:] = 0.01
+    grid.entropy[:] = 0.05
+    grid.probability[19:22, 19:22] = 0.95  # the ring around cell (20, 20)
+    grid.probability[20, 20] = 0.3
+    grid.entropy[20, 20] = 1.0
+    grid.entropy[8, 12] = 0.9  # (6.25, 4.25)
+    grid.entropy[16, 4] = 0.8  # (2.25, 8.25)
+    rule = EntropyTarget(PARAMS)
+    rule.reject((10.25, 10.25))
+    return grid, rule, (6.0, 6.0, 0.0)
+
+
+def _next_target(grid: OccupancyGrid, rule: EntropyTarget, pose: tuple[float, ...]) -> object:
+    blocks = UncertainBlocks(grid.entropy >= PARAMS.h_desired)
+    return rule.select(grid, pose, local_plan(grid, pose[0], pose[1], PARAMS), blocks)
+
+
+def test_a_given_up_target_gets_a_second_chance_when_the_ground_around_it_opens() -> None:
+    grid, rule, pose = _ringed_target()
+    assert _next_target(grid, rule, pose) == (6.25, 4.25)  # the ringed cell stays given up
+    grid.entropy[8, 12] = 0.05  # that target resolved
+    grid.probability[19:22, 19:22] = 0.01  # the ring turned out free: its approach opened
+    grid.probability[20, 20] = 0.3
+    assert _next_target(grid, rule, pose) == (10.25, 10.25)
+    assert (10.25, 10.25) not in rule.blacklist_
+
+
+def test_a_given_up_target_stays_given_up_while_nothing_around_it_opens() -> None:
+    grid, rule, pose = _ringed_target()
+    assert _next_target(grid, rule, pose) == (6.25, 4.25)
+    grid.entropy[8, 12] = 0.05
+    grid.probability[5, 5] = 0.01  # elsewhere the map changes
+    assert _next_target(grid, rule, pose) == (2.25, 8.25)
+    assert (10.25, 10.25) in rule.blacklist_
