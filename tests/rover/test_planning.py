@@ -193,14 +193,12 @@ def test_the_narrowest_passage_open_by_construction_is_two_metres(offset: float)
 def test_view_costs_without_obstacles_are_the_smallest_cost_within_view_range() -> None:
     from scipy import ndimage
 
-    from bayesmap.rover.planning import disk_offsets, view_costs
+    from bayesmap.rover.planning import _disk, view_costs
 
     rng = np.random.default_rng(3)
     cost = rng.uniform(0.0, 10.0, (15, 15))
     cost[rng.uniform(size=cost.shape) < 0.2] = np.inf
-    expected = ndimage.minimum_filter(
-        cost, footprint=disk_offsets(1.0, 0.5), mode="constant", cval=np.inf
-    )
+    expected = ndimage.minimum_filter(cost, footprint=_disk(1.0, 0.5), mode="constant", cval=np.inf)
     got = view_costs(cost, np.zeros(cost.shape, dtype=bool), 1.0, 0.5)
     np.testing.assert_array_equal(got, expected)
 

@@ -347,9 +347,7 @@ def view_costs(
     centres. A target behind a thin wall is not looked at from the wall's other side,
     where the rangers would read the wall and never the target."""
     view = cost.copy()
-    offsets = np.argwhere(disk_offsets(view_range, resolution)) - int(
-        math.floor(view_range / resolution)
-    )
+    offsets = np.argwhere(_disk(view_range, resolution)) - int(math.floor(view_range / resolution))
     for di, dj in offsets.tolist():
         if di == 0 and dj == 0:
             continue
@@ -361,7 +359,7 @@ def view_costs(
 
 
 @functools.lru_cache(maxsize=4)
-def disk_offsets(radius: float, resolution: float) -> BoolArray:
+def _disk(radius: float, resolution: float) -> BoolArray:
     """Cell offsets whose centre lies within ``radius`` [m] of the middle cell's centre
     (read-only, shared)."""
     k = int(math.floor(radius / resolution))

@@ -15,12 +15,11 @@ import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 
-from bayesmap._typing import BoolArray
 from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.decisions import exploration_target
 from bayesmap.rover.mapping import UncertainBlocks
 from bayesmap.rover.params import RoverParams
-from bayesmap.rover.planning import LocalPlan, disk_offsets
+from bayesmap.rover.planning import LocalPlan
 
 Cell = tuple[int, int]
 
@@ -87,32 +86,29 @@ class EntropyTarget:
     it, and one the planner finds unreachable is blacklisted alone. When nothing local
     qualifies, the nearest uncertain cell of the whole map is taken, found block by block
     (:class:`~bayesmap.rover.mapping.UncertainBlocks`), so that the search does not grow
-    with the map. A given-up target gets a second chance when the plan has opened a cell
-    within ``view_range`` of it since (:meth:`_second_chances`). When every uncertain cell
-    left has been given up, the blacklist is forgiven (the map has changed since; a rover
-    that stops there leaves the rest of its budget unused, as one run on a generated world
-    did at 0.71 coverage). ``None`` when no candidate is left even then.
+    with the map. When every uncertain cell left has been given up, the blacklist is
+    forgiven (the map has changed since; a rover that stops there leaves the rest of its
+    budget unused, as one run on a generated world did at 0.71 coverage). ``None`` when no
+    candidate is left even then.
 
     Attributes
     ----------
     target_
         The current target ``(x, y)`` [m], or ``None``.
     blacklist_
-        Targets ``(x, y)`` [m] (cell centres) not to be chosen until forgiven.
+        Targets ``(x, y)`` [m] (cell centres) never to be chosen again.
     """
 
     def __init__(self, params: RoverParams) -> None:
         self.params = params
         self.target_: tuple[float, float] | None = None
         self.blacklist_: set[tuple[float, float]] = set()
-        self._approach: dict[tuple[float, float], BoolArray] = {}  # see _second_chances
         self._age = 0
         self._looked = 0
         self._deadline = 0
 
     def reject(self, target: tuple[float, float]) -> None:
         self.blacklist_.add(target)
-        self._approach.pop(target, None)  # recorded afresh from the next plan that holds it
         if target == self.target_:
             self.target_ = None
 
@@ -139,7 +135,6 @@ class EntropyTarget:
         self.target_ = self._local(grid, plan, x, y) or self._global(grid, x, y, uncertain)
         if self.target_ is None and self.blacklist_ and uncertain.total:
             self.blacklist_.clear()  # all that is left was given up: the map has changed since
-            self._approach.clear()
             self.target_ = self._local(grid, plan, x, y) or self._global(grid, x, y, uncertain)
         self._age = self._looked = 0
         if self.target_ is not None:
@@ -188,7 +183,6 @@ class EntropyTarget:
         xs, ys = np.broadcast_arrays(*grid.cell_centers(rr[:, None], cc[None, :]))
         near = np.hypot(xs - x, ys - y) < p.d_min
         entropy[likely | near | (entropy < p.h_desired)] = np.nan
-        self._second_chances(grid, plan)
         for r, c in _cells(grid, self.blacklist_):
             i, j = r - rr[0], c - cc[0]
             if 0 <= i < entropy.shape[0] and 0 <= j < entropy.shape[1]:
@@ -199,43 +193,6 @@ class EntropyTarget:
             return None
         i, j = divmod(pick, entropy.shape[1])
         return float(xs[i, j]), float(ys[i, j])
-
-    def _second_chances(self, grid: OccupancyGrid, plan: LocalPlan) -> None:
-        """Forgive the given-up targets around which the plan has opened ground since.
-
-        A target is given up because no way to look at it worked: unreachable, no progress,
-        a timeout, the rover hemmed in on the way. Its *approach* is the set of cells
-        within ``view_range`` of it that the plan may cross (finite crossing cost), recorded
-        from the first plan holding it after it was given up. When a cell of the approach
-        that was closed is open now (a hazard resolved as free, a doubtful neighbour looked
-        at, the memory of a hemmed-in place run out), the reason it was given up may be
-        gone, so it may be chosen again (and is recorded afresh if it is given up again).
-        A target looked at in vain from an open viewpoint keeps its approach, so it is not
-        retried for nothing. Cells next to the rover, then or now, are left out of the
-        comparison: the plan always opens them (:func:`~bayesmap.rover.planning.crossing_costs`).
-        The approach is stored as ``(2, n, n)``: passable, and judged (in the disk, not next
-        to the rover).
-        """
-        if not self.blacklist_:
-            return
-        disk = disk_offsets(self.params.view_range, grid.resolution)
-        k = disk.shape[0] // 2
-        n = plan.costs.shape[0]
-        passable = np.isfinite(plan.costs)
-        judged = np.ones(passable.shape, dtype=bool)
-        i0, j0 = plan.start
-        judged[max(i0 - 1, 0) : i0 + 2, max(j0 - 1, 0) : j0 + 2] = False
-        for target in list(self.blacklist_):
-            row, col = (int(v) for v in grid.world_to_cell(*target))
-            i, j = row - plan.row0, col - plan.col0
-            if not (k <= i < n - k and k <= j < n - k):
-                continue
-            around = np.s_[i - k : i + k + 1, j - k : j + k + 1]
-            now = np.stack([passable[around], judged[around] & disk])
-            before = self._approach.setdefault(target, now)
-            if (now[0] & ~before[0] & now[1] & before[1]).any():
-                self.blacklist_.discard(target)
-                del self._approach[target]
 
     def _global(
         self, grid: OccupancyGrid, x: float, y: float, uncertain: UncertainBlocks
