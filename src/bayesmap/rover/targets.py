@@ -70,43 +70,6 @@ def clear_of_obstacles(
     return np.asarray(~ndimage.binary_dilation(likely, structure=disk))
 
 
-def face_stretch(
-    grid: OccupancyGrid, target: tuple[float, float], params: RoverParams
-) -> set[tuple[float, float]]:
-    """The uncertain cells (cell centres [m]) in front of the same straight face as ``target``.
-
-    A cell in front of an obstacle's face stays uncertain when the face lies within about
-    the position error of the cell's edge: a reading from 0.9 m straight at a face on the
-    edge gives the cell (its centre ``sigma_xy`` before the read range) the contact opinion
-    with weight 0.61, while the same reading with the face 0.1 m deeper calls it free with
-    weight 1, and the GPS error moves the read face across that line from visit to visit.
-    Along a straight face that offset to the grid is the same in every cell, so the cells
-    in front of it stay uncertain together; looking at each of them in turn (a full turn
-    at each viewpoint) found the same. The stretch is the target's cell and the uncertain
-    cells 4-connected to it, within ``d_max``, whose neighbour on the same side as the
-    target's likely neighbour (``p >= p_block``) is likely too: the band along that one
-    face, not the band on the obstacle's far side nor around its end. A target with no
-    likely 4-neighbour is given up alone.
-    """
-    p = params
-    window = grid.window(target[0], target[1], p.d_max)
-    xc, yc = grid.window_centers(window)
-    likely = np.pad(grid.probability[window.rows, window.cols] >= p.p_block, 1)
-    uncertain = grid.entropy[window.rows, window.cols] >= p.h_desired
-    row, col = (int(v) for v in grid.world_to_cell(*target))
-    i, j = row - window.row0, col - window.col0
-    n, m = uncertain.shape
-    band = np.zeros((n, m), dtype=bool)
-    for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
-        facing = likely[1 + di : 1 + di + n, 1 + dj : 1 + dj + m]
-        if facing[i, j]:
-            band |= uncertain & facing
-    band[i, j] = True
-    labels, _ = ndimage.label(band)  # 4-connected: along the face
-    stretch = labels == labels[i, j]
-    return set(zip(xc[stretch].tolist(), yc[stretch].tolist(), strict=True))
-
-
 class EntropyTarget:
     """The paper's rule (eqs. 38–39) on path costs, with hysteresis, timeout and blacklist.
 
@@ -188,20 +151,21 @@ class EntropyTarget:
 
         What kept the rover from one of them (a gap it cannot pass) keeps it from its
         neighbours too; giving them up one by one would cost a timeout each. With
-        ``face_only`` (a target looked at in vain from its viewpoint) the cells given up are
-        its stretch of the band along the obstacle's face instead (:func:`face_stretch`).
+        ``face_only`` (a target looked at in vain from its viewpoint) only the neighbours in
+        the same band along an obstacle's face are given up: 8-connected to a likely
+        obstacle (``p >= p_block``), where the readings keep contradicting each other as
+        they did at the target, and which the rover has just looked at from the same spot.
         """
         p = self.params
+        window = grid.window(target[0], target[1], p.d_min + grid.resolution)
+        xc, yc = grid.window_centers(window)
+        near = (np.hypot(xc - target[0], yc - target[1]) <= p.d_min) & (
+            grid.entropy[window.rows, window.cols] >= p.h_desired
+        )
         if face_only:
-            given_up = face_stretch(grid, target, p)
-        else:
-            window = grid.window(target[0], target[1], p.d_min + grid.resolution)
-            xc, yc = grid.window_centers(window)
-            near = (np.hypot(xc - target[0], yc - target[1]) <= p.d_min) & (
-                grid.entropy[window.rows, window.cols] >= p.h_desired
-            )
-            given_up = set(zip(xc[near].tolist(), yc[near].tolist(), strict=True))
-        self.blacklist_.update(given_up)
+            likely = grid.probability[window.rows, window.cols] >= p.p_block
+            near &= ndimage.binary_dilation(likely, structure=np.ones((3, 3), dtype=bool))
+        self.blacklist_.update(zip(xc[near].tolist(), yc[near].tolist(), strict=True))
         self.reject(target)
 
     def _local(
