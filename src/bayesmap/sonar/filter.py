@@ -460,8 +460,13 @@ class SpecularFilter:
         l_extended = np.zeros((0, 4))
         hits: ConeHits | None = None
         static: BoolArray | None = None
-        if len(self.l_segments_):
-            distance = point_segment_distance(pose[:2], self.l_segments_)[0]
+        # From the robot to each trait of L and of V (for the footprint test below).
+        k = len(self.l_segments_)
+        distance = point_segment_distance(pose[:2], np.vstack([self.l_segments_, traits.segments]))[
+            0
+        ]
+        distance, v_distance = distance[:k], distance[k:].tolist()
+        if k:
             # Beams cross only traits within their range of the robot (plus the ring's size).
             near = (distance <= geometry.max_range + geometry.reach).nonzero()[0]
             if self.enough_state:
@@ -524,6 +529,7 @@ class SpecularFilter:
             anchors=static,
             contradict_in_case_a=self.l_in_case_a,
             hits=hits,
+            echo_points=ring_points,
         )
         if stops and hits is not None and static is not None:
             if hits.spread != half:
@@ -537,11 +543,9 @@ class SpecularFilter:
         ):
             if label >= 0 and judged:
                 (bad if verdict else good).add(label)
-        fresh = traits.segments[sorted(good - bad)]
-        if len(fresh):
-            clear = point_segment_distance(pose[:2], fresh)[0] > self.footprint
-            fresh = fresh[clear]
-        self._grow_l(fresh)
+        # ... and is not a trait the robot stands on.
+        fresh = [j for j in sorted(good - bad) if v_distance[j] > self.footprint]
+        self._grow_l(traits.segments[fresh])
         return reason
 
     def _stop_free_space(
@@ -624,16 +628,15 @@ class SpecularFilter:
                 match_angle=self.match_angle,
                 match_offset=self.match_offset,
             ).tolist()
-            lines = self.l_segments_.tolist()
-            known = len(lines)
-            changed: list[int] = []
-            grown: list[list[float]] = []
+            known = len(self.l_segments_)
+            # The traits of L extended or added in this call, by index, as they are now.
+            changed: dict[int, list[float]] = {}
             for row, segment in zip(before, segments.tolist(), strict=True):
-                for j in changed:
-                    row[j] = coincide(segment, lines[j], self.match_angle, self.match_offset)
+                for j, line in changed.items():
+                    row[j] = coincide(segment, line, self.match_angle, self.match_offset)
                 if True in row:
                     j = row.index(True)
-                    ax, ay, bx, by = lines[j]
+                    ax, ay, bx, by = changed[j] if j in changed else self.l_segments_[j].tolist()
                     sx0, sy0, sx1, sy1 = segment
                     norm = max(math.hypot(bx - ax, by - ay), 1e-12)
                     ux, uy = (bx - ax) / norm, (by - ay) / norm
@@ -644,22 +647,22 @@ class SpecularFilter:
                         (sx1 - ax) * ux + (sy1 - ay) * uy,
                     )
                     low, high = min(t), max(t)
-                    lines[j] = [ax + low * ux, ay + low * uy, ax + high * ux, ay + high * uy]
+                    changed[j] = [ax + low * ux, ay + low * uy, ax + high * ux, ay + high * uy]
                     if j < known:  # (a trait added just now was seen here anyway)
                         self.l_seen_[j] = self.path_
-                    if j not in changed:
-                        changed.append(j)
                 else:
-                    lines.append(segment)
-                    grown.append(segment)
-                    changed.append(len(lines) - 1)
+                    changed[len(row)] = segment
                     for other in before:
                         other.append(False)
+            grown = [changed[j] for j in range(known, len(before[0]))]
+            for j, line in changed.items():
+                if j < known:
+                    self.l_segments_[j] = line
             if grown:
+                self.l_segments_ = np.vstack([self.l_segments_, grown])
                 self.l_first_ = np.append(self.l_first_, [self.path_] * len(grown))
                 self.l_seen_ = np.append(self.l_seen_, [self.path_] * len(grown))
                 self.l_passes_ = np.append(self.l_passes_, np.zeros(len(grown), dtype=np.int64))
-            self.l_segments_ = np.array(lines, dtype=np.float64).reshape(-1, 4)
         keep = self.l_seen_ >= self.path_ - 4.0 * self.perceptual_length
         if not keep.all():
             self._keep_l(keep)

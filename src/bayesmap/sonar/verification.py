@@ -274,6 +274,7 @@ def reconcile(
     anchors: BoolArray | None = None,
     contradict_in_case_a: bool = False,
     hits: ConeHits | None = None,
+    echo_points: FloatArray | None = None,
 ) -> IntArray:
     """Reconcile the current readings' traits ``V`` with the local view ``L``.
 
@@ -315,13 +316,16 @@ def reconcile(
         ``cone_hits(centres, axis, l_segments, s)`` if the caller has it (the filter shares
         it with :meth:`~bayesmap.sonar.filter.SpecularFilter`'s free-space stops); used when
         ``s`` is ``no_echo_spread`` (or only its axis part when that is 0), else recomputed.
+    echo_points
+        ``(n, 2)`` each reading's echo point ``centres + ranges (cos axis, sin axis)`` [m], if
+        the caller has it (the filter computes them for a batch of rings at once).
 
     Returns
     -------
     ``(n,)`` :class:`TVReason` codes; ``KEPT`` for readings not discarded.
     """
     n = len(ranges)
-    reason = np.full(n, TVReason.KEPT, dtype=np.int64)
+    reason = np.zeros(n, dtype=np.int64)  # TVReason.KEPT
     on_trait = labels >= 0
     # Which trait of V is equivalent to which of L, and which loose echo lies near which
     # trait of L: once, for the support of every reading and for the anchored subset.
@@ -333,7 +337,7 @@ def reconcile(
         if hits is None or not (hits.spread == no_echo_spread or no_echo_spread <= 0.0):
             hits = cone_hits(centres, axis, l_segments, no_echo_spread)
         crossing = hits.axis.min(axis=1)
-        quiet = np.flatnonzero(~echo)
+        quiet = (~echo).nonzero()[0]
         if len(quiet):
             quiet_hits = hits.axis[quiet]
             if no_echo_spread > 0.0:
@@ -345,10 +349,13 @@ def reconcile(
     contradicted = crossing < reach - margin
     loose = echo & ~on_trait
     near_loose = np.zeros((0, len(l_segments)), dtype=bool)
-    if np.any(loose) and len(l_segments):
-        points = centres[loose] + ranges[loose, None] * np.column_stack(
-            [np.cos(axis[loose]), np.sin(axis[loose])]
-        )
+    if len(l_segments) and loose.any():
+        if echo_points is None:
+            points = centres[loose] + ranges[loose, None] * np.column_stack(
+                [np.cos(axis[loose]), np.sin(axis[loose])]
+            )
+        else:
+            points = echo_points[loose]
         near_loose = point_segment_distance(points, l_segments) <= match_offset
         supported[loose] = near_loose.any(axis=1)
     supported[~echo] = ~contradicted[~echo]
