@@ -433,7 +433,7 @@ class SpecularFilter:
         current = (echo & candidate).nonzero()[0]
         points_now = ring_points[current]
         past = list(self.points_)
-        points = np.vstack([points_now, *past]) if past else points_now
+        points = np.concatenate([points_now, *past]) if past else points_now
         dx, dy = points[:, 0] - pose[0], points[:, 1] - pose[1]
         order = np.argsort(np.arctan2(dy, dx), kind="stable")
         traits = fit_traits(
@@ -462,9 +462,9 @@ class SpecularFilter:
         static: BoolArray | None = None
         # From the robot to each trait of L and of V (for the footprint test below).
         k = len(self.l_segments_)
-        distance = point_segment_distance(pose[:2], np.vstack([self.l_segments_, traits.segments]))[
-            0
-        ]
+        distance = point_segment_distance(
+            pose[:2], np.concatenate([self.l_segments_, traits.segments])
+        )[0]
         distance, v_distance = distance[:k], distance[k:].tolist()
         if k:
             # Beams cross only traits within their range of the robot (plus the ring's size).
@@ -486,7 +486,9 @@ class SpecularFilter:
             side = self.no_echo_spread
             if side <= 0.0 and self.keep_supported_echoes and judged_by_l:
                 side = half
-            rays = cone_hits(centres, axis, np.vstack([self.l_segments_[near], extended]), side)
+            rays = cone_hits(
+                centres, axis, np.concatenate([self.l_segments_[near], extended]), side
+            )
             keep = self._clean_l(distance, near, r, echo, ~flagged & candidate, rays)
             kept = keep[window]
             if kept.any():
