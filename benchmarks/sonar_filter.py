@@ -8,10 +8,17 @@ the unfiltered map updates of the eq. 1 model, Thrun's ±0.4 model and the ROS
 and read by ``read_sonar_log`` in a child process, then mapped for ``MEMORY_RINGS`` rings with
 the default pipeline; the child's peak resident memory is reported. Median of repeats; run
 from the repository root as ``python benchmarks/sonar_filter.py``.
+
+Rates per CPU second still drop when other jobs share the cores, so two load-independent
+numbers go with them: the default pipeline's rate over the ``paper`` pipeline's (filter +
+eq. 1 map, same log, same run), and with ``--baseline SRC`` (the ``src`` folder of another
+checkout, e.g. ``git worktree add /tmp/base 4ca13aa``) the speed-up of this checkout's
+default pipeline over that one's, each timed in its own child process, taking turns.
 """
 
 from __future__ import annotations
 
+import argparse
 import os
 import statistics
 import subprocess
@@ -108,6 +115,49 @@ def _memory(poses: np.ndarray, ranges: np.ndarray) -> tuple[float, int, float, f
     return size, int(out[0]), float(out[1]), float(out[2]), float(out[3])
 
 
+_CHILD_SPEED = """
+import sys, time
+import numpy as np
+from bayesmap.experiments.sonar import ring_geometry
+from bayesmap.grid import OccupancyGrid
+from bayesmap.sim.sonar import SonarRing
+from bayesmap.sonar.pipeline import PIPELINES, map_log
+data = np.load(sys.argv[1])
+poses, ranges, (xmin, ymin, xmax, ymax) = data["poses"], data["ranges"], data["bounds"]
+geometry = ring_geometry(SonarRing.pioneer(16))
+pipeline = PIPELINES["default"]
+size, origin = (xmax - xmin + 1, ymax - ymin + 1), (xmin - 0.5, ymin - 0.5)
+grid = OccupancyGrid(*size, float(sys.argv[2]), origin=origin)
+mapper, filt = pipeline.make_mapper(grid, geometry), pipeline.make_filter(geometry)
+started = time.process_time()
+map_log(poses, ranges, mapper, filt, merge_repeats=pipeline.merge_repeats)
+print(time.process_time() - started)
+"""
+
+
+def _against(
+    baseline: Path, poses: np.ndarray, ranges: np.ndarray, bounds: tuple[float, ...]
+) -> tuple[float, float]:
+    """Median CPU seconds of the default pipeline on the log: this checkout, then ``baseline``
+    (a ``src`` folder), each in a child process, taking turns ``REPEATS`` times."""
+    mine = Path(__file__).resolve().parent.parent / "src"
+    times: dict[Path, list[float]] = {mine: [], baseline: []}
+    with tempfile.TemporaryDirectory() as folder:
+        log = Path(folder) / "log.npz"
+        np.savez(log, poses=poses, ranges=ranges, bounds=np.asarray(bounds))
+        for _ in range(REPEATS):
+            for src in times:
+                out = subprocess.run(
+                    [sys.executable, "-c", _CHILD_SPEED, str(log), str(RESOLUTION)],
+                    env={**os.environ, "PYTHONPATH": str(src)},
+                    capture_output=True,
+                    text=True,
+                    check=True,
+                )
+                times[src].append(float(out.stdout.split()[-1]))
+    return statistics.median(times[mine]), statistics.median(times[baseline])
+
+
 def _time(job: Callable[[], None]) -> tuple[float, float]:
     """Wall-clock and CPU seconds of ``job`` (CPU time is what this process got of the cores)."""
     started, cpu = time.perf_counter(), time.process_time()
@@ -116,6 +166,15 @@ def _time(job: Callable[[], None]) -> tuple[float, float]:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--baseline",
+        type=Path,
+        help="the src folder of another checkout to time the default pipeline against",
+    )
+    baseline = parser.parse_args().baseline
+    if baseline is not None and not (baseline / "bayesmap").is_dir():
+        parser.error(f"--baseline {baseline} is not a src folder holding bayesmap")
     poses, ranges, geometry, (xmin, ymin, xmax, ymax) = _log()
     load_start = " / ".join(f"{v:.1f}" for v in os.getloadavg())
 
@@ -132,8 +191,8 @@ def main() -> None:
 
         return job
 
-    def default_pipeline(n: int) -> Callable[[], None]:
-        pipeline = PIPELINES[DEFAULT_PIPELINE]
+    def pipeline_job(name: str, n: int) -> Callable[[], None]:
+        pipeline = PIPELINES[name]
 
         def job() -> None:
             mapper = pipeline.make_mapper(grid(), geometry)
@@ -153,7 +212,12 @@ def main() -> None:
         return job
 
     cases: list[tuple[str, int, Callable[[], None]]] = [
-        ("default pipeline: filter + eq. 1 map (bayesmap)", RINGS, default_pipeline(RINGS)),
+        (
+            "default pipeline: filter + eq. 1 map (bayesmap)",
+            RINGS,
+            pipeline_job(DEFAULT_PIPELINE, RINGS),
+        ),
+        ("paper pipeline: paper filter + eq. 1 map", RINGS, pipeline_job("paper", RINGS)),
         ("paper filter only (all three stages)", PEER_RINGS, filter_only(PEER_RINGS)),
         ("eq. 1 cone map update only, unfiltered", PEER_RINGS, map_only(ElfesMapper, PEER_RINGS)),
         ("Thrun ±0.4 log-odds update, unfiltered", PEER_RINGS, map_only(ThrunMapper, PEER_RINGS)),
@@ -171,6 +235,18 @@ def main() -> None:
         rows.append((name, n, seconds, cpu, n * geometry.n / seconds, n * geometry.n / cpu))
         print(f"{name:55s} {n:6d} rings {seconds:7.2f} s wall {cpu:7.2f} s CPU", flush=True)
     load = " / ".join(f"{v:.1f}" for v in os.getloadavg())
+    ratio = rows[0][5] / rows[1][5]
+    print(f"default / paper rate per CPU second: {ratio:.2f}")
+    versus = ""
+    if baseline is not None:
+        mine, theirs = _against(baseline, poses, ranges, (xmin, ymin, xmax, ymax))
+        print(f"default pipeline CPU s: this checkout {mine:.2f}, {baseline} {theirs:.2f}")
+        versus = (
+            f" Against `{baseline}` (`--baseline`; each in its own child process, taking "
+            f"turns, median of {REPEATS}): {theirs:.2f} CPU s there, {mine:.2f} here, a "
+            f"speed-up of **{theirs / mine:.2f}x** (load average "
+            f"{' / '.join(f'{v:.1f}' for v in os.getloadavg())} after it)."
+        )
     size, rows_read, read_s, map_s, peak = _memory(poses, ranges)
     print(f"{size:.0f} MB log: {rows_read} rows read in {read_s:.1f} s, peak {peak:.0f} MB")
     table = [
@@ -190,15 +266,21 @@ def main() -> None:
             for name, n, sec, cpu, per_wall, per_cpu in rows
         ),
         "",
+        f"Default over paper pipeline, readings per CPU second: **{ratio:.2f}** (the two "
+        f"share the cores alike, so the ratio does not depend on the load).{versus}",
+        "",
         "Readings per CPU second is the rate the code reaches when it has a core to itself; "
-        "readings per wall second is what this run saw with the cores shared. The default "
-        "pipeline runs `map_log`, which hands the filter and the mapper 100 rings at a time: "
+        "readings per wall second is what this run saw with the cores shared. The "
+        "pipelines run `map_log`, which hands the filter and the mapper 100 rings at a time: "
         "the transducer positions, Acceptability, Agreeability, the cone cells and the eq. 1 "
         "log-odds of a batch are computed at once, Trait Verification and the log-odds "
         "additions ring by ring (same verdicts and map as ring by ring). Within a ring, "
-        "split-and-merge, trait equivalence (screened by bounding boxes) and the "
-        "bookkeeping run on plain Python floats, since they handle a few dozen points "
-        "where numpy's per-call cost dominates. The other rows feed one ring at a time.",
+        "Trait Verification makes one ray pass (every beam's axis and cone edges against the "
+        "traits of L near enough for hygiene and the extended traits the verdicts test), "
+        "one distance pass from the robot to the traits of L and V, and one bounding-box "
+        "screen of all pairs of traits; split-and-merge, the few pairs the screen leaves and "
+        "the bookkeeping run on plain Python floats. The two pipeline rows run `map_log`; "
+        "the other rows feed one ring at a time.",
         "",
         "The ROS layer updates one reading at a time (Bayes with cost quantisation), as the "
         "layer does; the log-odds models update a whole ring at once.",

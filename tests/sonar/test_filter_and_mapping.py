@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -565,6 +566,28 @@ def test_filter_keeps_the_recorded_verdicts_of_a_realistic_log() -> None:
         )
         assert np.count_nonzero(got == Stage.TRAIT_VERIFICATION) > 100  # L is in play
         assert np.array_equal(got, np.array(stages)), name
+
+
+def test_filter_keeps_the_recorded_rejections_free_space_and_l_of_a_second_world() -> None:
+    # tests/sonar/data/make_golden_rejections.py recorded a log of sonar-office-v2 and the
+    # filter's whole outcome on it (see there when): a rewrite for speed must keep every
+    # rejection with its reason, every free-space limit and every trait of L, value for value.
+    spec = importlib.util.spec_from_file_location(
+        "make_golden_rejections", DATA / "make_golden_rejections.py"
+    )
+    assert spec is not None and spec.loader is not None
+    maker = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(maker)
+    recorded = np.load(DATA / "golden_rejections.npz")
+    ring = SonarRing.pioneer(16)
+    for name, options in maker.OPTIONS.items():
+        filt = SpecularFilter(ring_geometry(ring), **options)
+        got = maker.outcome(filt, recorded["poses"], recorded["ranges"])
+        rejected = recorded[f"{name}/rejections"]
+        assert np.count_nonzero(rejected[:, 2] == Stage.TRAIT_VERIFICATION) > 100  # L is in play
+        for key, value in got.items():
+            assert np.array_equal(value, recorded[f"{name}/{key}"]), (name, key)
+    assert np.isfinite(recorded["keeping/free_limit"]).any()  # free space is stopped
 
 
 def test_free_limit_stops_a_cones_free_space_but_not_its_echo() -> None:

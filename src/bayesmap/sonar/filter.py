@@ -25,12 +25,13 @@ from bayesmap.sonar.bottom_up import acceptability, agreeability
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.traits import fit_traits, point_segment_distance
 from bayesmap.sonar.verification import (
+    ConeHits,
     TVReason,
-    axis_segment_hits,
     certainty,
+    coincide,
+    cone_hits,
     equivalent,
     extend_segments,
-    head_on,
     reconcile,
 )
 
@@ -392,10 +393,8 @@ class SpecularFilter:
         self.last_pose_ = pose
         before = stage.tolist()
         if self.stages[Stage.TRAIT_VERIFICATION]:
-            accepted = stage == Stage.ACCEPTED
-            distance = self._clean_l(pose, r, echo, ~flagged & accepted, centres, axis)
             tv = self._trait_verification(
-                pose, r, echo, centres, axis, points, flagged, accepted, distance, free_limit
+                pose, r, echo, centres, axis, points, flagged, stage == Stage.ACCEPTED, free_limit
             )
             stage[tv != TVReason.KEPT] = Stage.TRAIT_VERIFICATION
             verdicts = tv.tolist()
@@ -424,17 +423,17 @@ class SpecularFilter:
         ring_points: FloatArray,
         flagged: BoolArray,
         candidate: BoolArray,
-        distance: FloatArray,
         free_limit: FloatArray,
     ) -> IntArray:
-        """Trait Verification of one ring; ``distance``: from the robot to each trait of ``L``.
+        """Trait Verification of one ring: fit ``V``, clean ``L``, reconcile, grow ``L``.
 
         Sets ``free_limit`` (in place) for the echoes kept despite a trait in front.
         """
-        current = np.flatnonzero(echo & candidate)
+        geometry = self.geometry
+        current = (echo & candidate).nonzero()[0]
         points_now = ring_points[current]
         past = list(self.points_)
-        points = np.vstack([points_now, *past]) if past else points_now
+        points = np.concatenate([points_now, *past]) if past else points_now
         dx, dy = points[:, 0] - pose[0], points[:, 1] - pose[1]
         order = np.argsort(np.arctan2(dy, dx), kind="stable")
         traits = fit_traits(
@@ -449,29 +448,66 @@ class SpecularFilter:
         rank = np.empty(len(points), dtype=np.int64)
         rank[order] = np.arange(len(points))
         mine = rank[: len(current)]
-        labels = np.full(self.geometry.n, -1, dtype=np.int64)
-        residual = np.full(self.geometry.n, np.nan)
+        labels = np.full(geometry.n, -1, dtype=np.int64)
+        residual = np.full(geometry.n, np.nan)
         labels[current] = traits.labels[mine]
         residual[current] = traits.residuals[mine]
         certainties = certainty(
-            residual, r, sigma=self.geometry.sigma, half_width=self.geometry.beam_width / 2
+            residual, r, sigma=geometry.sigma, half_width=geometry.beam_width / 2
         )
-        l_view = self.l_segments_
-        if len(l_view):
+        half = geometry.beam_width / 2.0
+        judged_by_l = self.enough_state or self.l_in_case_a
+        l_extended = np.zeros((0, 4))
+        hits: ConeHits | None = None
+        static: BoolArray | None = None
+        # From the robot to each trait of L and of V (for the footprint test below).
+        k = len(self.l_segments_)
+        distance = point_segment_distance(
+            pose[:2], np.concatenate([self.l_segments_, traits.segments])
+        )[0]
+        distance, v_distance = distance[:k], distance[k:].tolist()
+        if k:
+            # Beams cross only traits within their range of the robot (plus the ring's size).
+            near = (distance <= geometry.max_range + geometry.reach).nonzero()[0]
             if self.enough_state:
                 # Only traits that some beam, echo point or trait of V can reach matter; the
                 # rest are left out of the (per-trait) tests, which gives the same verdicts.
                 spread = float(np.hypot(dx, dy).max()) if len(points) else 0.0
-                limit = max(spread, self.geometry.max_range + self.geometry.reach)
+                limit = max(spread, geometry.max_range + geometry.reach)
                 limit += self.extension + self.match_offset + self.margin
             else:
-                limit = self.geometry.max_range
-            reachable = distance <= limit
-            l_view = l_view[reachable]
-        else:
-            reachable = np.zeros(0, dtype=bool)
-        l_extended = extend_segments(l_view, self.extension)
-        static = self._static()[reachable] if self.keep_supported_echoes else None
+                limit = geometry.max_range
+            window = (distance <= limit).nonzero()[0]
+            extended = extend_segments(self.l_segments_[window], self.extension)
+            was_static = self._static()[window] if self.keep_supported_echoes else None
+            # One ray pass for the ring: trait hygiene tests L's traits near the robot, the
+            # verdicts (and free-space stops) the extended traits that hygiene leaves. The
+            # side rays: the no-echo spread, else the cone's edges when stops may be due.
+            side = self.no_echo_spread
+            if side <= 0.0 and self.keep_supported_echoes and judged_by_l:
+                side = half
+            rays = cone_hits(
+                centres, axis, np.concatenate([self.l_segments_[near], extended]), side
+            )
+            keep = self._clean_l(distance, near, r, echo, ~flagged & candidate, rays)
+            kept = keep[window]
+            if kept.any():
+                columns = len(near) + kept.nonzero()[0]
+                l_extended = extended[kept]
+                hits = ConeHits(
+                    rays.axis[:, columns],
+                    rays.edges[:, columns],
+                    rays.cross[:, columns],
+                    rays.length[columns],
+                    rays.spread,
+                )
+                if was_static is not None:
+                    static = was_static[kept]
+            elif was_static is not None:
+                static = np.zeros(0, dtype=bool)
+        elif self.keep_supported_echoes:
+            static = np.zeros(0, dtype=bool)
+        stops = self.keep_supported_echoes and judged_by_l and static is not None and static.any()
         reason = reconcile(
             candidate=candidate,
             echo=echo,
@@ -484,7 +520,7 @@ class SpecularFilter:
             v_segments=traits.segments,
             l_segments=l_extended,
             enough_state=self.enough_state,
-            max_range=self.geometry.max_range,
+            max_range=geometry.max_range,
             certainty_threshold=self.certainty_threshold,
             match_angle=self.match_angle,
             match_offset=self.match_offset,
@@ -494,19 +530,13 @@ class SpecularFilter:
             keep_supported_echoes=self.keep_supported_echoes,
             anchors=static,
             contradict_in_case_a=self.l_in_case_a,
+            hits=hits,
+            echo_points=ring_points,
         )
-        judged_by_l = self.enough_state or self.l_in_case_a
-        if self.keep_supported_echoes and judged_by_l and len(l_extended):
-            if np.any(static):
-                self._stop_free_space(
-                    r,
-                    echo,
-                    centres,
-                    axis,
-                    candidate & (reason == 0),
-                    l_extended[static],
-                    free_limit,
-                )
+        if stops and hits is not None and static is not None:
+            if hits.spread != half:
+                hits = cone_hits(centres, axis, l_extended, half)
+            self._stop_free_space(r, echo, candidate & (reason == 0), hits, static, free_limit)
         # A trait of V enters L when every current reading on it was kept.
         good: set[int] = set()
         bad: set[int] = set()
@@ -515,39 +545,36 @@ class SpecularFilter:
         ):
             if label >= 0 and judged:
                 (bad if verdict else good).add(label)
-        fresh = traits.segments[sorted(good - bad)]
-        if len(fresh):
-            clear = point_segment_distance(pose[:2], fresh)[0] > self.footprint
-            fresh = fresh[clear]
-        self._grow_l(fresh)
+        # ... and is not a trait the robot stands on.
+        fresh = [j for j in sorted(good - bad) if v_distance[j] > self.footprint]
+        self._grow_l(traits.segments[fresh])
         return reason
 
     def _stop_free_space(
         self,
         r: FloatArray,
         echo: BoolArray,
-        centres: FloatArray,
-        axis: FloatArray,
         kept: BoolArray,
-        l_segments: FloatArray,
+        hits: ConeHits,
+        static: BoolArray,
         free_limit: FloatArray,
     ) -> None:
-        """Stop the free space of kept echoes at a trait of ``L`` that crosses their cone.
+        """Stop the free space of kept echoes at a static trait of ``L`` across their cone.
 
         An echo kept on a trait of ``L`` (``keep_supported_echoes``) may have another trait
         of ``L`` in front of it, crossing its axis or an edge of its cone more than
         ``margin`` before its range: the cone's free space then ends ``match_offset`` before
-        the nearest such crossing, so the echo cannot carve through a known wall.
+        the nearest such crossing, so the echo cannot carve through a known wall. ``hits``:
+        the cone (spread: half the beam width) against ``L``; ``static``: its traits that count.
         """
         k = np.flatnonzero(kept & echo)
         if len(k) == 0:
             return
-        half = self.geometry.beam_width / 2.0
-        rays = np.concatenate([axis[k], axis[k] - half, axis[k] + half])
-        starts = np.concatenate([centres[k]] * 3)
-        hits = axis_segment_hits(starts, rays, l_segments).min(axis=1).reshape(3, -1).min(axis=0)
-        front = hits < r[k] - self.margin
-        free_limit[k[front]] = np.maximum(hits[front] - self.match_offset, 0.0)
+        nearest = np.minimum(
+            hits.axis[k][:, static].min(axis=1), hits.edges[k][:, static].min(axis=1)
+        )
+        front = nearest < r[k] - self.margin
+        free_limit[k[front]] = np.maximum(nearest[front] - self.match_offset, 0.0)
 
     def _static(self) -> BoolArray:
         """Which traits of ``L`` look like static structure: re-seen over ``static_span`` of
@@ -556,13 +583,13 @@ class SpecularFilter:
 
     def _clean_l(
         self,
-        pose: FloatArray,
+        distance: FloatArray,
+        near: IntArray,
         r: FloatArray,
         echo: BoolArray,
         trusted: BoolArray,
-        centres: FloatArray,
-        axis: FloatArray,
-    ) -> FloatArray:
+        rays: ConeHits,
+    ) -> BoolArray:
         """Trait hygiene: drop traits of ``L`` the robot stands on or readings see through.
 
         A trusted reading (not flagged by the bottom-up stages) sees through a trait when its
@@ -570,59 +597,74 @@ class SpecularFilter:
         its axis meets the trait head-on (within the critical angle of its normal) inside
         the max range: a wall there would have echoed.
 
-        Returns the distance [m] from the robot to each trait left in ``L``.
+        ``distance``: from the robot to each trait of ``L`` [m]; ``near``: the traits a beam
+        can reach, whose crossings with the ring's beams are the first ``len(near)`` columns
+        of ``rays``. Returns which traits of ``L`` (as it was) are left in it.
         """
-        if len(self.l_segments_) == 0:
-            return np.zeros(0)
-        distance = point_segment_distance(pose[:2], self.l_segments_)[0]
         keep = distance > self.footprint
-        # Beams cross only traits within their range of the robot (plus the ring's size).
-        near = np.flatnonzero(distance <= self.geometry.max_range + self.geometry.reach)
-        if np.any(trusted) and len(near):
-            k = np.flatnonzero(trusted)
-            segments = self.l_segments_[near]
-            crossings = axis_segment_hits(centres[k], axis[k], segments)
+        k = trusted.nonzero()[0]
+        if len(k) and len(near):
             reach = np.where(echo[k], r[k], self.geometry.max_range) - self.margin
-            seen = crossings < reach[:, None]
-            silent = ~echo[k]
-            if np.any(silent):
-                seen[silent] &= head_on(axis[k][silent], segments, self.critical_angle)
-            self.l_passes_[near] += np.any(seen, axis=0)
+            seen = rays.axis[k, : len(near)] < reach[:, None]
+            quiet = ~echo[k]
+            if quiet.any():
+                columns = slice(0, len(near))
+                seen[quiet] &= rays.head_on(k[quiet], self.critical_angle, columns)
+            self.l_passes_[near] += seen.any(axis=0)
             keep &= self.l_passes_ < self.pass_limit
-        self._keep_l(keep)
-        return np.asarray(distance[keep])
+        if not keep.all():
+            self._keep_l(keep)
+        return keep
 
     def _grow_l(self, segments: FloatArray) -> None:
-        """Merge ``V`` traits into ``L`` (extending equivalent ones) and forget old traits."""
-        for segment in segments:
-            match = np.flatnonzero(
-                equivalent(
-                    segment[None],
-                    self.l_segments_,
-                    match_angle=self.match_angle,
-                    match_offset=self.match_offset,
-                )[0]
-            )
-            if len(match):
-                j = int(match[0])
-                ax, ay, bx, by = self.l_segments_[j].tolist()
-                sx0, sy0, sx1, sy1 = segment.tolist()
-                norm = max(math.hypot(bx - ax, by - ay), 1e-12)
-                ux, uy = (bx - ax) / norm, (by - ay) / norm
-                t = (
-                    0.0,
-                    (bx - ax) * ux + (by - ay) * uy,
-                    (sx0 - ax) * ux + (sy0 - ay) * uy,
-                    (sx1 - ax) * ux + (sy1 - ay) * uy,
-                )
-                low, high = min(t), max(t)
-                self.l_segments_[j] = (ax + low * ux, ay + low * uy, ax + high * ux, ay + high * uy)
-                self.l_seen_[j] = self.path_
-            else:
-                self.l_segments_ = np.vstack([self.l_segments_, segment])
-                self.l_first_ = np.append(self.l_first_, self.path_)
-                self.l_seen_ = np.append(self.l_seen_, self.path_)
-                self.l_passes_ = np.append(self.l_passes_, 0)
+        """Merge ``V`` traits into ``L`` (extending equivalent ones) and forget old traits.
+
+        The traits go in one by one, each matched against ``L`` as the ones before it left
+        it: the matches with ``L`` as it was are found for all of them at once, and only the
+        traits of ``L`` extended or added since are tested again.
+        """
+        if len(segments):
+            before = equivalent(
+                segments,
+                self.l_segments_,
+                match_angle=self.match_angle,
+                match_offset=self.match_offset,
+            ).tolist()
+            known = len(self.l_segments_)
+            # The traits of L extended or added in this call, by index, as they are now.
+            changed: dict[int, list[float]] = {}
+            for row, segment in zip(before, segments.tolist(), strict=True):
+                for j, line in changed.items():
+                    row[j] = coincide(segment, line, self.match_angle, self.match_offset)
+                if True in row:
+                    j = row.index(True)
+                    ax, ay, bx, by = changed[j] if j in changed else self.l_segments_[j].tolist()
+                    sx0, sy0, sx1, sy1 = segment
+                    norm = max(math.hypot(bx - ax, by - ay), 1e-12)
+                    ux, uy = (bx - ax) / norm, (by - ay) / norm
+                    t = (
+                        0.0,
+                        (bx - ax) * ux + (by - ay) * uy,
+                        (sx0 - ax) * ux + (sy0 - ay) * uy,
+                        (sx1 - ax) * ux + (sy1 - ay) * uy,
+                    )
+                    low, high = min(t), max(t)
+                    changed[j] = [ax + low * ux, ay + low * uy, ax + high * ux, ay + high * uy]
+                    if j < known:  # (a trait added just now was seen here anyway)
+                        self.l_seen_[j] = self.path_
+                else:
+                    changed[len(row)] = segment
+                    for other in before:
+                        other.append(False)
+            grown = [changed[j] for j in range(known, len(before[0]))]
+            for j, line in changed.items():
+                if j < known:
+                    self.l_segments_[j] = line
+            if grown:
+                self.l_segments_ = np.vstack([self.l_segments_, grown])
+                self.l_first_ = np.append(self.l_first_, [self.path_] * len(grown))
+                self.l_seen_ = np.append(self.l_seen_, [self.path_] * len(grown))
+                self.l_passes_ = np.append(self.l_passes_, np.zeros(len(grown), dtype=np.int64))
         keep = self.l_seen_ >= self.path_ - 4.0 * self.perceptual_length
         if not keep.all():
             self._keep_l(keep)

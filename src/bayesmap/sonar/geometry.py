@@ -213,10 +213,56 @@ def cone_cells(
     c1 = np.clip(np.floor((xs.max(axis=1) - x0) / res).astype(np.int64) + 2, 0, nx)
     r0 = np.clip(np.floor((ys.min(axis=1) - y0) / res).astype(np.int64) - 1, 0, ny)
     r1 = np.clip(np.floor((ys.max(axis=1) - y0) / res).astype(np.int64) + 2, 0, ny)
+    # Readings are tested in groups of similar box size, each padded to its own largest box
+    # (most cones of a ring are short, and padding them to the longest would test ~20x the
+    # cells); the cells are then put back in reading order, as one pass would give them.
+    side = np.maximum(r1 - r0, c1 - c0)
+    largest = int(max(side.max(), 0))
+    if largest == 0:
+        return ConeCells(empty_i, empty_i, np.zeros(0), np.zeros(0), empty_i)
+    group = np.searchsorted([largest // 4, largest // 2], side, side="left")
+    found = []
+    for g in range(3):
+        members = np.flatnonzero(group == g)
+        if len(members):
+            found.append(
+                _sector_cells(members, cx, cy, ax, rk, r0, r1, c0, c1, x0, y0, res, half_width)
+            )
+    which = np.concatenate([f[0] for f in found])
+    order = np.argsort(which, kind="stable")
+    rows, cols, a, b = (np.concatenate([f[k] for f in found])[order] for k in range(1, 5))
+    which = which[order]
+    return ConeCells(
+        rows=rows,
+        cols=cols,
+        rho=np.hypot(a, b),
+        theta=np.arctan2(b, a),
+        reading=ks[which],
+    )
+
+
+def _sector_cells(
+    members: IntArray,
+    cx: FloatArray,
+    cy: FloatArray,
+    ax: FloatArray,
+    rk: FloatArray,
+    r0: IntArray,
+    r1: IntArray,
+    c0: IntArray,
+    c1: IntArray,
+    x0: float,
+    y0: float,
+    res: float,
+    half_width: float,
+) -> tuple[IntArray, IntArray, IntArray, FloatArray, FloatArray]:
+    """The cells of the sectors ``members`` (indices into the per-sector arrays) inside their
+    boxes ``[r0, r1) x [c0, c1)``: sector index, row, column, and the cell centre's offset
+    along and across the beam axis [m], in sector, row, column order."""
+    r0, r1, c0, c1 = r0[members], r1[members], c0[members], c1[members]
+    cx, cy, ax, rk = cx[members], cy[members], ax[members], rk[members]
     height = int(max((r1 - r0).max(), 0))
     width = int(max((c1 - c0).max(), 0))
-    if height == 0 or width == 0:
-        return ConeCells(empty_i, empty_i, np.zeros(0), np.zeros(0), empty_i)
     rows = r0[:, None, None] + np.arange(height)[None, :, None]
     cols = c0[:, None, None] + np.arange(width)[None, None, :]
     ux = np.cos(ax)[:, None, None]
@@ -232,11 +278,4 @@ def cone_cells(
         & (along * along + across * across <= (rk * rk)[:, None, None])
     )
     which, i, j = np.nonzero(inside)
-    a, b = along[which, i, j], across[which, i, j]
-    return ConeCells(
-        rows=r0[which] + i,
-        cols=c0[which] + j,
-        rho=np.hypot(a, b),
-        theta=np.arctan2(b, a),
-        reading=ks[which],
-    )
+    return members[which], r0[which] + i, c0[which] + j, along[which, i, j], across[which, i, j]

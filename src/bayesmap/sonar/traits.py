@@ -164,7 +164,7 @@ def fit_traits(
     if n == 0:
         return Traits(np.zeros((0, 4)), labels, residuals)
     xs, ys = pts[:, 0].tolist(), pts[:, 1].tolist()
-    step = np.hypot(np.diff(pts[:, 0]), np.diff(pts[:, 1])).tolist()
+    step = np.hypot(pts[1:, 0] - pts[:-1, 0], pts[1:, 1] - pts[:-1, 1]).tolist()
     cuts = [0, *(i + 1 for i, s in enumerate(step) if s > max_gap), n]
     pieces: list[tuple[int, int]] = []
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
