@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args(argv)
     from benchmarks._report import machine, update_section
-    from benchmarks.bn_trees import source_tree
+    from benchmarks._trees import source_tree
 
     with ExitStack() as stack:
         (tree_a, label_a), (tree_b, label_b) = (source_tree(t, stack) for t in (args.a, args.b))

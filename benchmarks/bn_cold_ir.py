@@ -161,7 +161,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.count == "instructions" and shutil.which("valgrind") is None:
         raise SystemExit("bn_cold_ir: valgrind is not installed")
     from benchmarks._report import machine, update_section
-    from benchmarks.bn_trees import source_tree
+    from benchmarks._trees import source_tree
 
     with ExitStack() as stack:
         (tree_a, label_a), (tree_b, label_b) = (source_tree(t, stack) for t in (args.a, args.b))

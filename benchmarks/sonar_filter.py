@@ -11,9 +11,9 @@ from the repository root as ``python benchmarks/sonar_filter.py``.
 
 Rates per CPU second still drop when other jobs share the cores, so two load-independent
 numbers go with them: the default pipeline's rate over the ``paper`` pipeline's (filter +
-eq. 1 map, same log, same run), and with ``--baseline SRC`` (the ``src`` folder of another
-checkout, e.g. ``git worktree add /tmp/base 4ca13aa``) the speed-up of this checkout's
-default pipeline over that one's, each timed in its own child process, taking turns.
+eq. 1 map, same log, same run), and with ``--baseline TREE`` (a commit of this repository,
+e.g. ``4ca13aa``, or another checkout's folder) the speed-up of this checkout's default
+pipeline over that one's, each timed in its own child process, taking turns.
 """
 
 from __future__ import annotations
@@ -26,12 +26,14 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
+from contextlib import ExitStack
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import numpy as np  # noqa: E402
 from benchmarks._report import machine, update_section  # noqa: E402
+from benchmarks._trees import source_tree  # noqa: E402
 
 from bayesmap.experiments.sonar import ring_geometry  # noqa: E402
 from bayesmap.grid import OccupancyGrid  # noqa: E402
@@ -169,12 +171,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
         "--baseline",
-        type=Path,
-        help="the src folder of another checkout to time the default pipeline against",
+        help="a commit, or another checkout's folder, to time the default pipeline against",
     )
-    baseline = parser.parse_args().baseline
-    if baseline is not None and not (baseline / "bayesmap").is_dir():
-        parser.error(f"--baseline {baseline} is not a src folder holding bayesmap")
+    with ExitStack() as stack:
+        baseline = parser.parse_args().baseline
+        _run(None if baseline is None else source_tree(baseline, stack))
+
+
+def _run(baseline_tree: tuple[Path, str] | None) -> None:
+    """Measure and write the report; ``baseline_tree`` is (tree, label) of ``--baseline``."""
     poses, ranges, geometry, (xmin, ymin, xmax, ymax) = _log()
     load_start = " / ".join(f"{v:.1f}" for v in os.getloadavg())
 
@@ -238,11 +243,12 @@ def main() -> None:
     ratio = rows[0][5] / rows[1][5]
     print(f"default / paper rate per CPU second: {ratio:.2f}")
     versus = ""
-    if baseline is not None:
-        mine, theirs = _against(baseline, poses, ranges, (xmin, ymin, xmax, ymax))
-        print(f"default pipeline CPU s: this checkout {mine:.2f}, {baseline} {theirs:.2f}")
+    if baseline_tree is not None:
+        tree, label = baseline_tree
+        mine, theirs = _against(tree / "src", poses, ranges, (xmin, ymin, xmax, ymax))
+        print(f"default pipeline CPU s: this checkout {mine:.2f}, {label} {theirs:.2f}")
         versus = (
-            f" Against `{baseline}` (`--baseline`; each in its own child process, taking "
+            f" Against {label} (`--baseline`; each in its own child process, taking "
             f"turns, median of {REPEATS}): {theirs:.2f} CPU s there, {mine:.2f} here, a "
             f"speed-up of **{theirs / mine:.2f}x** (load average "
             f"{' / '.join(f'{v:.1f}' for v in os.getloadavg())} after it)."

@@ -1,4 +1,4 @@
-"""The two source trees the A/B benchmarks compare (``bn_ab.py``, ``bn_cold_ir.py``).
+"""Source trees that the A/B benchmarks compare (bn_ab, bn_cold_ir, sonar_filter).
 
 A tree is given as a directory (a worktree or an exported copy) or as a commit of this
 repository, which is exported (``git archive``, its ``src`` only) to a temporary directory
@@ -53,7 +53,7 @@ def source_tree(spec: str, stack: ExitStack) -> tuple[Path, str]:
         capture_output=True,
         check=True,
     ).stdout
-    target = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix=f"bn-{commit}-")))
+    target = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix=f"bayesmap-{commit}-")))
     with tarfile.open(fileobj=BytesIO(archive)) as tar:
         tar.extractall(target, filter="data")
     return target, f"`{commit}`"
