@@ -416,8 +416,8 @@ clear 1 m; the robot's footprint (0.2 m) cleared and kept free; Elfes' free stre
 current map (``explain_away``); identical stationary rings merged. ``forward``: the
 default's filter and streaming map, then one sweep of the forward-model refinement over the
 whole log (``ElfesMapper.refine``: echo arcs shared by the whole log's map, free space
-stopped at the first surface it holds, accepted silences clearing 3 m); about a fifth
-slower than ``default`` (docs/sonar.md). ``paper``: all three stages
+stopped at the first surface it holds, accepted silences clearing 3 m); a fifth to three
+fifths slower than ``default`` (docs/sonar.md). ``paper``: all three stages
 with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single
 stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
 ``ros``: unfiltered baselines (the ROS layer exactly as ``range_sensor_layer`` does it)."""
