@@ -472,16 +472,11 @@ def propose(
 
 
 def _overlaps(tables: tuple[FloatArray, ...], others: FloatArray, ctx: Context) -> int:
-    """Overlapping pairs among ``tables`` and between them and ``others`` (only tables whose
-    centres lie within two half diagonals can overlap; the exact test runs on those)."""
+    """Overlapping pairs among ``tables`` and between them and ``others``."""
     count = 0
-    reach = 2.0 * ctx.half_diagonal
     for i, table in enumerate(tables):
-        rest = np.vstack([others, *[t[None] for t in tables[i + 1 :]]])
-        if len(rest):
-            rest = rest[(rest[:, 0] - table[0]) ** 2 + (rest[:, 1] - table[1]) ** 2 < reach**2]
-        if len(rest):
-            count += int(tables_overlap(table, rest, ctx.catalogue).sum())
+        rest = np.vstack([others, *tables[i + 1 :]]) if i + 1 < len(tables) else others
+        count += int(tables_overlap(table, rest, ctx.catalogue).sum())
     return count
 
 

@@ -48,6 +48,7 @@ from typing import NamedTuple
 import numpy as np
 
 from bayesmap._typing import BoolArray, FloatArray
+from bayesmap.blackboard.densities import rectangles_overlap, rectangles_overlap_scalar
 from bayesmap.errors import ConfigError
 from bayesmap.geometry import wrap_angle
 
@@ -395,32 +396,43 @@ def into_arena(
 
 
 def tables_overlap(p: FloatArray, q: FloatArray, catalogue: tuple[ObjectType, ...]) -> BoolArray:
-    """``(n,)`` whether table ``p`` (4,) overlaps each of tables ``q`` (n, 4) (separating axes)."""
+    """``(n,)`` whether table ``p`` (4,) overlaps each of tables ``q`` (n, 4) (separating axes,
+    :func:`~bayesmap.blackboard.densities.rectangles_overlap`, the paper mode's test of
+    constraint (c), eq. 16).
+
+    Only tables whose centres lie closer than the two half diagonals can overlap. The chain
+    mostly asks about one to three nearby tables, where numpy's per-call cost would be most
+    of the work, so a few rows are screened and tested one by one on plain floats, and only
+    many rows in numpy passes.
+    """
     q = np.asarray(q, dtype=np.float64).reshape(-1, 4)
-    tp = catalogue[int(p[3])]
-    reach = np.array([0.5 * math.hypot(t.length, t.width) for t in catalogue])
-    close = (
-        np.hypot(q[:, 0] - p[0], q[:, 1] - p[1])
-        < reach[q[:, 3].astype(np.int64)] + reach[int(p[3])]
-    )
-    if not close.any():
-        return np.zeros(len(q), dtype=bool)
-    kinds = q[:, 3].astype(np.int64)
-    ql = np.array([0.5 * t.length for t in catalogue])[kinds]
-    qw = np.array([0.5 * t.width for t in catalogue])[kinds]
-    dx, dy = q[:, 0] - p[0], q[:, 1] - p[1]
-    cp, sp = math.cos(p[2]), math.sin(p[2])
-    cq, sq = np.cos(q[:, 2]), np.sin(q[:, 2])
-    separated = np.zeros(len(q), dtype=bool)
-    for ax, ay in ((cp, sp), (-sp, cp), (cq, sq), (-sq, cq)):
-        reach = (
-            0.5 * tp.length * np.abs(cp * ax + sp * ay)
-            + 0.5 * tp.width * np.abs(-sp * ax + cp * ay)
-            + ql * np.abs(cq * ax + sq * ay)
-            + qw * np.abs(-sq * ax + cq * ay)
-        )
-        separated |= np.abs(dx * ax + dy * ay) >= reach
-    return np.asarray(close & ~separated)
+    out = np.zeros(len(q), dtype=bool)
+    own = catalogue[int(p[3])]
+    first = (float(p[0]), float(p[1]), float(p[2]), *_half_sides(own))
+    reach = [0.5 * math.hypot(t.length, t.width) for t in catalogue]
+    if len(q) > _SCREEN_ROWS:
+        gap = np.hypot(q[:, 0] - p[0], q[:, 1] - p[1])
+        rows = np.flatnonzero(gap < np.take(reach, q[:, 3].astype(np.int64)) + reach[int(p[3])])
+        if len(rows) > _SCREEN_ROWS:
+            halves = np.array([_half_sides(t) for t in catalogue])[q[rows, 3].astype(np.int64)]
+            out[rows] = rectangles_overlap(np.array(first), np.column_stack([q[rows, :3], halves]))
+            return out
+    else:
+        rows = np.arange(len(q))
+    for j, (x, y, theta, k) in zip(rows, q[rows].tolist(), strict=True):
+        kind = catalogue[int(k)]
+        if math.hypot(x - first[0], y - first[1]) < reach[int(p[3])] + reach[int(k)]:
+            out[j] = rectangles_overlap_scalar(first, (x, y, theta, *_half_sides(kind)))
+    return out
+
+
+_SCREEN_ROWS = 8
+"""Above this many rows, :func:`tables_overlap` works in numpy passes."""
+
+
+def _half_sides(kind: ObjectType) -> tuple[float, float]:
+    """Half length and half width [m] of a table type's outline."""
+    return 0.5 * kind.length, 0.5 * kind.width
 
 
 def log_posterior(
