@@ -51,28 +51,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import pgmpy  # noqa: E402
+from benchmarks._bnlearn import MODELS, NETWORKS  # noqa: E402
 from benchmarks._report import machine, update_section  # noqa: E402
 
 import bayesmap.bn as bn  # noqa: E402
 from bayesmap.bn import elimination, plans  # noqa: E402
 from bayesmap.bn.inference import Engine  # noqa: E402
 
-MODELS = Path(pgmpy.__file__).parent / "utils" / "example_models"
-NETWORKS = [
-    "asia",
-    "alarm",
-    "child",
-    "insurance",
-    "hailfinder",
-    "win95pts",
-    "pathfinder",
-    "andes",
-    "munin1",
-    "pigs",
-    "link",
-    "munin",
-]
 N_PATTERNS = 40
 N_EVIDENCE = 3
 PARTS = ("priors", "plan", "order", "compile", "run")

@@ -38,8 +38,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import pgmpy  # noqa: E402
 import pyagrum as gum  # noqa: E402
+from benchmarks._bnlearn import MODELS, NETWORKS  # noqa: E402
 from benchmarks._report import machine, update_section  # noqa: E402
 from pgmpy.factors.discrete import TabularCPD  # noqa: E402
 from pgmpy.inference import VariableElimination  # noqa: E402
@@ -48,21 +48,6 @@ from tests.bn.peers import to_pyagrum  # noqa: E402
 
 import bayesmap.bn as bn  # noqa: E402
 
-MODELS = Path(pgmpy.__file__).parent / "utils" / "example_models"
-NETWORKS = [
-    "asia",
-    "alarm",
-    "child",
-    "insurance",
-    "hailfinder",
-    "win95pts",
-    "pathfinder",
-    "andes",
-    "munin1",
-    "pigs",
-    "link",
-    "munin",
-]
 N_QUERIES = 20
 N_EVIDENCE = 3
 N_BATCH = 1000

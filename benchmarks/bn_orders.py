@@ -40,7 +40,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import pgmpy  # noqa: E402
+from benchmarks._bnlearn import MODELS  # noqa: E402
+from benchmarks._bnlearn import NETWORKS as BNLEARN  # noqa: E402
 from benchmarks._report import machine, update_section  # noqa: E402
 from tests.bn.helpers import random_net  # noqa: E402
 
@@ -50,21 +51,9 @@ from bayesmap.bn.elimination import walk  # noqa: E402
 from bayesmap.bn.inference import Engine  # noqa: E402
 from bayesmap.bn.plans import QueryKind  # noqa: E402
 
-MODELS = Path(pgmpy.__file__).parent / "utils" / "example_models"
 ROUNDS = 3
 NETWORKS = [
-    "asia",
-    "alarm",
-    "child",
-    "insurance",
-    "hailfinder",
-    "win95pts",
-    "pathfinder",
-    "andes",
-    "munin1",
-    "pigs",
-    "link",
-    "munin",
+    *BNLEARN,
     "random-1",
     "random-2",
     "banded-1",

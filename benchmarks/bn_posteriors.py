@@ -30,15 +30,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import pgmpy  # noqa: E402
 import pyagrum as gum  # noqa: E402
+from benchmarks._bnlearn import MODELS  # noqa: E402
 from benchmarks._report import machine, update_section  # noqa: E402
 from benchmarks.bn_inference import load_pyagrum  # noqa: E402
 
 import bayesmap.bn as bn  # noqa: E402
 from bayesmap.bn.plans import QueryKind  # noqa: E402
 
-MODELS = Path(pgmpy.__file__).parent / "utils" / "example_models"
 NETWORKS = [
     "asia",
     "alarm",
