@@ -17,6 +17,7 @@ from bayesmap.blackboard.data_driven import (
 from bayesmap.blackboard.fused import FusedMapper
 from bayesmap.blackboard.sweep_model import (
     ObjectType,
+    SweepModel,
     arena_contains,
     leg_centres,
     wall_contact_density,
@@ -152,22 +153,7 @@ def test_polish_leg_moves_a_noisy_leg_peak_onto_the_leg() -> None:
     """A desk seen on a whole tour under the noisy condition (σ_r = 0.5 m, exact bearings):
     each leg's candidate started 3–4 cm off is fitted to within 1.5 cm of the leg's centre
     by its contacts' bearings alone."""
-    arena = (5.0, 5.0)
-    truth = np.array([2.4, 2.6, 0.3, 0.0])
-    world_file = WorldFile(
-        arena, np.array([[*truth[:3], 1.2, 0.8, 0.1, 0.3]]), catalogue=(("desk", 1.2, 0.8, 0.1),)
-    )
-    catalogue = (ObjectType("desk", 1.2, 0.8, 0.1),)
-    world, sensor = world_file.world(), condition("noisy")
-    model = FusedMapper(catalogue, arena, fused_params(sensor)).model
-    rng = np.random.default_rng(5)
-    contacts = _tour_contacts(world_file, world, sensor, rng)
-    floor = np.maximum(
-        model.clutter,
-        wall_contact_density(
-            contacts[:, :2], contacts[:, 2], contacts[:, 3], contacts[:, 4], model
-        ),
-    )
+    arena, truth, catalogue, model, contacts, floor = _noisy_desk_tour()
     counts = np.ones(len(contacts))
     legs = leg_centres(truth, catalogue)[0, :, :2]
     offsets = ([0.03, -0.02], [-0.02, -0.03], [0.0, 0.04], [-0.035, 0.0])
@@ -229,21 +215,7 @@ def test_placement_on_fitted_legs_lands_where_the_polish_does() -> None:
     legs in closed form lies within 1.5 cm and 0.015 rad of where a full polish of the
     contacts (polish_table, widened then at the model's scales) takes the same candidate,
     and both within 2 cm and 0.02 rad of the truth."""
-    arena = (5.0, 5.0)
-    truth = np.array([2.4, 2.6, 0.3, 0.0])
-    world_file = WorldFile(
-        arena, np.array([[*truth[:3], 1.2, 0.8, 0.1, 0.3]]), catalogue=(("desk", 1.2, 0.8, 0.1),)
-    )
-    catalogue = (ObjectType("desk", 1.2, 0.8, 0.1),)
-    world, sensor = world_file.world(), condition("noisy")
-    model = FusedMapper(catalogue, arena, fused_params(sensor)).model
-    contacts = _tour_contacts(world_file, world, sensor, np.random.default_rng(5))
-    floor = np.maximum(
-        model.clutter,
-        wall_contact_density(
-            contacts[:, :2], contacts[:, 2], contacts[:, 3], contacts[:, 4], model
-        ),
-    )
+    arena, truth, catalogue, model, contacts, floor = _noisy_desk_tour()
     counts = np.ones(len(contacts))
     offsets = ([0.03, -0.02], [-0.02, -0.03], [0.0, 0.04], [-0.035, 0.0])
     fitted = np.array(
@@ -277,3 +249,27 @@ def _tour_contacts(world_file, world, sensor, rng) -> np.ndarray:
         hit = sweeps[np.isfinite(sweeps[:, 3])]
         rows.append(np.column_stack([np.tile(pose[:2], (len(hit), 1)), hit[:, [1, 3, 4]]]))
     return np.concatenate(rows)
+
+
+def _noisy_desk_tour() -> tuple[
+    tuple[float, float], np.ndarray, tuple[ObjectType, ...], SweepModel, np.ndarray, np.ndarray
+]:
+    """A desk in a 5 m room seen on a whole tour under the noisy condition: the arena, the
+    desk, its catalogue, the mapper's model, every contact and each contact's floor density
+    (clutter or a wall, whichever explains it better)."""
+    arena = (5.0, 5.0)
+    truth = np.array([2.4, 2.6, 0.3, 0.0])
+    world_file = WorldFile(
+        arena, np.array([[*truth[:3], 1.2, 0.8, 0.1, 0.3]]), catalogue=(("desk", 1.2, 0.8, 0.1),)
+    )
+    catalogue = (ObjectType("desk", 1.2, 0.8, 0.1),)
+    world, sensor = world_file.world(), condition("noisy")
+    model = FusedMapper(catalogue, arena, fused_params(sensor)).model
+    contacts = _tour_contacts(world_file, world, sensor, np.random.default_rng(5))
+    floor = np.maximum(
+        model.clutter,
+        wall_contact_density(
+            contacts[:, :2], contacts[:, 2], contacts[:, 3], contacts[:, 4], model
+        ),
+    )
+    return arena, truth, catalogue, model, contacts, floor
