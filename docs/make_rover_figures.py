@@ -6,12 +6,15 @@ and the literal β_b = 0.2 variant into a temporary folder; copies the figures t
 into docs/, draws the coverage figure from the runs' coverage curves, and prints the
 metrics the page quotes.
 
-Run from the repository root: ``python docs/make_rover_figures.py``.
+Run from the repository root: ``python docs/make_rover_figures.py [--jobs N]`` (runs at a
+time; default the machine's cores).
 """
 
 from __future__ import annotations
 
+import argparse
 import json
+import os
 import shutil
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
@@ -57,11 +60,14 @@ def one(name: str, baseline: bool, literal: bool, out: Path) -> Path:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at a time")
+    args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         jobs = [(name, name == "obstacles-flat", False, root / name) for name in rover.RUNS]
         jobs.append(("obstacles-flat", False, True, root / "literal"))
-        with ProcessPoolExecutor(max_workers=len(jobs)) as pool:
+        with ProcessPoolExecutor(max_workers=max(1, min(args.jobs, len(jobs)))) as pool:
             list(pool.map(one, *zip(*jobs, strict=True)))
         curves: dict[str, Any] = {}
         for name in rover.RUNS:
