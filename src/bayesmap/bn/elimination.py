@@ -20,11 +20,13 @@ from itertools import chain, compress, count
 from typing import Any, Generic, NamedTuple, Protocol, TypeVar
 
 import numpy as np
-import opt_einsum
 
+from bayesmap._lazy import lazy_module
 from bayesmap._typing import FloatArray, IntArray
 from bayesmap.bn.tuning import TUNING, Tuning
 from bayesmap.errors import ModelError
+
+opt_einsum = lazy_module("opt_einsum")  # loads on first use: keeps ``import bayesmap.bn`` lean
 
 T = TypeVar("T")
 

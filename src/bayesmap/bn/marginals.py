@@ -25,11 +25,13 @@ from collections.abc import Hashable, Sequence
 from typing import Any
 
 import numpy as np
-import opt_einsum
 
+from bayesmap._lazy import lazy_module
 from bayesmap._typing import FloatArray
 from bayesmap.bn.elimination import einsum, walk
 from bayesmap.bn.tuning import TUNING, Tuning
+
+opt_einsum = lazy_module("opt_einsum")  # loads on first use: keeps ``import bayesmap.bn`` lean
 
 
 class _Node:

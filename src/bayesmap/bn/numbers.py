@@ -28,8 +28,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import numpy as np
-import opt_einsum
 
+from bayesmap._lazy import lazy_module
 from bayesmap._typing import BoolArray, FloatArray, IntArray
 from bayesmap.bn import batches, contraction, elimination, posteriors
 from bayesmap.bn.contraction import impossible, slice_case
@@ -44,6 +44,8 @@ from bayesmap.bn.fixed_point import (
 )
 from bayesmap.bn.plans import BATCH, Plan, QueryKind, symbol
 from bayesmap.errors import InputError
+
+opt_einsum = lazy_module("opt_einsum")  # loads on first use: keeps ``import bayesmap.bn`` lean
 
 if TYPE_CHECKING:
     from bayesmap.bn.batches import Pattern

@@ -38,18 +38,19 @@ from itertools import chain
 from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
-import opt_einsum
-
+from bayesmap._lazy import lazy_module
 from bayesmap._typing import FloatArray
 from bayesmap.bn.compiled import Compiled, bits
 from bayesmap.bn.elimination import Walker, walk
 from bayesmap.bn.tuning import TUNING, Tuning
 
+opt_einsum = lazy_module("opt_einsum")  # loads on first use: keeps ``import bayesmap.bn`` lean
+
 if TYPE_CHECKING:
     from bayesmap.bn.elimination import Path, SumProgram
     from bayesmap.bn.marginals import TwoPass
 
-BATCH = opt_einsum.get_symbol(0)
+BATCH = "a"  # opt_einsum.get_symbol(0), spelt out so that importing does not load opt_einsum
 """The einsum index of the case axis of batched queries."""
 
 
