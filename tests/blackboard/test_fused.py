@@ -24,6 +24,7 @@ from bayesmap.blackboard.rjmcmc import (
     Move,
     MoveKind,
     MoveRates,
+    _best_cause,
     apply,
     evaluate,
     propose,
@@ -86,6 +87,24 @@ def _state(ctx: Context, tables: np.ndarray) -> ChainState:
 
 def _joint(ctx: Context, tables: np.ndarray) -> float:
     return log_posterior(tables, CATALOGUE, ctx.model, ctx.store.rows_, ctx.store.counts_)
+
+
+def test_best_cause_in_one_pass_is_the_max_table_by_table() -> None:
+    """``_best_cause`` merges every table's densities onto the move's contacts at once; it
+    equals taking the max with each table in turn (0 where a table lists no contact)."""
+    rng = np.random.default_rng(8)
+    for _ in range(50):
+        ids = np.unique(rng.integers(0, 300, int(rng.integers(1, 80))))
+        base = rng.uniform(0.01, 1.0, len(ids))
+        found = []
+        for _ in range(int(rng.integers(0, 6))):
+            own = np.unique(rng.integers(0, 300, int(rng.integers(0, 60))))
+            found.append((own, rng.uniform(0.0, 5.0, len(own))))
+        want = base.copy()
+        for own, density in found:
+            on = dict(zip(own.tolist(), density.tolist(), strict=True))
+            want = np.maximum(want, [on.get(i, 0.0) for i in ids.tolist()])
+        assert np.array_equal(_best_cause(base, found, ids), want)
 
 
 @pytest.mark.parametrize("name", ["normal", "noisy"])
@@ -367,6 +386,36 @@ def test_evidence_store_merges_repeated_views_and_indexes_by_place() -> None:
         store.add(np.array([*xy, 0.0]), sweeps)
     brute = np.flatnonzero(np.hypot(store.rows_[:, 0] - 4, store.rows_[:, 1] - 4) <= 1.5)
     assert sorted(store.near(4.0, 4.0, 1.5).tolist()) == brute.tolist()
+
+
+def test_evidence_store_queries_do_not_depend_on_when_they_were_asked() -> None:
+    """The index keeps each cell's rows as an array between additions: queried after every
+    pose, a store answers exactly (same ids, same order) what a store queried only at the
+    end answers, and what a scan of every row finds."""
+    rng = np.random.default_rng(5)
+    poses = np.column_stack([rng.uniform(0, 6, (120, 2)), rng.uniform(0, 2 * math.pi, 120)])
+    asked, fresh = EvidenceStore(), EvidenceStore()
+    for pose in poses:
+        sweeps = np.array(
+            [
+                [pose[2], pose[2] + 0.4, 1.0, rng.uniform(0.1, 1.2), rng.uniform(-3, 3), 0.3],
+                [pose[2] - 0.5, pose[2] - 0.1, 1.0, np.nan, np.nan, np.nan],
+            ]
+        )
+        for store in (asked, fresh):
+            store.add(pose, sweeps)
+        for x, y in rng.uniform(0, 6, (3, 2)):
+            asked.near(x, y, 1.2)
+            asked.contacts_near(x, y, 1.2)
+    hit = np.isfinite(fresh.rows_[:, 5])
+    for x, y in rng.uniform(0, 6, (20, 2)):
+        near, contacts = asked.near(x, y, 1.2), asked.contacts_near(x, y, 1.2)
+        assert np.array_equal(near, fresh.near(x, y, 1.2))
+        assert np.array_equal(contacts, fresh.contacts_near(x, y, 1.2))
+        roots = np.hypot(fresh.rows_[:, 0] - x, fresh.rows_[:, 1] - y) <= 1.2
+        points = np.hypot(fresh.points_[:, 0] - x, fresh.points_[:, 1] - y) <= 1.2
+        assert sorted(near.tolist()) == np.flatnonzero(roots).tolist()
+        assert sorted(contacts.tolist()) == np.flatnonzero(points & hit).tolist()
 
 
 @pytest.mark.parametrize(

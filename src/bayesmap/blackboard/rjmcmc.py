@@ -38,6 +38,7 @@ free-space sweeps and neighbours); tests check it against
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from enum import Enum
@@ -361,6 +362,20 @@ def _merge_density(
     return math.log(q) if q > 0 else -math.inf
 
 
+@functools.cache
+def _kind_rates(
+    rates: MoveRates, n_types: int
+) -> tuple[list[MoveKind], FloatArray, dict[MoveKind, float]]:
+    """The move kinds, their cumulative probabilities and each kind's probability (no type
+    change with a single type), normalised once per rates and catalogue size."""
+    kinds = list(MoveKind)
+    p = np.array([getattr(rates, kind.value) for kind in kinds])
+    if n_types == 1:
+        p[kinds.index(MoveKind.TYPE)] = 0.0
+    p = p / p.sum()
+    return kinds, np.cumsum(p), dict(zip(kinds, p.tolist(), strict=True))
+
+
 def propose(
     rng: np.random.Generator,
     state: ChainState,
@@ -369,15 +384,16 @@ def propose(
     rates: MoveRates,
 ) -> Move | None:
     """Draw one move inside ``birth.box``; ``None`` when the drawn kind cannot apply."""
-    kinds = list(MoveKind)
-    p = np.array([getattr(rates, kind.value) for kind in kinds])
-    if len(ctx.catalogue) == 1:
-        p[kinds.index(MoveKind.TYPE)] = 0.0
-    p = p / p.sum()
-    rate = dict(zip(kinds, p.tolist(), strict=True))
-    kind = kinds[min(int(np.searchsorted(np.cumsum(p), rng.uniform(), side="right")), len(p) - 1)]
+    kinds, cumulative, rate = _kind_rates(rates, len(ctx.catalogue))
+    kind = kinds[min(int(np.searchsorted(cumulative, rng.uniform(), side="right")), len(kinds) - 1)]
     box = birth.box
-    inside = [i for i, t in enumerate(state.tables) if _in_box(t, box)]
+    tables = state.tables
+    inside = np.flatnonzero(
+        (tables[:, 0] >= box[0])
+        & (tables[:, 0] <= box[2])
+        & (tables[:, 1] >= box[1])
+        & (tables[:, 1] <= box[3])
+    ).tolist()
     n = len(inside)
     radius = ctx.half_diagonal
     if kind is MoveKind.BIRTH:
@@ -480,15 +496,22 @@ def _overlaps(tables: tuple[FloatArray, ...], others: FloatArray, ctx: Context) 
     return count
 
 
-def _spread(found: tuple[IntArray, FloatArray], ids: IntArray) -> FloatArray:
-    """A table's ρ (:meth:`Context.table_contacts`) on the sorted contacts ``ids`` (0 where
-    it has none)."""
-    own, density = found
-    out = np.zeros(len(ids))
+def _best_cause(
+    base: FloatArray, found: list[tuple[IntArray, FloatArray]], ids: IntArray
+) -> FloatArray:
+    """``max(base, ρ of each table)`` on the sorted contacts ``ids``: ``found`` holds the
+    tables' contacts and densities (:meth:`Context.table_contacts`); a table has ρ = 0 on
+    the contacts it does not list. All tables are merged in one pass (max is exact, so the
+    order does not matter)."""
+    out = base.copy()
+    if not found:
+        return out
+    own = np.concatenate([f[0] for f in found]) if len(found) > 1 else found[0][0]
+    density = np.concatenate([f[1] for f in found]) if len(found) > 1 else found[0][1]
     at = np.searchsorted(ids, own)
     ok = at < len(ids)
     ok[ok] = ids[at[ok]] == own[ok]
-    out[at[ok]] = density[ok]
+    np.maximum.at(out, at[ok], density[ok])
     return out
 
 
@@ -515,14 +538,9 @@ def evaluate(state: ChainState, ctx: Context, move: Move) -> tuple[float, FloatA
         centre = np.mean([t[:2] for t in changed], axis=0)
         spread = max(math.hypot(*(t[:2] - centre)) for t in changed)
         close = np.hypot(others[:, 0] - centre[0], others[:, 1] - centre[1]) <= 2 * radius + spread
-        base = ctx.floor[ids]
-        for other in others[close]:
-            base = np.maximum(base, _spread(ctx.table_contacts(other), ids))
-        before, after = base, base
-        for found in own[: len(removed)]:
-            before = np.maximum(before, _spread(found, ids))
-        for found in own[len(removed) :]:
-            after = np.maximum(after, _spread(found, ids))
+        base = _best_cause(ctx.floor[ids], [ctx.table_contacts(t) for t in others[close]], ids)
+        before = _best_cause(base, own[: len(removed)], ids)
+        after = _best_cause(base, own[len(removed) :], ids)
         delta = float((ctx.store.counts_[ids] * (np.log(after) - np.log(before))).sum())
     free_new = np.array([ctx.table_free_space(t) for t in added])
     delta += float(free_new.sum() - state.free_space[list(move.removed)].sum())
