@@ -584,6 +584,41 @@ def test_kept_table_terms_are_forgotten_when_sweeps_arrive() -> None:
 
 
 @pytest.mark.parametrize("name", ["normal", "noisy"])
+def test_terms_kept_across_a_pose_are_the_terms_computed_afresh(name: str) -> None:
+    """After a pose's sweeps arrive, the context keeps the terms of the map's tables that
+    the new sweeps cannot reach; every term it then answers with, kept or not, equals the
+    term of a context built afresh on the same store, and so does every table's death."""
+    full, _ = _store(seed=4, sensor=condition(name))
+    model = MODEL if name == "normal" else NOISY_MODEL
+    store = EvidenceStore()
+    ctx = _context(store, model)
+    rng = np.random.default_rng(9)
+    tables = np.array([[1.0, 0.9, 0.3, 0.0], [4.0, 3.1, 1.2, 1.0], [4.1, 0.8, 2.0, 1.0]])
+    state = _state(ctx, tables)
+    kept = 0
+    for row, count in zip(full.rows_, full.counts_, strict=True):
+        for index in range(len(state.tables)):  # fill the kept terms
+            evaluate(state, ctx, Move(MoveKind.DEATH, (index,), ()))
+        pose = np.array([row[0], row[1], 0.0])
+        ids = store.add(pose, np.repeat(row[None, 2:], int(count), 0))
+        ctx.update_near(state, ids, float(pose[0]), float(pose[1]))
+        kept += len(ctx._contact_terms) + len(ctx._free_terms)
+        if rng.uniform() > 0.1:
+            continue
+        fresh = _context(store, model)
+        fresh.refresh(ChainState(state.tables.copy()))
+        for index, table in enumerate(state.tables):
+            for got, want in zip(
+                ctx.table_contacts(table), fresh.table_contacts(table), strict=True
+            ):
+                assert np.array_equal(got, want)
+            assert ctx.table_free_space(table) == fresh.table_free_space(table)
+            death = Move(MoveKind.DEATH, (index,), ())
+            assert evaluate(state, ctx, death)[0] == evaluate(state, fresh, death)[0]
+    assert kept > 0  # some terms were carried across poses
+
+
+@pytest.mark.parametrize("name", ["normal", "noisy"])
 def test_an_exchange_never_gains_more_than_its_bound(name: str) -> None:
     """The greedy ascent's exchange bound against the joint: on random maps X, removing a
     random subset H and adding random tables A never gains more than the sum of A's gains

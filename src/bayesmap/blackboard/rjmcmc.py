@@ -283,9 +283,32 @@ class Context:
         )
 
     def update_near(self, state: ChainState, new_ids: IntArray, x: float, y: float) -> None:
-        """Bring the caches up to date after sweeps ``new_ids`` were stored around ``(x, y)``."""
-        self.reach = max(self.reach, float(self.store.rows_[new_ids, 4].max()))
-        self._free_terms.clear()
+        """Bring the caches up to date after sweeps ``new_ids`` were stored around ``(x, y)``
+        (their roots, to within a centimetre: one pose).
+
+        The kept terms of the map's tables that the new sweeps cannot reach stay: a new or
+        merged contact lies within its whisker's length of its root, so a table whose centre
+        lies farther than :attr:`contact_radius` plus that from every new root keeps its
+        contacts and their densities; one farther than the free-space radius (reach + half
+        diagonal + 5 cm) from every new root keeps its missed sweeps. Every other kept term
+        is forgotten, as when the store changes elsewhere.
+        """
+        rows = self.store.rows_[new_ids]
+        reach = max(self.reach, float(rows[:, 4].max()))
+        current = self._terms_version == self.store.version_ - 1 and reach == self.reach
+        contacts, free = self._contact_terms, self._free_terms
+        self._contact_terms, self._free_terms = {}, {}
+        self._terms_version = self.store.version_
+        self.reach = reach
+        if current:
+            slack = float(np.hypot(rows[:, 0] - x, rows[:, 1] - y).max())
+            for table in state.tables:
+                gap = math.hypot(table[0] - x, table[1] - y) - slack
+                key = table.tobytes()
+                if gap > self.contact_radius + reach and key in contacts:
+                    self._contact_terms[key] = contacts[key]
+                if gap > reach + self.half_diagonal + 0.05 and key in free:
+                    self._free_terms[key] = free[key]
         self._extend_floor(new_ids)
         radius = self.reach + self.half_diagonal + 0.1
         for i, table in enumerate(state.tables):
@@ -523,16 +546,25 @@ def evaluate(state: ChainState, ctx: Context, move: Move) -> tuple[float, FloatA
     """
     removed = tuple(state.tables[i] for i in move.removed)
     added = move.added
-    others = np.delete(state.tables, list(move.removed), axis=0)
+    others = state.tables
+    if move.removed:
+        keep = np.ones(len(others), dtype=bool)
+        keep[list(move.removed)] = False
+        others = others[keep]
     if added and not arena_contains(np.array(added), ctx.catalogue, ctx.model.arena).all():
         return -math.inf, np.zeros(len(added))
-    overlaps = _overlaps(added, others, ctx) - _overlaps(removed, others, ctx)
-    if overlaps > 0 and ctx.model.log_overlap == -math.inf:
+    forbidden = ctx.model.log_overlap == -math.inf
+    overlaps = _overlaps(added, others, ctx)
+    if not (forbidden and math.isfinite(state.log_pi)):
+        # with overlaps forbidden, a map of finite log π has none to remove
+        overlaps -= _overlaps(removed, others, ctx)
+    if overlaps > 0 and forbidden:
         return -math.inf, np.zeros(len(added))  # a forbidden overlap: nothing else matters
     changed = [*removed, *added]
     radius = ctx.contact_radius
     own = [ctx.table_contacts(t) for t in changed]
-    ids = np.unique(np.concatenate([found[0] for found in own]))
+    # one table's contact ids are already sorted and distinct
+    ids = own[0][0] if len(own) == 1 else np.unique(np.concatenate([found[0] for found in own]))
     delta = 0.0
     if len(ids):
         centre = np.mean([t[:2] for t in changed], axis=0)

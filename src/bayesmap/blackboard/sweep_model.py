@@ -261,7 +261,7 @@ def leg_contact_density(
     dy = root[:, None, 1] - legs[None, :, 1]
     r_near = np.minimum(r_hat, model.reach)
     px, py = dx + (r_near * cos_b)[:, None], dy + (r_near * sin_b)[:, None]
-    cut = np.array([contact_cutoff(h, model) for h in legs[:, 2]])
+    cut = contact_cutoff(0.0, model) + math.sqrt(2.0) * legs[:, 2]  # contact_cutoff, per leg
     across_cut = ACROSS_CUT * model.sigma_perp
     # the square lies within √2 h of its centre: a line farther than that plus the cut from
     # the centre is farther than the cut from the square
