@@ -491,6 +491,35 @@ def test_step_is_deterministic_for_a_seed() -> None:
     assert np.array_equal(tour(7), tour(7))
 
 
+def test_a_window_proposal_from_the_kept_leg_pairs_is_the_proposal_made_afresh() -> None:
+    """The mapper keeps the tables paired from the last legs it found; a window's birth
+    proposal read from them equals the one paired afresh, pose after pose."""
+    _, truth = _store()
+    world = build_mixed(
+        truth[:, :3], np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]]), np.full(2, 0.3), ARENA
+    )
+    mapper = FusedMapper(CATALOGUE, ARENA)
+    sensor_rng, chain = np.random.default_rng(1), np.random.default_rng(2)
+    box = (0.5, 0.5, 4.5, 3.5)
+    reused = 0
+    for x in (1.0, 1.0, 2.6, 2.6, 3.4):
+        for heading in (0.0, 0.5 * math.pi, math.pi):
+            pose = np.array([x, 0.5 + 0.2 * heading, heading])
+            mapper.step(
+                pose, observe(world, pose, WhiskerParams(), rng=sensor_rng).sweeps, rng=chain
+            )
+            key = mapper._paired[0]
+            first = mapper._proposal(box)  # the step's legs, or new ones
+            reused += mapper._paired[0] == key
+            again = mapper._proposal(box)  # read from the kept pairs
+            mapper._paired = (b"", np.zeros((0, 4)), np.zeros(0))
+            fresh = mapper._proposal(box)
+            for kept in (first, again):
+                assert np.array_equal(kept.candidates, fresh.candidates)
+                assert np.array_equal(kept.weights, fresh.weights)
+    assert len(fresh.candidates) and reused
+
+
 def test_the_documented_example_runs_and_finds_the_stool() -> None:
     """docs/blackboard.md's fused-mapper example gives what its comment says."""
     import re
