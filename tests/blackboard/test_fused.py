@@ -24,6 +24,7 @@ from bayesmap.blackboard.rjmcmc import (
     Move,
     MoveKind,
     MoveRates,
+    _best_cause,
     apply,
     evaluate,
     propose,
@@ -86,6 +87,24 @@ def _state(ctx: Context, tables: np.ndarray) -> ChainState:
 
 def _joint(ctx: Context, tables: np.ndarray) -> float:
     return log_posterior(tables, CATALOGUE, ctx.model, ctx.store.rows_, ctx.store.counts_)
+
+
+def test_best_cause_in_one_pass_is_the_max_table_by_table() -> None:
+    """``_best_cause`` merges every table's densities onto the move's contacts at once; it
+    equals taking the max with each table in turn (0 where a table lists no contact)."""
+    rng = np.random.default_rng(8)
+    for _ in range(50):
+        ids = np.unique(rng.integers(0, 300, int(rng.integers(1, 80))))
+        base = rng.uniform(0.01, 1.0, len(ids))
+        found = []
+        for _ in range(int(rng.integers(0, 6))):
+            own = np.unique(rng.integers(0, 300, int(rng.integers(0, 60))))
+            found.append((own, rng.uniform(0.0, 5.0, len(own))))
+        want = base.copy()
+        for own, density in found:
+            on = dict(zip(own.tolist(), density.tolist(), strict=True))
+            want = np.maximum(want, [on.get(i, 0.0) for i in ids.tolist()])
+        assert np.array_equal(_best_cause(base, found, ids), want)
 
 
 @pytest.mark.parametrize("name", ["normal", "noisy"])
@@ -369,6 +388,36 @@ def test_evidence_store_merges_repeated_views_and_indexes_by_place() -> None:
     assert sorted(store.near(4.0, 4.0, 1.5).tolist()) == brute.tolist()
 
 
+def test_evidence_store_queries_do_not_depend_on_when_they_were_asked() -> None:
+    """The index keeps each cell's rows as an array between additions: queried after every
+    pose, a store answers exactly (same ids, same order) what a store queried only at the
+    end answers, and what a scan of every row finds."""
+    rng = np.random.default_rng(5)
+    poses = np.column_stack([rng.uniform(0, 6, (120, 2)), rng.uniform(0, 2 * math.pi, 120)])
+    asked, fresh = EvidenceStore(), EvidenceStore()
+    for pose in poses:
+        sweeps = np.array(
+            [
+                [pose[2], pose[2] + 0.4, 1.0, rng.uniform(0.1, 1.2), rng.uniform(-3, 3), 0.3],
+                [pose[2] - 0.5, pose[2] - 0.1, 1.0, np.nan, np.nan, np.nan],
+            ]
+        )
+        for store in (asked, fresh):
+            store.add(pose, sweeps)
+        for x, y in rng.uniform(0, 6, (3, 2)):
+            asked.near(x, y, 1.2)
+            asked.contacts_near(x, y, 1.2)
+    hit = np.isfinite(fresh.rows_[:, 5])
+    for x, y in rng.uniform(0, 6, (20, 2)):
+        near, contacts = asked.near(x, y, 1.2), asked.contacts_near(x, y, 1.2)
+        assert np.array_equal(near, fresh.near(x, y, 1.2))
+        assert np.array_equal(contacts, fresh.contacts_near(x, y, 1.2))
+        roots = np.hypot(fresh.rows_[:, 0] - x, fresh.rows_[:, 1] - y) <= 1.2
+        points = np.hypot(fresh.points_[:, 0] - x, fresh.points_[:, 1] - y) <= 1.2
+        assert sorted(near.tolist()) == np.flatnonzero(roots).tolist()
+        assert sorted(contacts.tolist()) == np.flatnonzero(points & hit).tolist()
+
+
 @pytest.mark.parametrize(
     ("pose", "sweeps", "what"),
     [
@@ -440,6 +489,35 @@ def test_step_is_deterministic_for_a_seed() -> None:
         return tables
 
     assert np.array_equal(tour(7), tour(7))
+
+
+def test_a_window_proposal_from_the_kept_leg_pairs_is_the_proposal_made_afresh() -> None:
+    """The mapper keeps the tables paired from the last legs it found; a window's birth
+    proposal read from them equals the one paired afresh, pose after pose."""
+    _, truth = _store()
+    world = build_mixed(
+        truth[:, :3], np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]]), np.full(2, 0.3), ARENA
+    )
+    mapper = FusedMapper(CATALOGUE, ARENA)
+    sensor_rng, chain = np.random.default_rng(1), np.random.default_rng(2)
+    box = (0.5, 0.5, 4.5, 3.5)
+    reused = 0
+    for x in (1.0, 1.0, 2.6, 2.6, 3.4):
+        for heading in (0.0, 0.5 * math.pi, math.pi):
+            pose = np.array([x, 0.5 + 0.2 * heading, heading])
+            mapper.step(
+                pose, observe(world, pose, WhiskerParams(), rng=sensor_rng).sweeps, rng=chain
+            )
+            key = mapper._paired[0]
+            first = mapper._proposal(box)  # the step's legs, or new ones
+            reused += mapper._paired[0] == key
+            again = mapper._proposal(box)  # read from the kept pairs
+            mapper._paired = (b"", np.zeros((0, 4)), np.zeros(0))
+            fresh = mapper._proposal(box)
+            for kept in (first, again):
+                assert np.array_equal(kept.candidates, fresh.candidates)
+                assert np.array_equal(kept.weights, fresh.weights)
+    assert len(fresh.candidates) and reused
 
 
 def test_the_documented_example_runs_and_finds_the_stool() -> None:
@@ -532,6 +610,41 @@ def test_kept_table_terms_are_forgotten_when_sweeps_arrive() -> None:
         assert delta == pytest.approx(_joint(ctx, truth[:1]) - _joint(ctx, state.tables), abs=1e-6)
         deltas.append(delta)
     assert deltas[0] != pytest.approx(deltas[1])
+
+
+@pytest.mark.parametrize("name", ["normal", "noisy"])
+def test_terms_kept_across_a_pose_are_the_terms_computed_afresh(name: str) -> None:
+    """After a pose's sweeps arrive, the context keeps the terms of the map's tables that
+    the new sweeps cannot reach; every term it then answers with, kept or not, equals the
+    term of a context built afresh on the same store, and so does every table's death."""
+    full, _ = _store(seed=4, sensor=condition(name))
+    model = MODEL if name == "normal" else NOISY_MODEL
+    store = EvidenceStore()
+    ctx = _context(store, model)
+    rng = np.random.default_rng(9)
+    tables = np.array([[1.0, 0.9, 0.3, 0.0], [4.0, 3.1, 1.2, 1.0], [4.1, 0.8, 2.0, 1.0]])
+    state = _state(ctx, tables)
+    kept = 0
+    for row, count in zip(full.rows_, full.counts_, strict=True):
+        for index in range(len(state.tables)):  # fill the kept terms
+            evaluate(state, ctx, Move(MoveKind.DEATH, (index,), ()))
+        pose = np.array([row[0], row[1], 0.0])
+        ids = store.add(pose, np.repeat(row[None, 2:], int(count), 0))
+        ctx.update_near(state, ids, float(pose[0]), float(pose[1]))
+        kept += len(ctx._contact_terms) + len(ctx._free_terms)
+        if rng.uniform() > 0.1:
+            continue
+        fresh = _context(store, model)
+        fresh.refresh(ChainState(state.tables.copy()))
+        for index, table in enumerate(state.tables):
+            for got, want in zip(
+                ctx.table_contacts(table), fresh.table_contacts(table), strict=True
+            ):
+                assert np.array_equal(got, want)
+            assert ctx.table_free_space(table) == fresh.table_free_space(table)
+            death = Move(MoveKind.DEATH, (index,), ())
+            assert evaluate(state, ctx, death)[0] == evaluate(state, fresh, death)[0]
+    assert kept > 0  # some terms were carried across poses
 
 
 @pytest.mark.parametrize("name", ["normal", "noisy"])

@@ -1,4 +1,5 @@
-"""The fused mapper's model: where a table may stand in the arena."""
+"""The fused mapper's model: where a table may stand in the arena, and its densities against
+their pair-by-pair computation."""
 
 from __future__ import annotations
 
@@ -8,7 +9,17 @@ import numpy as np
 import pytest
 from shapely.geometry import Polygon
 
-from bayesmap.blackboard.sweep_model import ObjectType, arena_contains, into_arena, tables_overlap
+from bayesmap.blackboard.sweep_model import (
+    ACROSS_CUT,
+    ObjectType,
+    SweepModel,
+    arena_contains,
+    contact_cutoff,
+    into_arena,
+    leg_contact_density,
+    legs_swept,
+    tables_overlap,
+)
 
 CATALOGUE = (ObjectType("desk", 1.2, 0.8, 0.1), ObjectType("stool", 0.8, 0.8, 0.08))
 ARENA = (5.0, 4.0)
@@ -66,3 +77,118 @@ def test_tables_overlap_matches_shapely_for_few_and_many_rows(rows: int) -> None
         )
         want = [_outline(p).intersection(_outline(t)).area > 1e-12 for t in q]
         assert tables_overlap(p, q, CATALOGUE).tolist() == want
+
+
+MODEL = SweepModel(0.02, 0.01, 0.1, 0.05, 0.05, 0.02, -math.inf, ARENA)
+NOISY_MODEL = MODEL._replace(sigma_r=0.5, sigma_phi=math.pi / 8, reach=1.0)
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def _gauss(x: float, sigma: float) -> float:
+    return math.exp(-0.5 * (x / sigma) ** 2) / (math.sqrt(2.0 * math.pi) * sigma)
+
+
+def _leg_density_one(
+    root: np.ndarray,
+    psi: float,
+    r_hat: float,
+    phi_hat: float,
+    leg: np.ndarray,
+    theta: float,
+    model: SweepModel,
+) -> float:
+    """ρ_leg of one contact under one leg, pair by pair on plain floats (the docstring of
+    :func:`leg_contact_density`, with its three cuts)."""
+    x, y, h = (float(v) for v in leg)
+    dx, dy = float(root[0]) - x, float(root[1]) - y
+    r_near = min(r_hat, model.reach)
+    if math.hypot(dx + r_near * math.cos(psi), dy + r_near * math.sin(psi)) > contact_cutoff(
+        h, model
+    ):
+        return 0.0
+    if (
+        abs(dx * math.sin(psi) - dy * math.cos(psi))
+        > ACROSS_CUT * model.sigma_perp + math.sqrt(2.0) * h
+    ):
+        return 0.0
+    c, s = math.cos(theta), math.sin(theta)
+    ox, oy = c * dx + s * dy, c * dy - s * dx  # the root in the leg's frame
+    ux, uy = c * math.cos(psi) + s * math.sin(psi), c * math.sin(psi) - s * math.cos(psi)
+    ux = ux if abs(ux) >= 1e-12 else 1e-12
+    uy = uy if abs(uy) >= 1e-12 else 1e-12
+    slabs = [
+        sorted(((-h - o) / u, (h - o) / u)) for o, u in ((ox, ux), (oy, uy))
+    ]  # entry and exit of each slab along the line
+    t_near, t_far = max(slabs[0][0], slabs[1][0]), min(slabs[0][1], slabs[1][1])
+    if t_near <= t_far and t_near >= 0.0:
+        along, e_perp, nearest = t_near, 0.0, t_near
+    else:
+        along = -(ox * ux + oy * uy)
+        e_perp = max(abs(ux * oy - uy * ox) - h * (abs(ux) + abs(uy)), 0.0)
+        nearest = along - math.sqrt(2.0) * h
+    if nearest > model.reach or e_perp > ACROSS_CUT * model.sigma_perp:
+        return 0.0
+    faces = (math.pi if ux > 0 else 0.0, -0.5 * math.pi if uy > 0 else 0.5 * math.pi)
+    d_phi = min(abs(_wrap(phi_hat - theta - face)) for face in faces)
+    fold = _gauss(r_hat - along, model.sigma_r) + _gauss(r_hat + along, model.sigma_r)
+    return fold * _gauss(e_perp, model.sigma_perp) * _gauss(d_phi, model.sigma_phi)
+
+
+@pytest.mark.parametrize("model", [MODEL, NOISY_MODEL], ids=["normal", "noisy"])
+def test_leg_density_on_near_pairs_is_the_density_pair_by_pair(model: SweepModel) -> None:
+    """The vectorised ρ_leg, which evaluates only the (contact, leg) pairs that pass the cheap
+    cuts, equals the density computed pair by pair on plain floats, zeros included, on
+    random contacts aimed near random legs."""
+    rng = np.random.default_rng(11)
+    for _ in range(40):
+        m, j = int(rng.integers(1, 60)), int(rng.integers(1, 9))
+        legs = np.column_stack([rng.uniform(1.0, 3.0, (j, 2)), rng.uniform(0.03, 0.06, j)])
+        theta = rng.uniform(0.0, math.pi, j)
+        root = rng.uniform(0.5, 3.5, (m, 2))
+        aim = legs[rng.integers(j, size=m), :2] - root
+        bearing = np.arctan2(aim[:, 1], aim[:, 0]) + rng.normal(0.0, 0.03, m)
+        r_hat = np.abs(np.hypot(aim[:, 0], aim[:, 1]) + rng.normal(0.0, model.sigma_r, m))
+        phi_hat = rng.uniform(-math.pi, math.pi, m)
+        got = leg_contact_density(root, bearing, r_hat, phi_hat, legs, theta, model)
+        want = np.array(
+            [
+                [
+                    _leg_density_one(root[i], psi, r_hat[i], phi_hat[i], legs[k], theta[k], model)
+                    for k in range(j)
+                ]
+                for i, psi in enumerate(bearing)
+            ]
+        )
+        assert np.array_equal(got > 0, want > 0)
+        assert np.allclose(got, want, rtol=1e-9, atol=0.0)
+    assert (got > 0).any()
+
+
+def test_free_space_on_pairs_within_reach_is_the_count_pair_by_pair() -> None:
+    """:func:`legs_swept`, which computes angles only for (leg, sweep) pairs within reach,
+    equals the sector test made pair by pair on plain floats."""
+    rng = np.random.default_rng(12)
+    margin = 0.01
+    for _ in range(40):
+        m, j = int(rng.integers(1, 80)), int(rng.integers(1, 9))
+        legs = np.column_stack([rng.uniform(1.0, 3.0, (j, 2)), rng.uniform(0.03, 0.06, j)])
+        root = rng.uniform(0.0, 4.0, (m, 2))
+        start = rng.uniform(-4.0, 4.0, m)
+        stop = start + rng.uniform(-2.0, 2.0, m)
+        length = rng.uniform(0.5, 1.2, m)
+        want = np.zeros((j, m))
+        for k in range(j):
+            for i in range(m):
+                dx, dy = legs[k, 0] - root[i, 0], legs[k, 1] - root[i, 1]
+                d, radius = math.hypot(dx, dy), math.sqrt(2.0) * legs[k, 2] + margin
+                if not (d > radius and d - legs[k, 2] < length[i] - margin):
+                    continue
+                turn = _wrap(stop[i] - start[i])
+                rel = _wrap(math.atan2(dy, dx) - start[i]) * (1.0 if turn >= 0 else -1.0)
+                gamma = math.asin(min(radius / d, 1.0))
+                want[k, i] = float(gamma <= rel <= abs(turn) - gamma)
+        assert np.array_equal(legs_swept(legs, root, start, stop, length, margin), want)
+    assert want.any()

@@ -101,8 +101,8 @@ class EvidenceStore:
         self._size = 0
         self.version_ = 0
         self._keys: dict[tuple[int, int, int, int, bool], int] = {}
-        self._grid: dict[tuple[int, int], list[int]] = {}
-        self._contact_grid: dict[tuple[int, int], list[int]] = {}
+        self._grid = _CellIndex()
+        self._contact_grid = _CellIndex()
 
     @property
     def rows_(self) -> FloatArray:
@@ -161,11 +161,11 @@ class EvidenceStore:
         if hit:
             self._normal_sum[index] = (math.cos(row[4]), math.sin(row[4]))
         self._size += 1
-        self._grid.setdefault(self._cell_of(pose[0], pose[1]), []).append(index)
+        self._grid.add(self._cell_of(pose[0], pose[1]), index)
         if hit:
             point = pose[:2] + min(row[3], row[2]) * np.array([math.cos(row[1]), math.sin(row[1])])
             self._points[index] = point
-            self._contact_grid.setdefault(self._cell_of(*point), []).append(index)
+            self._contact_grid.add(self._cell_of(*point), index)
         return index
 
     def _merge(self, index: int, row: FloatArray, hit: bool) -> None:
@@ -199,21 +199,49 @@ class EvidenceStore:
 
     def _query(
         self,
-        grid: dict[tuple[int, int], list[int]],
+        grid: _CellIndex,
         points: FloatArray,
         x: float,
         y: float,
         radius: float,
         search: float,
     ) -> IntArray:
-        lo = self._cell_of(x - search, y - search)
-        hi = self._cell_of(x + search, y + search)
-        found: list[int] = []
-        for i in range(lo[0], hi[0] + 1):
-            for j in range(lo[1], hi[1] + 1):
-                found += grid.get((i, j), [])
-        if not found:
-            return np.zeros(0, dtype=np.int64)
-        ids = np.asarray(found, dtype=np.int64)
+        ids = grid.ids(self._cell_of(x - search, y - search), self._cell_of(x + search, y + search))
+        if not len(ids):
+            return ids
         keep = (points[ids, 0] - x) ** 2 + (points[ids, 1] - y) ** 2 <= radius**2
         return np.asarray(ids[keep], dtype=np.int64)
+
+
+class _CellIndex:
+    """A uniform grid of row indices: each cell's rows in the order they were added.
+
+    A query gathers a block of cells; each cell's indices are kept as an array too
+    (rebuilt only after the cell gained a row), so a query concatenates a few arrays rather
+    than converting every index it finds from a Python list.
+    """
+
+    def __init__(self) -> None:
+        self._cells: dict[tuple[int, int], list[int]] = {}
+        self._arrays: dict[tuple[int, int], IntArray] = {}
+
+    def add(self, cell: tuple[int, int], index: int) -> None:
+        self._cells.setdefault(cell, []).append(index)
+        self._arrays.pop(cell, None)
+
+    def ids(self, lo: tuple[int, int], hi: tuple[int, int]) -> IntArray:
+        """Indices in the cells from ``lo`` to ``hi`` (inclusive), cell by cell (row-major
+        over ``i``, then ``j``), each cell's in the order added."""
+        found: list[IntArray] = []
+        for i in range(lo[0], hi[0] + 1):
+            for j in range(lo[1], hi[1] + 1):
+                array = self._arrays.get((i, j))
+                if array is None:
+                    cell = self._cells.get((i, j))
+                    if cell is None:
+                        continue
+                    array = self._arrays[(i, j)] = np.asarray(cell, dtype=np.int64)
+                found.append(array)
+        if not found:
+            return np.zeros(0, dtype=np.int64)
+        return np.concatenate(found) if len(found) > 1 else found[0]

@@ -349,6 +349,10 @@ class FusedMapper:
         self._votes = LegVotes(
             self.arena, params.sigma_r, 0.5 * min(t.leg for t in self.catalogue), params.reach
         )
+        self._paired: tuple[bytes, FloatArray, FloatArray] = (b"", np.zeros((0, 4)), np.zeros(0))
+        """The last leg positions paired into tables and the tables with their weights:
+        consecutive poses at one place often find the same legs (a third of the steps of the
+        shipped noisy tour)."""
 
     def _polished(
         self, tables: FloatArray, weights: FloatArray, legs: FloatArray
@@ -472,9 +476,11 @@ class FusedMapper:
         )
         if polish:
             legs = self._fitted_legs(legs)
-        tables, weights = table_candidates(
-            legs, self.catalogue, self.arena, self.params.spacing_tol
-        )
+        key = legs[:, :2].tobytes()
+        if key != self._paired[0]:
+            paired = table_candidates(legs, self.catalogue, self.arena, self.params.spacing_tol)
+            self._paired = (key, *paired)
+        tables, weights = self._paired[1:]
         if polish:
             tables, weights = self._polished(tables, weights, legs)
         keep = (

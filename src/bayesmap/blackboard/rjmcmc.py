@@ -38,6 +38,7 @@ free-space sweeps and neighbours); tests check it against
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from enum import Enum
@@ -282,9 +283,32 @@ class Context:
         )
 
     def update_near(self, state: ChainState, new_ids: IntArray, x: float, y: float) -> None:
-        """Bring the caches up to date after sweeps ``new_ids`` were stored around ``(x, y)``."""
-        self.reach = max(self.reach, float(self.store.rows_[new_ids, 4].max()))
-        self._free_terms.clear()
+        """Bring the caches up to date after sweeps ``new_ids`` were stored around ``(x, y)``
+        (their roots, to within a centimetre: one pose).
+
+        The kept terms of the map's tables that the new sweeps cannot reach stay: a new or
+        merged contact lies within its whisker's length of its root, so a table whose centre
+        lies farther than :attr:`contact_radius` plus that from every new root keeps its
+        contacts and their densities; one farther than the free-space radius (reach + half
+        diagonal + 5 cm) from every new root keeps its missed sweeps. Every other kept term
+        is forgotten, as when the store changes elsewhere.
+        """
+        rows = self.store.rows_[new_ids]
+        reach = max(self.reach, float(rows[:, 4].max()))
+        current = self._terms_version == self.store.version_ - 1 and reach == self.reach
+        contacts, free = self._contact_terms, self._free_terms
+        self._contact_terms, self._free_terms = {}, {}
+        self._terms_version = self.store.version_
+        self.reach = reach
+        if current:
+            slack = float(np.hypot(rows[:, 0] - x, rows[:, 1] - y).max())
+            for table in state.tables:
+                gap = math.hypot(table[0] - x, table[1] - y) - slack
+                key = table.tobytes()
+                if gap > self.contact_radius + reach and key in contacts:
+                    self._contact_terms[key] = contacts[key]
+                if gap > reach + self.half_diagonal + 0.05 and key in free:
+                    self._free_terms[key] = free[key]
         self._extend_floor(new_ids)
         radius = self.reach + self.half_diagonal + 0.1
         for i, table in enumerate(state.tables):
@@ -361,6 +385,20 @@ def _merge_density(
     return math.log(q) if q > 0 else -math.inf
 
 
+@functools.cache
+def _kind_rates(
+    rates: MoveRates, n_types: int
+) -> tuple[list[MoveKind], FloatArray, dict[MoveKind, float]]:
+    """The move kinds, their cumulative probabilities and each kind's probability (no type
+    change with a single type), normalised once per rates and catalogue size."""
+    kinds = list(MoveKind)
+    p = np.array([getattr(rates, kind.value) for kind in kinds])
+    if n_types == 1:
+        p[kinds.index(MoveKind.TYPE)] = 0.0
+    p = p / p.sum()
+    return kinds, np.cumsum(p), dict(zip(kinds, p.tolist(), strict=True))
+
+
 def propose(
     rng: np.random.Generator,
     state: ChainState,
@@ -369,15 +407,16 @@ def propose(
     rates: MoveRates,
 ) -> Move | None:
     """Draw one move inside ``birth.box``; ``None`` when the drawn kind cannot apply."""
-    kinds = list(MoveKind)
-    p = np.array([getattr(rates, kind.value) for kind in kinds])
-    if len(ctx.catalogue) == 1:
-        p[kinds.index(MoveKind.TYPE)] = 0.0
-    p = p / p.sum()
-    rate = dict(zip(kinds, p.tolist(), strict=True))
-    kind = kinds[min(int(np.searchsorted(np.cumsum(p), rng.uniform(), side="right")), len(p) - 1)]
+    kinds, cumulative, rate = _kind_rates(rates, len(ctx.catalogue))
+    kind = kinds[min(int(np.searchsorted(cumulative, rng.uniform(), side="right")), len(kinds) - 1)]
     box = birth.box
-    inside = [i for i, t in enumerate(state.tables) if _in_box(t, box)]
+    tables = state.tables
+    inside = np.flatnonzero(
+        (tables[:, 0] >= box[0])
+        & (tables[:, 0] <= box[2])
+        & (tables[:, 1] >= box[1])
+        & (tables[:, 1] <= box[3])
+    ).tolist()
     n = len(inside)
     radius = ctx.half_diagonal
     if kind is MoveKind.BIRTH:
@@ -480,15 +519,22 @@ def _overlaps(tables: tuple[FloatArray, ...], others: FloatArray, ctx: Context) 
     return count
 
 
-def _spread(found: tuple[IntArray, FloatArray], ids: IntArray) -> FloatArray:
-    """A table's ρ (:meth:`Context.table_contacts`) on the sorted contacts ``ids`` (0 where
-    it has none)."""
-    own, density = found
-    out = np.zeros(len(ids))
+def _best_cause(
+    base: FloatArray, found: list[tuple[IntArray, FloatArray]], ids: IntArray
+) -> FloatArray:
+    """``max(base, ρ of each table)`` on the sorted contacts ``ids``: ``found`` holds the
+    tables' contacts and densities (:meth:`Context.table_contacts`); a table has ρ = 0 on
+    the contacts it does not list. All tables are merged in one pass (max is exact, so the
+    order does not matter)."""
+    out = base.copy()
+    if not found:
+        return out
+    own = np.concatenate([f[0] for f in found]) if len(found) > 1 else found[0][0]
+    density = np.concatenate([f[1] for f in found]) if len(found) > 1 else found[0][1]
     at = np.searchsorted(ids, own)
     ok = at < len(ids)
     ok[ok] = ids[at[ok]] == own[ok]
-    out[at[ok]] = density[ok]
+    np.maximum.at(out, at[ok], density[ok])
     return out
 
 
@@ -500,29 +546,33 @@ def evaluate(state: ChainState, ctx: Context, move: Move) -> tuple[float, FloatA
     """
     removed = tuple(state.tables[i] for i in move.removed)
     added = move.added
-    others = np.delete(state.tables, list(move.removed), axis=0)
+    others = state.tables
+    if move.removed:
+        keep = np.ones(len(others), dtype=bool)
+        keep[list(move.removed)] = False
+        others = others[keep]
     if added and not arena_contains(np.array(added), ctx.catalogue, ctx.model.arena).all():
         return -math.inf, np.zeros(len(added))
-    overlaps = _overlaps(added, others, ctx) - _overlaps(removed, others, ctx)
-    if overlaps > 0 and ctx.model.log_overlap == -math.inf:
+    forbidden = ctx.model.log_overlap == -math.inf
+    overlaps = _overlaps(added, others, ctx)
+    if not (forbidden and math.isfinite(state.log_pi)):
+        # with overlaps forbidden, a map of finite log π has none to remove
+        overlaps -= _overlaps(removed, others, ctx)
+    if overlaps > 0 and forbidden:
         return -math.inf, np.zeros(len(added))  # a forbidden overlap: nothing else matters
     changed = [*removed, *added]
     radius = ctx.contact_radius
     own = [ctx.table_contacts(t) for t in changed]
-    ids = np.unique(np.concatenate([found[0] for found in own]))
+    # one table's contact ids are already sorted and distinct
+    ids = own[0][0] if len(own) == 1 else np.unique(np.concatenate([found[0] for found in own]))
     delta = 0.0
     if len(ids):
         centre = np.mean([t[:2] for t in changed], axis=0)
         spread = max(math.hypot(*(t[:2] - centre)) for t in changed)
         close = np.hypot(others[:, 0] - centre[0], others[:, 1] - centre[1]) <= 2 * radius + spread
-        base = ctx.floor[ids]
-        for other in others[close]:
-            base = np.maximum(base, _spread(ctx.table_contacts(other), ids))
-        before, after = base, base
-        for found in own[: len(removed)]:
-            before = np.maximum(before, _spread(found, ids))
-        for found in own[len(removed) :]:
-            after = np.maximum(after, _spread(found, ids))
+        base = _best_cause(ctx.floor[ids], [ctx.table_contacts(t) for t in others[close]], ids)
+        before = _best_cause(base, own[: len(removed)], ids)
+        after = _best_cause(base, own[len(removed) :], ids)
         delta = float((ctx.store.counts_[ids] * (np.log(after) - np.log(before))).sum())
     free_new = np.array([ctx.table_free_space(t) for t in added])
     delta += float(free_new.sum() - state.free_space[list(move.removed)].sum())

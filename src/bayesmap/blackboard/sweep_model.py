@@ -42,6 +42,7 @@ inside the arena)::
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -158,6 +159,17 @@ def _range_density(r_hat: FloatArray, r: FloatArray, sigma: float) -> FloatArray
 _SIGNS = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
 
 
+@functools.lru_cache(maxsize=16)
+def _sizes(catalogue: tuple[ObjectType, ...]) -> FloatArray:
+    """``(k, 5)`` per type: leg offsets ``a, b``, half leg side, half length, half width [m]
+    (built once per catalogue: the chain asks for them at every move)."""
+    sizes = np.array(
+        [(*t.half_spacing, 0.5 * t.leg, 0.5 * t.length, 0.5 * t.width) for t in catalogue]
+    )
+    sizes.flags.writeable = False
+    return sizes
+
+
 def leg_centres(tables: FloatArray, catalogue: tuple[ObjectType, ...]) -> FloatArray:
     """``(n, 4, 3)`` legs ``x, y, half side`` of ``(n, 4)`` tables ``x, y, θ, k``.
 
@@ -165,7 +177,7 @@ def leg_centres(tables: FloatArray, catalogue: tuple[ObjectType, ...]) -> FloatA
     """
     tables = np.asarray(tables, dtype=np.float64).reshape(-1, 4)
     kinds = tables[:, 3].astype(np.int64)
-    spacing = np.array([(*t.half_spacing, 0.5 * t.leg) for t in catalogue])[kinds]
+    spacing = _sizes(catalogue)[kinds, :3]
     lx = spacing[:, :1] * _SIGNS[:, 0]
     ly = spacing[:, 1:2] * _SIGNS[:, 1]
     c, s = np.cos(tables[:, 2:3]), np.sin(tables[:, 2:3])
@@ -236,36 +248,37 @@ def leg_contact_density(
     along-distance less its half diagonal > reach when the line misses it): a whisker
     cannot touch it there.
 
-    Only the contacts that pass the first two cuts for some leg are evaluated in full: with
+    Only the (contact, leg) pairs that pass the first two cuts are evaluated in full: with
     σ_r = 0.5 m a contact point may lie a metre from a leg along its whisker, but few of
-    the whisker lines around a leg pass within a few centimetres of it.
+    the whisker lines around a table pass within a few centimetres of one of its legs, and
+    a line that passes one leg rarely passes the other three.
     """
     out = np.zeros((len(root), len(legs)))
     if not len(root) or not len(legs):
         return out
-    cos_b, sin_b = np.cos(bearing)[:, None], np.sin(bearing)[:, None]
+    cos_b, sin_b = np.cos(bearing), np.sin(bearing)
     dx = root[:, None, 0] - legs[None, :, 0]
     dy = root[:, None, 1] - legs[None, :, 1]
-    r_near = np.minimum(r_hat, model.reach)[:, None]
-    px, py = dx + r_near * cos_b, dy + r_near * sin_b
-    cut = np.array([contact_cutoff(h, model) for h in legs[:, 2]])
+    r_near = np.minimum(r_hat, model.reach)
+    px, py = dx + (r_near * cos_b)[:, None], dy + (r_near * sin_b)[:, None]
+    cut = contact_cutoff(0.0, model) + math.sqrt(2.0) * legs[:, 2]  # contact_cutoff, per leg
     across_cut = ACROSS_CUT * model.sigma_perp
     # the square lies within √2 h of its centre: a line farther than that plus the cut from
     # the centre is farther than the cut from the square
     near = (px * px + py * py <= cut * cut) & (
-        np.abs(dx * sin_b - dy * cos_b) <= across_cut + math.sqrt(2.0) * legs[None, :, 2]
+        np.abs(dx * sin_b[:, None] - dy * cos_b[:, None])
+        <= across_cut + math.sqrt(2.0) * legs[None, :, 2]
     )
-    rows = np.flatnonzero(near.any(axis=1))
-    if not len(rows):
+    i, j = np.nonzero(near)
+    if not len(i):
         return out
-    near, dx, dy = near[rows], dx[rows], dy[rows]
-    cos_b, sin_b, r_hat, phi_hat = cos_b[rows], sin_b[rows], r_hat[rows], phi_hat[rows]
-    c, s = np.cos(theta)[None], np.sin(theta)[None]
+    dx, dy, cos_b, sin_b = dx[i, j], dy[i, j], cos_b[i], sin_b[i]
+    c, s = np.cos(theta)[j], np.sin(theta)[j]
     ox, oy = c * dx + s * dy, c * dy - s * dx
     ux, uy = c * cos_b + s * sin_b, c * sin_b - s * cos_b
     ux = np.where(np.abs(ux) < 1e-12, 1e-12, ux)
     uy = np.where(np.abs(uy) < 1e-12, 1e-12, uy)
-    h = legs[None, :, 2]
+    h = legs[j, 2]
     ax, ay = np.abs(ux), np.abs(uy)
     tx_near, ty_near = (-h - ox * np.sign(ux)) / ax, (-h - oy * np.sign(uy)) / ay
     tx_far, ty_far = (h - ox * np.sign(ux)) / ax, (h - oy * np.sign(uy)) / ay
@@ -274,21 +287,21 @@ def leg_contact_density(
     gap = np.maximum(np.abs(ux * oy - uy * ox) - h * (ax + ay), 0.0)
     along = np.where(hit, t_near, -(ox * ux + oy * uy))
     e_perp = np.where(hit, 0.0, gap)
-    near &= (np.where(hit, along, along - math.sqrt(2.0) * h) <= model.reach) & (
+    kept = (np.where(hit, along, along - math.sqrt(2.0) * h) <= model.reach) & (
         e_perp <= across_cut
     )
     # φ*: of the (one or two) faces turned towards the root, the one nearest φ̂ — a whisker
     # resting on a corner reports either face.
     face_x = np.where(ux > 0, np.pi, 0.0)
     face_y = np.where(uy > 0, -0.5 * np.pi, 0.5 * np.pi)
-    rel_phi = phi_hat[:, None] - theta[None]
+    rel_phi = phi_hat[i] - theta[j]
     d_phi = np.minimum(np.abs(wrap_angle(rel_phi - face_x)), np.abs(wrap_angle(rel_phi - face_y)))
     sr = model.sigma_r
     exponent = (e_perp / model.sigma_perp) ** 2 + (d_phi / model.sigma_phi) ** 2
-    r_hat = r_hat[:, None]
+    r_hat = r_hat[i]
     fold = np.exp(-0.5 * ((r_hat - along) / sr) ** 2) + np.exp(-0.5 * ((r_hat + along) / sr) ** 2)
     scale = 1.0 / ((2.0 * math.pi) ** 1.5 * sr * model.sigma_perp * model.sigma_phi)
-    out[rows] = np.where(near, scale * fold * np.exp(-0.5 * exponent), 0.0)
+    out[i, j] = np.where(kept, scale * fold * np.exp(-0.5 * exponent), 0.0)
     return out
 
 
@@ -337,18 +350,26 @@ def legs_swept(
     ``x, y, half side``) counts when its circumscribed circle, grown by ``margin`` [m], lies
     within that angular range and its near edge is within reach: the whisker had to cross
     it. A contact's own leg straddles ``stop`` and never counts.
+
+    The angles are computed only for the (leg, sweep) pairs within reach of each other:
+    around a table most stored sweeps are too far from a given leg to have crossed it.
     """
     dx = legs[:, None, 0] - root[None, :, 0]
     dy = legs[:, None, 1] - root[None, :, 1]
     d = np.hypot(dx, dy)
     radius = legs[:, None, 2] * math.sqrt(2.0) + margin
-    turn = wrap_angle(stop - start)[None]
+    out = np.zeros(d.shape)
+    j, i = np.nonzero((d > radius) & (d - legs[:, None, 2] < length[None] - margin))
+    if not len(j):
+        return out
+    d, radius, start = d[j, i], radius[j, 0], start[i]
+    turn = wrap_angle(stop[i] - start)
     direction = np.where(turn >= 0, 1.0, -1.0)
     extent = np.abs(turn)
-    rel = wrap_angle(np.arctan2(dy, dx) - start[None]) * direction
+    rel = wrap_angle(np.arctan2(dy[j, i], dx[j, i]) - start) * direction
     gamma = np.arcsin(np.clip(radius / np.maximum(d, 1e-9), 0.0, 1.0))
-    inside = (d > radius) & (d - legs[:, None, 2] < length[None] - margin)
-    return np.asarray(inside & (rel >= gamma) & (rel <= extent - gamma), dtype=np.float64)
+    out[j, i] = (rel >= gamma) & (rel <= extent - gamma)
+    return out
 
 
 def _extents(
@@ -356,8 +377,8 @@ def _extents(
 ) -> tuple[FloatArray, FloatArray]:
     """``(n,)`` half extents [m] of each table's outline along x and along y."""
     kinds = tables[:, 3].astype(np.int64)
-    half_l = np.array([0.5 * t.length for t in catalogue])[kinds]
-    half_w = np.array([0.5 * t.width for t in catalogue])[kinds]
+    sizes = _sizes(catalogue)[kinds]
+    half_l, half_w = sizes[:, 3], sizes[:, 4]
     c, s = np.abs(np.cos(tables[:, 2])), np.abs(np.sin(tables[:, 2]))
     return half_l * c + half_w * s, half_l * s + half_w * c
 
