@@ -33,6 +33,11 @@ in the first class that fits (``uncertain_by_cause`` in the JSON, :func:`uncerta
 - *given up*: on the explorer's blacklist (timed out, looked at in vain, unreachable);
 - *other*: read, but only one way or a few times, reachable, not given up.
 
+Each cause's cells are also counted by what they truly hold (``uncertain_holding_obstacle``
+in the JSON, :func:`holding_obstacle`): a cell that an obstacle overlaps by a positive
+area (the coverage truth, :func:`~bayesmap.sim.world2d.world_truth`) is a wall's own cell,
+partly free and partly not; the others are wholly free ground.
+
 It rewrites its section of docs/benchmarks.md. Run from the repository root, e.g.::
 
     python benchmarks/rover_stalls.py --world 0 --explorer paper --init flat --seed 0
@@ -66,7 +71,7 @@ from bayesmap.rover.params import RoverParams  # noqa: E402
 from bayesmap.rover.planning import crossing_costs  # noqa: E402
 from bayesmap.sensing.ir import informative_range  # noqa: E402
 from bayesmap.sim.rover_worlds import generate_world  # noqa: E402
-from bayesmap.sim.world2d import world_ray_cast  # noqa: E402
+from bayesmap.sim.world2d import world_ray_cast, world_truth  # noqa: E402
 from bayesmap.viz.rover import maps_pair_figure  # noqa: E402
 
 CATEGORIES = (
@@ -135,8 +140,10 @@ def uncertain_causes(
     path: np.ndarray,
     blacklist: set[tuple[float, float]],
     params: RoverParams,
-) -> dict[str, int]:
+) -> dict[str, np.ndarray]:
     """Observable cells still uncertain at the end of a run, by the first cause that fits.
+
+    Returns a mask per cause, in the order of :data:`UNCERTAIN_CAUSES`.
 
     The causes are the module docstring's, in its order. *Reach* is the ranger offset plus
     the informative range of eq. 31 (:func:`~bayesmap.sensing.ir.informative_range`), as in
@@ -164,13 +171,21 @@ def uncertain_causes(
         if 0 <= bi < grid.shape[0] and 0 <= bj < grid.shape[1]:
             given_up[bi, bj] = True
     left = uncertain.copy()
-    counts: dict[str, int] = {}
+    by_cause: dict[str, np.ndarray] = {}
     for cause, cells in zip(
         UNCERTAIN_CAUSES, (mixed, ~in_view, ~read, given_up, left), strict=True
     ):
-        counts[cause] = int((left & cells).sum())
+        by_cause[cause] = left & cells
         left &= ~cells
-    return counts
+    return by_cause
+
+
+def holding_obstacle(
+    world: Any, grid: OccupancyGrid, by_cause: dict[str, np.ndarray]
+) -> dict[str, int]:
+    """How many of each cause's cells an obstacle truly overlaps by a positive area."""
+    truth = world_truth(world, grid.shape, grid.resolution, grid.origin)
+    return {cause: int((cells & truth).sum()) for cause, cells in by_cause.items()}
 
 
 def category(row: dict[str, Any], resolution: float) -> str:
@@ -247,7 +262,7 @@ def main() -> None:
     summary = {k: v for k, v in metrics.items() if k != "coverage_curve"}
     summary["stalled_by_cause"] = {c: int(counts.get(c, 0)) for c in CATEGORIES}
     blacklist = getattr(trace.explorer.target_rule, "blacklist_", set())
-    causes = uncertain_causes(
+    cells_by_cause = uncertain_causes(
         spec.world,
         trace.explorer.grid,
         trace.observable,
@@ -255,7 +270,10 @@ def main() -> None:
         blacklist,
         config.rover_params(),
     )
+    causes = {cause: int(cells.sum()) for cause, cells in cells_by_cause.items()}
+    holding = holding_obstacle(spec.world, trace.explorer.grid, cells_by_cause)
     summary["uncertain_by_cause"] = causes
+    summary["uncertain_holding_obstacle"] = holding
     np.savez_compressed(
         args.out / f"{name}.npz",
         probability=trace.explorer.grid.probability,
@@ -307,9 +325,9 @@ def main() -> None:
             for c in CATEGORIES
         ),
         "",
-        "| observable cell still uncertain at the end | cells | share |",
-        "|---|---|---|",
-        *(f"| {c} | {n} | {n / n_left:.0%} |" for c, n in causes.items()),
+        "| observable cell still uncertain at the end | cells | share | holding an obstacle |",
+        "|---|---|---|---|",
+        *(f"| {c} | {n} | {n / n_left:.0%} | {holding[c]} |" for c, n in causes.items()),
         "",
         "Coverage against distance: "
         + ", ".join(f"{c:.2f} at {d:.0f} m" for d, c in checkpoints if math.isfinite(d))
