@@ -6,15 +6,18 @@ import math
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from bayesmap.geometry import to_robot
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.safety import (
     back_off_on_track,
+    dilate,
     drive_command,
     footprint_safety,
     hazard_cells,
     predicted_centres,
+    predicted_points,
     reading_points,
     recent_track,
     retreat_command,
@@ -296,4 +299,27 @@ def test_each_distinct_point_of_the_paths_is_measured_once_with_the_same_verdict
         np.testing.assert_array_equal(safety.clearance, gap.min(axis=1))
         np.testing.assert_array_equal(
             safety.safe, (gap.min(axis=1) >= PARAMS.safety_margin) & allowed
+        )
+
+
+def test_the_distinct_points_known_from_the_templates_give_back_every_sample() -> None:
+    """Each cycle's distinct path points come from the templates, without sorting; indexed
+    by their inverse they are every predicted sample, to the bit, the position first."""
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        pose = (float(rng.uniform(-30, 30)), float(rng.uniform(-30, 30)), float(rng.uniform(-7, 7)))
+        points, inverse = predicted_points(pose, THETA, PARAMS)
+        centres = predicted_centres(pose, THETA, PARAMS)
+        np.testing.assert_array_equal(points[inverse], centres)
+        assert (inverse[:, 0] == 0).all()
+        assert len(points) < centres.shape[0] * centres.shape[1] / 2
+
+
+def test_dilation_by_shifted_slices_is_scipys() -> None:
+    rng = np.random.default_rng(12)
+    for _ in range(500):
+        mask = rng.random(tuple(rng.integers(1, 40, size=2))) < rng.uniform(0.0, 0.3)
+        structure = rng.random(tuple(rng.choice([1, 3, 5, 7], size=2))) < 0.6
+        np.testing.assert_array_equal(
+            dilate(mask, structure), ndimage.binary_dilation(mask, structure=structure)
         )

@@ -22,19 +22,18 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.mapping import local_patch
 from bayesmap.rover.params import RoverParams
-from bayesmap.rover.safety import hazard_cells, square_distance
+from bayesmap.rover.safety import dilate, hazard_cells, square_distance
 
 _WAYPOINT_AHEAD = 1.5
 """Path length [m] from the rover to the waypoint it steers toward."""
@@ -94,16 +93,14 @@ def crossing_costs(
     """
     likely = np.asarray(probability) >= params.p_block
     hazard = hazard_cells(probability, params)
-    body = ndimage.binary_dilation(
+    body = dilate(
         likely | ~np.asarray(on_map, dtype=bool),
-        structure=footprint_kernel(params.footprint_radius, resolution),
+        footprint_kernel(params.footprint_radius, resolution),
     )
     keep_off = params.footprint_radius + params.safety_margin
-    margin = ndimage.binary_dilation(likely, structure=footprint_kernel(keep_off, resolution))
-    doubtful = ndimage.binary_dilation(hazard, structure=footprint_kernel(keep_off, resolution))
-    near = ndimage.binary_dilation(
-        hazard, structure=footprint_kernel(keep_off + resolution, resolution)
-    )
+    margin = dilate(likely, footprint_kernel(keep_off, resolution))
+    doubtful = dilate(hazard, footprint_kernel(keep_off, resolution))
+    near = dilate(hazard, footprint_kernel(keep_off + resolution, resolution))
     costs = np.where(near, _NEAR_COST, 1.0)
     costs[doubtful] = _DOUBTFUL_COST
     if avoid is not None:
@@ -148,6 +145,11 @@ class LocalPlan:
         Patch indices of the rover's cell, where the paths begin.
     blocked
         ``(n, n)`` likely obstacles (``p >= p_block``), which block a line of sight.
+
+    A plan is reused for as long as the map around the rover gives the same one
+    (:func:`local_plan`), so each target's viewpoint and the path to it are worked out once
+    per plan, whichever of :meth:`waypoint`, :meth:`path_length` and :meth:`remaining`
+    asks first.
     """
 
     xc: FloatArray
@@ -162,6 +164,10 @@ class LocalPlan:
     start: tuple[int, int]
     blocked: BoolArray
     _solver: MCP_Geometric
+    _viewpoints: dict[tuple[float, float], tuple[int, int] | None] = field(
+        default_factory=dict, repr=False
+    )
+    _paths: dict[tuple[int, int], list[tuple[int, int]]] = field(default_factory=dict, repr=False)
 
     def _index(self, x: float, y: float) -> tuple[int, int] | None:
         i = int(math.floor((y - self.yc[0, 0]) / self.resolution + 0.5))
@@ -176,6 +182,19 @@ class LocalPlan:
         return math.nan if index is None else float(self.view[index])
 
     def _viewpoint(self, target: tuple[float, float]) -> tuple[int, int] | None:
+        """The patch cell the rover heads for on the way to ``target``, or ``None``
+        (:meth:`_find_viewpoint`, once per target and plan)."""
+        if target not in self._viewpoints:
+            self._viewpoints[target] = self._find_viewpoint(target)
+        return self._viewpoints[target]
+
+    def _path(self, index: tuple[int, int]) -> list[tuple[int, int]]:
+        """Patch cells of the shortest path from the rover's cell to ``index`` (once per plan)."""
+        if index not in self._paths:
+            self._paths[index] = [(int(i), int(j)) for i, j in self._solver.traceback(index)]
+        return self._paths[index]
+
+    def _find_viewpoint(self, target: tuple[float, float]) -> tuple[int, int] | None:
         """The patch cell the rover heads for on the way to ``target``, or ``None``.
 
         Inside the patch: the cheapest reachable cell within ``view_range`` of the target
@@ -208,7 +227,7 @@ class LocalPlan:
             return None
         if self._index(*target) is not None and self.cost[index] <= self.resolution:
             return target
-        path = self._solver.traceback(index)
+        path = self._path(index)
         lengths = np.array([self.cost[cell] for cell in path])
         ahead = int(np.searchsorted(lengths, _WAYPOINT_AHEAD))
         i, j = path[min(ahead, len(path) - 1)]
@@ -229,7 +248,7 @@ class LocalPlan:
         if index is None:
             return math.inf
         beyond = self._beyond(index, target)
-        steps = np.diff(np.asarray(self._solver.traceback(index), dtype=np.float64), axis=0)
+        steps = np.diff(np.asarray(self._path(index), dtype=np.float64), axis=0)
         return float(np.hypot(steps[:, 0], steps[:, 1]).sum()) * self.resolution + beyond
 
     def remaining(self, x: float, y: float, target: tuple[float, float]) -> float:
@@ -246,7 +265,7 @@ class LocalPlan:
         if index is None:
             return math.inf
         beyond = self._beyond(index, target)
-        path = self._solver.traceback(index)
+        path = self._path(index)
         if len(path) < 2:
             return beyond
         step = path[1]
@@ -311,12 +330,13 @@ def local_plan(
     )
 
 
-def _steps(di: int, dj: int) -> list[tuple[int, int]]:
+@functools.lru_cache(maxsize=1024)
+def _steps(di: int, dj: int) -> tuple[tuple[int, int], ...]:
     """Cell offsets strictly between ``(0, 0)`` and ``(di, dj)`` on the straight line
-    (sampled at a quarter cell)."""
+    (sampled at a quarter cell; shared, computed once per offset)."""
     n = 4 * max(abs(di), abs(dj))
     between = {(round(di * k / n), round(dj * k / n)) for k in range(1, n)}
-    return sorted(between - {(0, 0), (di, dj)})
+    return tuple(sorted(between - {(0, 0), (di, dj)}))
 
 
 def _sight(blocked: BoolArray, a: tuple[int, int], b: tuple[int, int]) -> bool:
