@@ -6,13 +6,11 @@ import math
 
 import numpy as np
 import pytest
-from scipy import ndimage
 
 from bayesmap.geometry import to_robot
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.safety import (
     back_off_on_track,
-    dilate,
     drive_command,
     footprint_safety,
     hazard_cells,
@@ -313,13 +311,3 @@ def test_the_distinct_points_known_from_the_templates_give_back_every_sample() -
         np.testing.assert_array_equal(points[inverse], centres)
         assert (inverse[:, 0] == 0).all()
         assert len(points) < centres.shape[0] * centres.shape[1] / 2
-
-
-def test_dilation_by_shifted_slices_is_scipys() -> None:
-    rng = np.random.default_rng(12)
-    for _ in range(500):
-        mask = rng.random(tuple(rng.integers(1, 40, size=2))) < rng.uniform(0.0, 0.3)
-        structure = rng.random(tuple(rng.choice([1, 3, 5, 7], size=2))) < 0.6
-        np.testing.assert_array_equal(
-            dilate(mask, structure), ndimage.binary_dilation(mask, structure=structure)
-        )

@@ -20,20 +20,22 @@ Cost depends on ``d_max`` only, never on the size of the map.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.grid import OccupancyGrid
+from bayesmap.grid.entropy import probability_at_entropy
 from bayesmap.rover.mapping import local_patch
 from bayesmap.rover.params import RoverParams
-from bayesmap.rover.safety import dilate, hazard_cells, square_distance
+from bayesmap.rover.safety import hazard_cells, square_distance
 
 _WAYPOINT_AHEAD = 1.5
 """Path length [m] from the rover to the waypoint it steers toward."""
@@ -93,14 +95,16 @@ def crossing_costs(
     """
     likely = np.asarray(probability) >= params.p_block
     hazard = hazard_cells(probability, params)
-    body = dilate(
+    body = ndimage.binary_dilation(
         likely | ~np.asarray(on_map, dtype=bool),
-        footprint_kernel(params.footprint_radius, resolution),
+        structure=footprint_kernel(params.footprint_radius, resolution),
     )
     keep_off = params.footprint_radius + params.safety_margin
-    margin = dilate(likely, footprint_kernel(keep_off, resolution))
-    doubtful = dilate(hazard, footprint_kernel(keep_off, resolution))
-    near = dilate(hazard, footprint_kernel(keep_off + resolution, resolution))
+    margin = ndimage.binary_dilation(likely, structure=footprint_kernel(keep_off, resolution))
+    doubtful = ndimage.binary_dilation(hazard, structure=footprint_kernel(keep_off, resolution))
+    near = ndimage.binary_dilation(
+        hazard, structure=footprint_kernel(keep_off + resolution, resolution)
+    )
     costs = np.where(near, _NEAR_COST, 1.0)
     costs[doubtful] = _DOUBTFUL_COST
     if avoid is not None:
@@ -118,7 +122,7 @@ def crossing_costs(
     return np.asarray(costs)
 
 
-@dataclass
+@dataclasses.dataclass
 class LocalPlan:
     """Shortest path costs from the rover over the square of half-side ``d_max`` around it.
 
@@ -145,6 +149,9 @@ class LocalPlan:
         Patch indices of the rover's cell, where the paths begin.
     blocked
         ``(n, n)`` likely obstacles (``p >= p_block``), which block a line of sight.
+    terrain
+        ``(n, n)`` what the plan depends on, per cell (:func:`terrain_classes`): equal
+        terrain gives an equal plan.
 
     A plan is reused for as long as the map around the rover gives the same one
     (:func:`local_plan`), so each target's viewpoint and the path to it are worked out once
@@ -163,11 +170,14 @@ class LocalPlan:
     costs: FloatArray
     start: tuple[int, int]
     blocked: BoolArray
+    terrain: npt.NDArray[np.int8]
     _solver: MCP_Geometric
-    _viewpoints: dict[tuple[float, float], tuple[int, int] | None] = field(
+    _viewpoints: dict[tuple[float, float], tuple[int, int] | None] = dataclasses.field(
         default_factory=dict, repr=False
     )
-    _paths: dict[tuple[int, int], list[tuple[int, int]]] = field(default_factory=dict, repr=False)
+    _paths: dict[tuple[int, int], list[tuple[int, int]]] = dataclasses.field(
+        default_factory=dict, repr=False
+    )
 
     def _index(self, x: float, y: float) -> tuple[int, int] | None:
         i = int(math.floor((y - self.yc[0, 0]) / self.resolution + 0.5))
@@ -273,6 +283,29 @@ class LocalPlan:
         return first + float(self.cost[index] - self.cost[step]) + beyond
 
 
+def terrain_classes(
+    probability: FloatArray,
+    on_map: BoolArray,
+    avoid: FloatArray | None,
+    params: RoverParams,
+) -> npt.NDArray[np.int8]:
+    """Each cell's class in all that :func:`crossing_costs` and the line of sight read.
+
+    ``probability`` enters only through two thresholds (``p_block`` for likely obstacles
+    and the probability of entropy ``h_desired`` for doubtful ones,
+    :func:`~bayesmap.rover.safety.hazard_cells`), ``avoid`` through whether the rover was
+    hemmed in once or more often, and whether the cell is on the map. Classes: the
+    number of thresholds ``p`` reaches (0–2), 3 off the map, plus 4 per hemmed-in level.
+    """
+    p = np.asarray(probability)
+    level = (p >= probability_at_entropy(params.h_desired)).astype(np.int8)
+    level += p >= params.p_block
+    level[~on_map] = 3
+    if avoid is not None:
+        level += 4 * ((avoid >= 1).astype(np.int8) + (avoid >= 2))
+    return level
+
+
 def local_plan(
     grid: OccupancyGrid,
     x: float,
@@ -290,7 +323,9 @@ def local_plan(
     crossing cost are the same (the map changed only within its thresholds, or not at
     all, and the rover has not left its cell), it is returned as it is, since solving
     again would give the same plan. A rover pivoting or looking at a target from its
-    viewpoint re-plans only when its readings move a cell across a threshold.
+    viewpoint re-plans only when its readings move a cell across a threshold. Whether a
+    cell crossed a threshold is seen from the patch's :func:`terrain_classes` before any
+    crossing cost is worked out, so a cycle that keeps the plan costs a few comparisons.
     """
     xc, yc, prob = local_patch(grid, grid.probability, x, y, params.d_max, np.nan)
     on_map = np.isfinite(prob)
@@ -301,13 +336,18 @@ def local_plan(
     near_avoid = None
     if avoid is not None:
         near_avoid = local_patch(grid, avoid, x, y, params.d_max, 0.0)[2]
-    costs = crossing_costs(prob, on_map, params, grid.resolution, rover=(i0, j0), avoid=near_avoid)
+    terrain = terrain_classes(prob, on_map, near_avoid, params)
     rows0, cols0 = grid.world_to_cell(float(xc[0, 0]), float(yc[0, 0]))
-    if (
-        previous is not None
-        and (previous.row0, previous.col0, previous.start) == (int(rows0), int(cols0), (i0, j0))
-        and np.array_equal(previous.costs, costs)
-    ):
+    same_place = previous is not None and (previous.row0, previous.col0, previous.start) == (
+        int(rows0),
+        int(cols0),
+        (i0, j0),
+    )
+    if previous is not None and same_place and np.array_equal(previous.terrain, terrain):
+        return previous
+    costs = crossing_costs(prob, on_map, params, grid.resolution, rover=(i0, j0), avoid=near_avoid)
+    if previous is not None and same_place and np.array_equal(previous.costs, costs):
+        previous.terrain = terrain  # a class changed, no cost did: the same plan
         return previous
     solver = MCP_Geometric(costs, fully_connected=True)
     cumulative, _ = solver.find_costs([(i0, j0)])
@@ -326,6 +366,7 @@ def local_plan(
         costs,
         (i0, j0),
         blocked,
+        terrain,
         solver,
     )
 

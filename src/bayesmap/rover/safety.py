@@ -43,6 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy import ndimage
 
 from bayesmap._typing import BoolArray, FloatArray, IntArray
 from bayesmap.geometry import to_robot, to_world, wrap_angle
@@ -179,21 +180,35 @@ def predicted_points(
     sorts its samples; a point two paths share is listed once per path.
     """
     index = _template_index(pose, headings, params)
+    local, inverse = _paths_points(params, tuple(index.tolist()))
+    return to_world(pose, local), inverse
+
+
+@functools.lru_cache(maxsize=2048)
+def _paths_points(params: RoverParams, index: tuple[int, ...]) -> tuple[FloatArray, IntArray]:
+    """The rover-frame points and sample inverse of :func:`predicted_points` for the
+    templates ``index`` (read-only: the headings' templates repeat from cycle to cycle)."""
     padded, counts, samples = _template_points(params)
-    count = counts[index]
+    chosen = np.asarray(index, dtype=np.int64)
+    count = counts[chosen]
     listed = np.arange(padded.shape[1]) < count[:, None]
-    local = np.concatenate([np.zeros((1, 2)), padded[index][listed]])
+    local = np.concatenate([np.zeros((1, 2)), padded[chosen][listed]])
     offset = np.concatenate([[0], np.cumsum(count)[:-1]])
-    sample = samples[index]
-    inverse = np.where(sample == 0, 0, sample + offset[:, None])
-    return to_world(pose, local), np.asarray(inverse)
+    sample = samples[chosen]
+    inverse = np.asarray(np.where(sample == 0, 0, sample + offset[:, None]))
+    local.flags.writeable = False
+    inverse.flags.writeable = False
+    return local, inverse
 
 
-def distinct_points(centres: FloatArray) -> tuple[FloatArray, IntArray]:
-    """``(n, 2)`` the distinct points of ``(M, K, 2)`` ``centres`` and ``(M, K)`` the point
-    of each sample."""
-    points, inverse = np.unique(centres.reshape(-1, 2), axis=0, return_inverse=True)
-    return points, np.asarray(inverse.reshape(centres.shape[:2]))
+def shared_start_points(centres: FloatArray) -> tuple[FloatArray, IntArray]:
+    """``(M, K, 2)`` paths that all start at one point as ``(n, 2)`` points, the start listed
+    once, and ``(M, K)`` the point of each sample (the rest listed as they are)."""
+    m, k = centres.shape[:2]
+    points = np.concatenate([centres[0, :1], centres[:, 1:].reshape(-1, 2)])
+    inverse = np.zeros((m, k), dtype=np.int64)
+    inverse[:, 1:] = np.arange(1, m * (k - 1) + 1).reshape(m, k - 1)
+    return points, inverse
 
 
 def square_distance(
@@ -331,7 +346,8 @@ def footprint_safety(
     # never brings the body closer to a hazard than it is now.
     retreat = here < params.safety_margin and not safe.any()
     if retreat:
-        _, clearance, allowed = check(*distinct_points(straight_centres(pose, headings, params)))
+        straight = straight_centres(pose, headings, params)
+        _, clearance, allowed = check(*shared_start_points(straight))
         safe = (clearance >= here - _ROUNDING) & allowed
     points = np.concatenate([cells, hits])
     ahead = False
@@ -432,6 +448,22 @@ def straight_centres(
     return np.stack([x, y], axis=-1)
 
 
+def least_hypot(dx: FloatArray, dy: FloatArray) -> FloatArray:
+    """``np.hypot(dx, dy).min(axis=1)`` for ``(n, m)`` arrays (``m >= 1``), to the bit.
+
+    ``hypot`` is the costly part, so it is taken only where the squared length is within a
+    relative 1e-9 of its row's least: a pair outside that margin is longer than the
+    shortest by far more than ``hypot``'s rounding, so the row's minimum is among those
+    taken.
+    """
+    squared = dx * dx + dy * dy
+    bound = squared.min(axis=1, keepdims=True) * (1.0 + 1e-9) + 1e-300
+    rows, cols = np.nonzero(squared <= bound)
+    lengths = np.hypot(dx[rows, cols], dy[rows, cols])
+    starts = np.flatnonzero(np.concatenate([[True], rows[1:] != rows[:-1]]))
+    return np.asarray(np.minimum.reduceat(lengths, starts))
+
+
 def _swept_clearance(
     points: FloatArray,
     inverse: IntArray,
@@ -448,7 +480,7 @@ def _swept_clearance(
     starts and off cells never observed (unless already beneath the body).
 
     The paths are given as their distinct ``points`` and the ``inverse`` ``(M, K)`` point of
-    each sample (:func:`predicted_points`, :func:`distinct_points`; most samples repeat), so
+    each sample (:func:`predicted_points`, :func:`shared_start_points`; most samples repeat), so
     each distance is measured once per point and spread back over the paths. The first
     sample of every path is the rover's position.
     """
@@ -457,7 +489,7 @@ def _swept_clearance(
     if cells.size:
         gaps.append(square_distance(px, py, cells[:, 0], cells[:, 1], resolution / 2).min(axis=-1))
     if hits.size:
-        gaps.append(np.hypot(px - hits[:, 0], py - hits[:, 1]).min(axis=-1))
+        gaps.append(least_hypot(px - hits[:, 0], py - hits[:, 1]))
     gap = (np.minimum.reduce(gaps) - radius)[inverse]
     outside = outside_distance(points[:, 0], points[:, 1], extent)[inverse]
     allowed = ~(outside > outside[:, :1] + 1e-9).any(axis=1)
@@ -469,26 +501,6 @@ def _swept_clearance(
     return np.asarray(gap), np.asarray(gap.min(axis=1)), np.asarray(allowed)
 
 
-def dilate(mask: npt.ArrayLike, structure: npt.ArrayLike) -> BoolArray:
-    """``scipy.ndimage.binary_dilation(mask, structure)`` for an odd-sided ``structure``
-    centred on its middle (outside the array counts as ``False``), as an OR of shifted
-    copies of ``mask``: on the rover's small patches, a few slices cost much less than the
-    general routine's setup. The same cells, to the bit."""
-    m = np.asarray(mask, dtype=bool)
-    kernel = np.asarray(structure, dtype=bool)
-    ci, cj = kernel.shape[0] // 2, kernel.shape[1] // 2
-    out = np.zeros_like(m)
-    n, k = m.shape
-    for di, dj in np.argwhere(kernel).tolist():
-        si, sj = di - ci, dj - cj  # out[i, j] |= mask[i - si, j - sj]
-        if abs(si) >= n or abs(sj) >= k:
-            continue
-        out[max(si, 0) : n + min(si, 0), max(sj, 0) : k + min(sj, 0)] |= m[
-            max(-si, 0) : n - max(si, 0), max(-sj, 0) : k - max(sj, 0)
-        ]
-    return out
-
-
 def hazard_cells(probability: npt.ArrayLike, params: RoverParams) -> BoolArray:
     """Cells the footprint keeps its margin from: likely obstacles and their doubtful neighbours.
 
@@ -497,5 +509,5 @@ def hazard_cells(probability: npt.ArrayLike, params: RoverParams) -> BoolArray:
     """
     p = np.asarray(probability, dtype=np.float64)
     likely = p >= params.p_block
-    near = dilate(likely, np.ones((3, 3), dtype=bool))
+    near = ndimage.binary_dilation(likely, structure=np.ones((3, 3), dtype=bool))
     return np.asarray(likely | (near & (p >= probability_at_entropy(params.h_desired))))
