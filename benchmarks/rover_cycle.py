@@ -59,10 +59,11 @@ def record(cycles: int, seed: int = 1) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def replay(sizes: tuple[float, ...], log: list[tuple[np.ndarray, np.ndarray]]) -> list[float]:
-    """Seconds each map's explorer spends on ``log``, replayed in lockstep.
+    """CPU seconds each map's explorer spends on ``log``, replayed in lockstep.
 
     The explorers take turns cycle by cycle (the order alternating), so a change in the
-    machine's load between two moments falls on every map alike.
+    machine's load between two moments falls on every map alike; CPU time
+    (:func:`time.process_time`) leaves out the time the process waited for a core.
     """
     params = RoverParams()
     explorers = [
@@ -74,9 +75,9 @@ def replay(sizes: tuple[float, ...], log: list[tuple[np.ndarray, np.ndarray]]) -
     for k, (raw, pose) in enumerate(log):
         order = range(len(sizes)) if k % 2 == 0 else reversed(range(len(sizes)))
         for m in order:
-            started = time.perf_counter()
+            started = time.process_time()
             explorers[m].step(raw, pose + shifts[m])
-            spent[m] += time.perf_counter() - started
+            spent[m] += time.process_time() - started
     return spent
 
 
@@ -89,7 +90,7 @@ def main() -> None:
     load = os.getloadavg()
     small, large = len(log) / spent[0], len(log) / spent[1]
     rows = [
-        "| map | cells | cycles/s | ms per cycle |",
+        "| map | cells | cycles/s | ms of CPU per cycle |",
         "|---|---|---|---|",
         f"| 20 m x 20 m | {40 * 40:,} | {small:.0f} | {1000 / small:.2f} |",
         f"| 200 m x 200 m | {400 * 400:,} | {large:.0f} | {1000 / large:.2f} |",
@@ -100,8 +101,9 @@ def main() -> None:
             "",
             f"`python benchmarks/rover_cycle.py`. Machine: {machine()}, shared with other "
             f"jobs: load average {load_before:.1f} at the start, {load[0]:.1f} / {load[1]:.1f} "
-            f"/ {load[2]:.1f} at the end (absolute times are inflated by the load; the ratio "
-            f"is not, see below). A complete recorded run on the 20 m obstacle field "
+            f"/ {load[2]:.1f} at the end (CPU time, which the load inflates less than wall "
+            "time but still does; the ratio is not, see below). A complete recorded run on "
+            "the 20 m obstacle field "
             f"({len(log)} cycles, to the stop rule or the {CYCLES}-cycle budget) replayed on "
             "both maps in lockstep, the two explorers taking turns cycle by cycle.",
             "",

@@ -10,8 +10,10 @@ too. Each run reports the issue's targets: collisions, the smallest clearance, w
 budget, the distance to it, stalled and off-map cycles.
 
 Every run writes its metrics to ``OUT/<run>.json`` as soon as it ends, and a run whose file
-exists is not run again, so an interrupted benchmark resumes where it stopped. Runs go to
-``--jobs`` worker processes. Run from the repository root, e.g.::
+exists is not run again, so an interrupted benchmark resumes where it stopped; a run that
+fails is reported with its error and the others go on. Each run records the CPU seconds
+its worker process spent on it (``cpu_s``). Runs go to ``--jobs`` worker processes, each
+with one BLAS thread. Run from the repository root, e.g.::
 
     python benchmarks/rover_worlds.py --worlds 12 --seeds 3 --jobs 8   # the issue's grid
     python benchmarks/rover_worlds.py --world-seed 7 --out results/rover_fresh ...  # fresh worlds
@@ -32,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from numpy.random import SeedSequence
+from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
@@ -71,7 +74,7 @@ def job_name(job: Job) -> str:
 def one_run(job: Job, out: Path) -> dict[str, Any]:
     """Run one configuration, write its metrics to ``out`` and return them."""
     kind, world, seed, explorer, init, size, world_seed = job
-    started = time.perf_counter()
+    started, cpu_started = time.perf_counter(), time.process_time()
     if kind == "paper":
         name = list(rover.RUNS)[world]
         config = rover.Config(runs=(name,))
@@ -91,7 +94,14 @@ def one_run(job: Job, out: Path) -> dict[str, Any]:
         metrics["budget"] = rover.world_budget(spec)
         metrics["boxes"] = len(spec.world.boxes)
         metrics["area_m"] = spec.world.width
-    metrics.update({"kind": kind, "world_index": world, "wall_s": time.perf_counter() - started})
+    metrics.update(
+        {
+            "kind": kind,
+            "world_index": world,
+            "wall_s": time.perf_counter() - started,
+            "cpu_s": time.process_time() - cpu_started,
+        }
+    )
     metrics.pop("coverage_curve", None)
     write_json(out / f"{job_name(job)}.json", metrics)
     return metrics
@@ -99,6 +109,12 @@ def one_run(job: Job, out: Path) -> dict[str, Any]:
 
 def _quiet(stage: str, done: int, total: int) -> None:
     del stage, done, total
+
+
+def _one_blas_thread() -> None:
+    """Worker start-up: the rover's arrays are small, and ``--jobs`` processes on as many
+    cores must not each start a BLAS thread per core."""
+    threadpool_limits(1)
 
 
 def main() -> None:
@@ -161,19 +177,26 @@ def main() -> None:
         todo = []
     print(f"{len(runs)} runs already in {args.out}; {len(todo)} to run on {args.jobs} processes")
     started = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=max(args.jobs, 1)) as pool:
-        futures = [pool.submit(one_run, job, args.out) for job in todo]
+    failed: list[str] = []
+    with ProcessPoolExecutor(max_workers=max(args.jobs, 1), initializer=_one_blas_thread) as pool:
+        futures = {pool.submit(one_run, job, args.out): job for job in todo}
         for k, future in enumerate(as_completed(futures), start=1):
-            m = future.result()
+            try:
+                m = future.result()
+            except Exception as error:  # noqa: BLE001 - one failed run must not stop the grid
+                failed.append(f"{job_name(futures[future])} ({type(error).__name__}: {error})")
+                print(f"[{k}/{len(todo)}] FAILED {failed[-1]}", flush=True)
+                continue
             runs.append(m)
             print(
                 f"[{k}/{len(todo)}] {m['world']} {m['explorer']}/{m['entropy_init']} seed "
                 f"{m['seed']}: collisions {m['collisions']}, clearance {m['min_clearance_m']}, "
-                f"coverage {m['coverage']:.3f}, to 90 % {m['distance_to_90']}",
+                f"coverage {m['coverage']:.3f}, to 90 % {m['distance_to_90']}, "
+                f"{m['steps']} cycles in {m['cpu_s']:.0f} s of CPU",
                 flush=True,
             )
     wall = time.perf_counter() - started
-    text = summary(runs, args, wall)
+    text = summary(runs, args, wall, failed)
     print(text)
     fresh = args.world_seed != WORLD_SEED  # validation on fresh worlds: a section of its own
     update_section("rover_worlds_fresh" if fresh else "rover_worlds", text)
@@ -183,8 +206,8 @@ def _rows(runs: list[dict[str, Any]]) -> list[str]:
     rows = [
         "| explorer | entropy init | runs | collisions | min clearance [m] | reached 90 % | "
         "coverage (min / median) | median distance to 90 % [m] | stalled cycles (median) | "
-        "off-map cycles (max) | ms per cycle (median) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "off-map cycles (max) | ms per cycle (median) | CPU s per run (median) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for explorer in EXPLORERS:
         for init in INITS:
@@ -194,6 +217,7 @@ def _rows(runs: list[dict[str, Any]]) -> list[str]:
             reached = [m["distance_to_90"] for m in group if m["distance_to_90"] is not None]
             clearances = [m["min_clearance_m"] for m in group if m["min_clearance_m"] is not None]
             cover = [m["coverage"] for m in group]
+            cpu = [m["cpu_s"] for m in group if "cpu_s" in m]
             rows.append(
                 f"| {explorer} | {init} | {len(group)} | {sum(m['collisions'] for m in group)} | "
                 f"{min(clearances, default=float('nan')):.3f} | {len(reached)}/{len(group)} | "
@@ -201,7 +225,8 @@ def _rows(runs: list[dict[str, Any]]) -> list[str]:
                 f"{statistics.median(reached) if reached else float('nan'):.1f} | "
                 f"{statistics.median(m['stalled_cycles'] for m in group):.0f} | "
                 f"{max(m['off_map_cycles'] for m in group)} | "
-                f"{statistics.median(m['cycle_ms'] for m in group):.1f} |"
+                f"{statistics.median(m['cycle_ms'] for m in group):.1f} | "
+                f"{statistics.median(cpu) if cpu else float('nan'):.0f} |"
             )
     return rows
 
@@ -211,7 +236,9 @@ def _expected(args: argparse.Namespace) -> int:
     return args.worlds * args.seeds * explorers * inits + (0 if args.no_paper else 4 * explorers)
 
 
-def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -> str:
+def summary(
+    runs: list[dict[str, Any]], args: argparse.Namespace, wall: float, failed: list[str]
+) -> str:
     """The Markdown section: per-configuration rows and the issue's targets."""
     generated = [m for m in runs if m.get("kind") == "generated"]
     paper = [m for m in runs if m.get("kind") == "paper"]
@@ -281,6 +308,7 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
             "Runs missing a target (collision, clearance <= 0.05 m, or 90 % not reached): "
             + (", ".join(failing) if failing else "none")
             + ".",
+            *(["", "Runs that failed with an error: " + ", ".join(failed) + "."] if failed else []),
         ]
     )
 

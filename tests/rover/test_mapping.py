@@ -8,7 +8,12 @@ from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.mapping import IRMapper, UncertainBlocks, local_patch
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.planning import local_plan
-from bayesmap.rover.targets import EntropyTarget, FrontierTarget, clear_of_obstacles
+from bayesmap.rover.targets import (
+    EntropyTarget,
+    FrontierTarget,
+    _bfs_distance,
+    clear_of_obstacles,
+)
 from bayesmap.sensing.ir import ranger_poses, raw_from_range
 from bayesmap.sim.ir import IRRangers
 
@@ -159,3 +164,29 @@ def test_the_global_fallback_finds_the_nearest_uncertain_cell_of_a_large_map() -
     for x, y in [(150.2, 20.2), (30.2, 180.2), (120.2, 120.2)]:
         grid.entropy[grid.world_to_cell(x, y)] = 1.0
     assert _select(EntropyTarget(PARAMS), grid, (100.0, 100.0, 0.0)) == (120.25, 120.25)
+
+
+def _steps_by_search(passable: np.ndarray, start: tuple[int, int]) -> np.ndarray:
+    """Breadth-first search cell by cell, 4-connected: the oracle for the frontier's BFS."""
+    distance = np.full(passable.shape, np.inf)
+    distance[start] = 0.0
+    queue = [start]
+    for r, c in queue:
+        for rr, cc in ((r + 1, c), (r - 1, c), (r, c + 1), (r, c - 1)):
+            inside = 0 <= rr < passable.shape[0] and 0 <= cc < passable.shape[1]
+            if inside and passable[rr, cc] and distance[rr, cc] == np.inf:
+                distance[rr, cc] = distance[r, c] + 1.0
+                queue.append((rr, cc))
+    return distance
+
+
+def test_the_frontier_search_counts_the_same_steps_as_a_cell_by_cell_search() -> None:
+    rng = np.random.default_rng(21)
+    for _ in range(200):
+        passable = rng.random(tuple(rng.integers(1, 40, size=2))) < rng.uniform(0.3, 1.0)
+        start = (int(rng.integers(passable.shape[0])), int(rng.integers(passable.shape[1])))
+        if not passable[start]:
+            continue
+        np.testing.assert_array_equal(
+            _bfs_distance(passable, start), _steps_by_search(passable, start)
+        )

@@ -15,6 +15,7 @@ from bayesmap.rover.safety import (
     footprint_safety,
     hazard_cells,
     predicted_centres,
+    predicted_points,
     reading_points,
     recent_track,
     retreat_command,
@@ -297,3 +298,16 @@ def test_each_distinct_point_of_the_paths_is_measured_once_with_the_same_verdict
         np.testing.assert_array_equal(
             safety.safe, (gap.min(axis=1) >= PARAMS.safety_margin) & allowed
         )
+
+
+def test_the_distinct_points_known_from_the_templates_give_back_every_sample() -> None:
+    """Each cycle's distinct path points come from the templates, without sorting; indexed
+    by their inverse they are every predicted sample, to the bit, the position first."""
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        pose = (float(rng.uniform(-30, 30)), float(rng.uniform(-30, 30)), float(rng.uniform(-7, 7)))
+        points, inverse = predicted_points(pose, THETA, PARAMS)
+        centres = predicted_centres(pose, THETA, PARAMS)
+        np.testing.assert_array_equal(points[inverse], centres)
+        assert (inverse[:, 0] == 0).all()
+        assert len(points) < centres.shape[0] * centres.shape[1] / 2

@@ -36,14 +36,14 @@ def local_patch(
     col0 = math.floor((x - radius - grid.origin[0]) / res)
     row0 = math.floor((y - radius - grid.origin[1]) / res)
     n = int(math.floor(2.0 * radius / res)) + 2
-    rows = np.arange(row0, row0 + n)
-    cols = np.arange(col0, col0 + n)
     values = np.full((n, n), fill)
     ny, nx = grid.shape
-    r_ok = (rows >= 0) & (rows < ny)
-    c_ok = (cols >= 0) & (cols < nx)
-    if r_ok.any() and c_ok.any():
-        values[np.ix_(r_ok, c_ok)] = layer[np.ix_(rows[r_ok], cols[c_ok])]
+    r_lo, r_hi = max(row0, 0), min(row0 + n, ny)
+    c_lo, c_hi = max(col0, 0), min(col0 + n, nx)
+    if r_lo < r_hi and c_lo < c_hi:
+        values[r_lo - row0 : r_hi - row0, c_lo - col0 : c_hi - col0] = layer[r_lo:r_hi, c_lo:c_hi]
+    rows = np.arange(row0, row0 + n)
+    cols = np.arange(col0, col0 + n)
     xc, yc = grid.cell_centers(rows[:, None], cols[None, :])
     return np.broadcast_to(xc, (n, n)), np.broadcast_to(yc, (n, n)), values
 

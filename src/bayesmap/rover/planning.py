@@ -20,9 +20,9 @@ Cost depends on ``d_max`` only, never on the size of the map.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -32,6 +32,7 @@ from skimage.graph import MCP_Geometric
 
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.grid import OccupancyGrid
+from bayesmap.grid.entropy import probability_at_entropy
 from bayesmap.rover.mapping import local_patch
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.safety import hazard_cells, square_distance
@@ -121,7 +122,7 @@ def crossing_costs(
     return np.asarray(costs)
 
 
-@dataclass
+@dataclasses.dataclass
 class LocalPlan:
     """Shortest path costs from the rover over the square of half-side ``d_max`` around it.
 
@@ -148,6 +149,14 @@ class LocalPlan:
         Patch indices of the rover's cell, where the paths begin.
     blocked
         ``(n, n)`` likely obstacles (``p >= p_block``), which block a line of sight.
+    terrain
+        ``(n, n)`` what the plan depends on, per cell (:func:`terrain_classes`): equal
+        terrain gives an equal plan.
+
+    A plan is reused for as long as the map around the rover gives the same one
+    (:func:`local_plan`), so each target's viewpoint and the path to it are worked out once
+    per plan, whichever of :meth:`waypoint`, :meth:`path_length` and :meth:`remaining`
+    asks first.
     """
 
     xc: FloatArray
@@ -161,7 +170,14 @@ class LocalPlan:
     costs: FloatArray
     start: tuple[int, int]
     blocked: BoolArray
+    terrain: npt.NDArray[np.int8]
     _solver: MCP_Geometric
+    _viewpoints: dict[tuple[float, float], tuple[int, int] | None] = dataclasses.field(
+        default_factory=dict, repr=False
+    )
+    _paths: dict[tuple[int, int], list[tuple[int, int]]] = dataclasses.field(
+        default_factory=dict, repr=False
+    )
 
     def _index(self, x: float, y: float) -> tuple[int, int] | None:
         i = int(math.floor((y - self.yc[0, 0]) / self.resolution + 0.5))
@@ -176,6 +192,19 @@ class LocalPlan:
         return math.nan if index is None else float(self.view[index])
 
     def _viewpoint(self, target: tuple[float, float]) -> tuple[int, int] | None:
+        """The patch cell the rover heads for on the way to ``target``, or ``None``
+        (:meth:`_find_viewpoint`, once per target and plan)."""
+        if target not in self._viewpoints:
+            self._viewpoints[target] = self._find_viewpoint(target)
+        return self._viewpoints[target]
+
+    def _path(self, index: tuple[int, int]) -> list[tuple[int, int]]:
+        """Patch cells of the shortest path from the rover's cell to ``index`` (once per plan)."""
+        if index not in self._paths:
+            self._paths[index] = [(int(i), int(j)) for i, j in self._solver.traceback(index)]
+        return self._paths[index]
+
+    def _find_viewpoint(self, target: tuple[float, float]) -> tuple[int, int] | None:
         """The patch cell the rover heads for on the way to ``target``, or ``None``.
 
         Inside the patch: the cheapest reachable cell within ``view_range`` of the target
@@ -208,7 +237,7 @@ class LocalPlan:
             return None
         if self._index(*target) is not None and self.cost[index] <= self.resolution:
             return target
-        path = self._solver.traceback(index)
+        path = self._path(index)
         lengths = np.array([self.cost[cell] for cell in path])
         ahead = int(np.searchsorted(lengths, _WAYPOINT_AHEAD))
         i, j = path[min(ahead, len(path) - 1)]
@@ -229,7 +258,7 @@ class LocalPlan:
         if index is None:
             return math.inf
         beyond = self._beyond(index, target)
-        steps = np.diff(np.asarray(self._solver.traceback(index), dtype=np.float64), axis=0)
+        steps = np.diff(np.asarray(self._path(index), dtype=np.float64), axis=0)
         return float(np.hypot(steps[:, 0], steps[:, 1]).sum()) * self.resolution + beyond
 
     def remaining(self, x: float, y: float, target: tuple[float, float]) -> float:
@@ -246,12 +275,35 @@ class LocalPlan:
         if index is None:
             return math.inf
         beyond = self._beyond(index, target)
-        path = self._solver.traceback(index)
+        path = self._path(index)
         if len(path) < 2:
             return beyond
         step = path[1]
         first = math.hypot(x - float(self.xc[step]), y - float(self.yc[step]))
         return first + float(self.cost[index] - self.cost[step]) + beyond
+
+
+def terrain_classes(
+    probability: FloatArray,
+    on_map: BoolArray,
+    avoid: FloatArray | None,
+    params: RoverParams,
+) -> npt.NDArray[np.int8]:
+    """Each cell's class in all that :func:`crossing_costs` and the line of sight read.
+
+    ``probability`` enters only through two thresholds (``p_block`` for likely obstacles
+    and the probability of entropy ``h_desired`` for doubtful ones,
+    :func:`~bayesmap.rover.safety.hazard_cells`), ``avoid`` through whether the rover was
+    hemmed in once or more often, and whether the cell is on the map. Classes: the
+    number of thresholds ``p`` reaches (0–2), 3 off the map, plus 4 per hemmed-in level.
+    """
+    p = np.asarray(probability)
+    level = (p >= probability_at_entropy(params.h_desired)).astype(np.int8)
+    level += p >= params.p_block
+    level[~on_map] = 3
+    if avoid is not None:
+        level += 4 * ((avoid >= 1).astype(np.int8) + (avoid >= 2))
+    return level
 
 
 def local_plan(
@@ -271,7 +323,9 @@ def local_plan(
     crossing cost are the same (the map changed only within its thresholds, or not at
     all, and the rover has not left its cell), it is returned as it is, since solving
     again would give the same plan. A rover pivoting or looking at a target from its
-    viewpoint re-plans only when its readings move a cell across a threshold.
+    viewpoint re-plans only when its readings move a cell across a threshold. Whether a
+    cell crossed a threshold is seen from the patch's :func:`terrain_classes` before any
+    crossing cost is worked out, so a cycle that keeps the plan costs a few comparisons.
     """
     xc, yc, prob = local_patch(grid, grid.probability, x, y, params.d_max, np.nan)
     on_map = np.isfinite(prob)
@@ -282,13 +336,18 @@ def local_plan(
     near_avoid = None
     if avoid is not None:
         near_avoid = local_patch(grid, avoid, x, y, params.d_max, 0.0)[2]
-    costs = crossing_costs(prob, on_map, params, grid.resolution, rover=(i0, j0), avoid=near_avoid)
+    terrain = terrain_classes(prob, on_map, near_avoid, params)
     rows0, cols0 = grid.world_to_cell(float(xc[0, 0]), float(yc[0, 0]))
-    if (
-        previous is not None
-        and (previous.row0, previous.col0, previous.start) == (int(rows0), int(cols0), (i0, j0))
-        and np.array_equal(previous.costs, costs)
-    ):
+    same_place = previous is not None and (previous.row0, previous.col0, previous.start) == (
+        int(rows0),
+        int(cols0),
+        (i0, j0),
+    )
+    if previous is not None and same_place and np.array_equal(previous.terrain, terrain):
+        return previous
+    costs = crossing_costs(prob, on_map, params, grid.resolution, rover=(i0, j0), avoid=near_avoid)
+    if previous is not None and same_place and np.array_equal(previous.costs, costs):
+        previous.terrain = terrain  # a class changed, no cost did: the same plan
         return previous
     solver = MCP_Geometric(costs, fully_connected=True)
     cumulative, _ = solver.find_costs([(i0, j0)])
@@ -307,16 +366,18 @@ def local_plan(
         costs,
         (i0, j0),
         blocked,
+        terrain,
         solver,
     )
 
 
-def _steps(di: int, dj: int) -> list[tuple[int, int]]:
+@functools.lru_cache(maxsize=1024)
+def _steps(di: int, dj: int) -> tuple[tuple[int, int], ...]:
     """Cell offsets strictly between ``(0, 0)`` and ``(di, dj)`` on the straight line
-    (sampled at a quarter cell)."""
+    (sampled at a quarter cell; shared, computed once per offset)."""
     n = 4 * max(abs(di), abs(dj))
     between = {(round(di * k / n), round(dj * k / n)) for k in range(1, n)}
-    return sorted(between - {(0, 0), (di, dj)})
+    return tuple(sorted(between - {(0, 0), (di, dj)}))
 
 
 def _sight(blocked: BoolArray, a: tuple[int, int], b: tuple[int, int]) -> bool:

@@ -45,7 +45,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 
-from bayesmap._typing import BoolArray, FloatArray
+from bayesmap._typing import BoolArray, FloatArray, IntArray
 from bayesmap.geometry import to_robot, to_world, wrap_angle
 from bayesmap.grid.entropy import probability_at_entropy
 from bayesmap.rover.params import RoverParams
@@ -122,6 +122,40 @@ def _path_templates(params: RoverParams) -> FloatArray:
     return paths
 
 
+@functools.lru_cache(maxsize=8)
+def _template_points(params: RoverParams) -> tuple[FloatArray, IntArray, IntArray]:
+    """The distinct points of each path template (:func:`_path_templates`), found once.
+
+    Returns ``(E, D, 2)`` each template's distinct points other than its start ``(0, 0)``
+    (padded), ``(E,)`` how many there are, and ``(E, K)`` for each sample its point: 0 for
+    the start, ``1 + j`` for distinct point ``j``. The centre stands still while the rover
+    pivots and after it has driven ``lookahead``, so most samples repeat.
+    """
+    templates = _path_templates(params)
+    found = []
+    for path in templates:
+        moved = (path != 0.0).any(axis=1)
+        points, inverse = np.unique(path[moved], axis=0, return_inverse=True)
+        sample = np.zeros(len(path), dtype=np.int64)
+        sample[moved] = inverse.ravel() + 1
+        found.append((points, sample))
+    counts = np.array([len(points) for points, _ in found], dtype=np.int64)
+    padded = np.zeros((len(found), int(counts.max(initial=0)), 2))
+    for e, (points, _) in enumerate(found):
+        padded[e, : len(points)] = points
+    samples = np.stack([sample for _, sample in found])
+    return padded, counts, samples
+
+
+def _template_index(
+    pose: tuple[float, float, float], headings: npt.ArrayLike, params: RoverParams
+) -> IntArray:
+    """Index of each heading's path template: its turning error rounded to 0.5°."""
+    theta = np.asarray(headings, dtype=np.float64).ravel()
+    error = wrap_angle(theta - pose[2])
+    return np.asarray(np.rint((error + math.pi) / _TEMPLATE_STEP).astype(np.int64))
+
+
 def predicted_centres(
     pose: tuple[float, float, float], headings: npt.ArrayLike, params: RoverParams
 ) -> FloatArray:
@@ -132,11 +166,49 @@ def predicted_centres(
     ``lookahead`` metres; the first sample is the current position. Turning errors are
     rounded to 0.5°.
     """
-    theta = np.asarray(headings, dtype=np.float64).ravel()
-    error = wrap_angle(theta - pose[2])
-    index = np.rint((error + math.pi) / _TEMPLATE_STEP).astype(np.int64)
-    local = _path_templates(params)[index]
+    local = _path_templates(params)[_template_index(pose, headings, params)]
     return to_world(pose, local)
+
+
+def predicted_points(
+    pose: tuple[float, float, float], headings: npt.ArrayLike, params: RoverParams
+) -> tuple[FloatArray, IntArray]:
+    """The points of :func:`predicted_centres` without repeats: ``(n, 2)`` points [m], the
+    current position first, and ``(M, K)`` the point of each sample.
+
+    Each path's repeats are known from its template (:func:`_template_points`), so no cycle
+    sorts its samples; a point two paths share is listed once per path.
+    """
+    index = _template_index(pose, headings, params)
+    local, inverse = _paths_points(params, tuple(index.tolist()))
+    return to_world(pose, local), inverse
+
+
+@functools.lru_cache(maxsize=2048)
+def _paths_points(params: RoverParams, index: tuple[int, ...]) -> tuple[FloatArray, IntArray]:
+    """The rover-frame points and sample inverse of :func:`predicted_points` for the
+    templates ``index`` (read-only: the headings' templates repeat from cycle to cycle)."""
+    padded, counts, samples = _template_points(params)
+    chosen = np.asarray(index, dtype=np.int64)
+    count = counts[chosen]
+    listed = np.arange(padded.shape[1]) < count[:, None]
+    local = np.concatenate([np.zeros((1, 2)), padded[chosen][listed]])
+    offset = np.concatenate([[0], np.cumsum(count)[:-1]])
+    sample = samples[chosen]
+    inverse = np.asarray(np.where(sample == 0, 0, sample + offset[:, None]))
+    local.flags.writeable = False
+    inverse.flags.writeable = False
+    return local, inverse
+
+
+def shared_start_points(centres: FloatArray) -> tuple[FloatArray, IntArray]:
+    """``(M, K, 2)`` paths that all start at one point as ``(n, 2)`` points, the start listed
+    once, and ``(M, K)`` the point of each sample (the rest listed as they are)."""
+    m, k = centres.shape[:2]
+    points = np.concatenate([centres[0, :1], centres[:, 1:].reshape(-1, 2)])
+    inverse = np.zeros((m, k), dtype=np.int64)
+    inverse[:, 1:] = np.arange(1, m * (k - 1) + 1).reshape(m, k - 1)
+    return points, inverse
 
 
 def square_distance(
@@ -265,7 +337,7 @@ def footprint_safety(
         extent=extent,
         radius=params.footprint_radius,
     )
-    gap, clearance, allowed = check(predicted_centres(pose, headings, params))
+    gap, clearance, allowed = check(*predicted_points(pose, headings, params))
     here = float(gap[0, 0])
     safe = (clearance >= params.safety_margin) & allowed
     # Hemmed in (inside the margin, no heading keeps it): a retreat pivots onto a heading,
@@ -274,7 +346,8 @@ def footprint_safety(
     # never brings the body closer to a hazard than it is now.
     retreat = here < params.safety_margin and not safe.any()
     if retreat:
-        _, clearance, allowed = check(straight_centres(pose, headings, params))
+        straight = straight_centres(pose, headings, params)
+        _, clearance, allowed = check(*shared_start_points(straight))
         safe = (clearance >= here - _ROUNDING) & allowed
     points = np.concatenate([cells, hits])
     ahead = False
@@ -313,12 +386,19 @@ def recent_track(commands: Sequence[tuple[float, float]], params: RoverParams) -
                 psi -= w * h
                 continue
             turn = -w * h
-            chord = -v * h * float(np.sinc(turn / (2.0 * math.pi)))
+            chord = -v * h * _sinc(turn / (2.0 * math.pi))
             x += chord * math.cos(psi + turn / 2.0)
             y += chord * math.sin(psi + turn / 2.0)
             psi += turn
             points.append((x, y))
     return np.asarray(points, dtype=np.float64)
+
+
+def _sinc(x: float) -> float:
+    """``numpy.sinc`` of one float, by the same formula (so to the last bit), without the
+    cost of an array call: ``sin(pi x) / (pi x)``, with ``x = 0`` taken as ``1e-20``."""
+    y = math.pi * (x if x != 0.0 else 1.0e-20)
+    return math.sin(y) / y
 
 
 def back_off_on_track(track: FloatArray, hits: FloatArray, params: RoverParams) -> bool:
@@ -368,8 +448,25 @@ def straight_centres(
     return np.stack([x, y], axis=-1)
 
 
+def least_hypot(dx: FloatArray, dy: FloatArray) -> FloatArray:
+    """``np.hypot(dx, dy).min(axis=1)`` for ``(n, m)`` arrays (``m >= 1``), to the bit.
+
+    ``hypot`` is the costly part, so it is taken only where the squared length is within a
+    relative 1e-9 of its row's least: a pair outside that margin is longer than the
+    shortest by far more than ``hypot``'s rounding, so the row's minimum is among those
+    taken.
+    """
+    squared = dx * dx + dy * dy
+    bound = squared.min(axis=1, keepdims=True) * (1.0 + 1e-9) + 1e-300
+    rows, cols = np.nonzero(squared <= bound)
+    lengths = np.hypot(dx[rows, cols], dy[rows, cols])
+    starts = np.flatnonzero(np.concatenate([[True], rows[1:] != rows[:-1]]))
+    return np.asarray(np.minimum.reduceat(lengths, starts))
+
+
 def _swept_clearance(
-    centres: FloatArray,
+    points: FloatArray,
+    inverse: IntArray,
     *,
     cells: FloatArray,
     hits: FloatArray,
@@ -378,28 +475,29 @@ def _swept_clearance(
     extent: tuple[float, float, float, float],
     radius: float,
 ) -> tuple[FloatArray, FloatArray, BoolArray]:
-    """Gap [m] between the footprint and the nearest hazard at every ``(M, K)`` centre, its
-    minimum along each path, and whether a path stays on the map as far as it starts and
-    off cells never observed (unless already beneath the body)."""
-    # The centre stands still while the rover pivots and after it has driven ``lookahead``,
-    # so most samples repeat: distances are measured once per distinct point (an exact
-    # saving of about 60 % of the work) and spread back over the paths.
-    points, inverse = np.unique(centres.reshape(-1, 2), axis=0, return_inverse=True)
+    """Gap [m] between the footprint and the nearest hazard at every ``(M, K)`` sample of the
+    paths, its minimum along each path, and whether a path stays on the map as far as it
+    starts and off cells never observed (unless already beneath the body).
+
+    The paths are given as their distinct ``points`` and the ``inverse`` ``(M, K)`` point of
+    each sample (:func:`predicted_points`, :func:`shared_start_points`; most samples repeat), so
+    each distance is measured once per point and spread back over the paths. The first
+    sample of every path is the rover's position.
+    """
     px, py = points[:, 0:1], points[:, 1:2]
     gaps = [np.full(len(points), np.inf)]
     if cells.size:
         gaps.append(square_distance(px, py, cells[:, 0], cells[:, 1], resolution / 2).min(axis=-1))
     if hits.size:
-        gaps.append(np.hypot(px - hits[:, 0], py - hits[:, 1]).min(axis=-1))
-    gap = (np.minimum.reduce(gaps) - radius)[inverse.ravel()].reshape(centres.shape[:2])
-    outside = outside_distance(centres[..., 0], centres[..., 1], extent)
+        gaps.append(least_hypot(px - hits[:, 0], py - hits[:, 1]))
+    gap = (np.minimum.reduce(gaps) - radius)[inverse]
+    outside = outside_distance(points[:, 0], points[:, 1], extent)[inverse]
     allowed = ~(outside > outside[:, :1] + 1e-9).any(axis=1)
     if unknown.size:
         distance = square_distance(px, py, unknown[:, 0], unknown[:, 1], resolution / 2)
-        start = inverse.ravel()[0]
-        under = distance[start] < radius  # already beneath the body
-        unseen = ((distance < radius) & ~under).any(axis=1)[inverse.ravel()]
-        allowed &= ~unseen.reshape(centres.shape[:2])[:, 1:].any(axis=1)
+        under = distance[inverse[0, 0]] < radius  # already beneath the body
+        unseen = ((distance < radius) & ~under).any(axis=1)[inverse]
+        allowed &= ~unseen[:, 1:].any(axis=1)
     return np.asarray(gap), np.asarray(gap.min(axis=1)), np.asarray(allowed)
 
 

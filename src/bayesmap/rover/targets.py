@@ -8,12 +8,12 @@ the rover cannot reach.
 from __future__ import annotations
 
 import math
-from collections import deque
 from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
+from scipy import ndimage, sparse
+from scipy.sparse import csgraph
 
 from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.decisions import exploration_target
@@ -342,7 +342,10 @@ def _bfs_distance(
 ) -> npt.NDArray[np.float64]:
     """Grid steps (4-connected) from ``start`` through ``passable`` cells; ``inf`` if unreachable.
 
-    A start off the map or on an impassable cell begins from the nearest passable cell.
+    A start off the map or on an impassable cell begins from the nearest passable cell. The
+    breadth-first search runs in :func:`scipy.sparse.csgraph.shortest_path` (unweighted)
+    over the graph of neighbouring passable cells: the same step counts as a search cell by
+    cell in Python, at a fraction of the cost on a whole map.
     """
     ny, nx = passable.shape
     distance = np.full(passable.shape, np.inf)
@@ -354,13 +357,11 @@ def _bfs_distance(
             return distance
         k = int(np.argmin(np.hypot(rows - r0, cols - c0)))
         r0, c0 = int(rows[k]), int(cols[k])
-    distance[r0, c0] = 0.0
-    queue = deque([(r0, c0)])
-    while queue:
-        r, c = queue.popleft()
-        step = distance[r, c] + 1.0
-        for rr, cc in ((r + 1, c), (r - 1, c), (r, c + 1), (r, c - 1)):
-            if 0 <= rr < ny and 0 <= cc < nx and passable[rr, cc] and distance[rr, cc] == np.inf:
-                distance[rr, cc] = step
-                queue.append((rr, cc))
-    return distance
+    index = np.arange(ny * nx).reshape(ny, nx)
+    across = passable[:, :-1] & passable[:, 1:]
+    along = passable[:-1, :] & passable[1:, :]
+    tail = np.concatenate([index[:, :-1][across], index[:-1, :][along]])
+    head = np.concatenate([index[:, 1:][across], index[1:, :][along]])
+    graph = sparse.csr_array((np.ones(tail.size), (tail, head)), shape=(ny * nx, ny * nx))
+    steps = csgraph.shortest_path(graph, directed=False, unweighted=True, indices=r0 * nx + c0)
+    return np.asarray(steps, dtype=np.float64).reshape(ny, nx)
