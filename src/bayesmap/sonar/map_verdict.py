@@ -145,10 +145,6 @@ def first_surface(
     return found
 
 
-def _surface_distance(probability: Grid, grid: OccupancyGrid, confidence: float) -> Grid:
-    return clearance(probability > confidence, grid)
-
-
 def judge_by_map(
     probability: Grid,
     grid: OccupancyGrid,
@@ -195,43 +191,30 @@ def judge_by_map(
     echo = geometry.echo(r)
     half = geometry.beam_width / 2.0
     silent = ~echo & (why != Stage.ACCEPTABILITY) & (why != Stage.AGREEABILITY)
+
+    def surface_met(
+        confidence: float, which: BoolArray, reach: FloatArray, width: float
+    ) -> BoolArray:
+        """Whether a cell above ``confidence`` lies in each chosen cone within ``reach``."""
+        free_distance = clearance(probability > confidence, grid)
+        found = first_surface(free_distance, grid, centres[which], axis[which], reach, width)
+        return np.asarray(np.isfinite(found))
+
     if np.any(silent):
-        reach = max(geometry.max_range - verdict.silence_margin, 0.0)
-        lost = np.isfinite(
-            first_surface(
-                _surface_distance(probability, grid, verdict.silence_confidence),
-                grid,
-                centres[silent],
-                axis[silent],
-                np.full(int(silent.sum()), reach),
-                verdict.silence_width * half,
-            )
+        within = np.full(int(silent.sum()), geometry.max_range)
+        lost = surface_met(
+            verdict.silence_confidence,
+            silent,
+            np.maximum(within - verdict.silence_margin, 0.0),
+            verdict.silence_width * half,
         )
-        open_space = ~np.isfinite(
-            first_surface(
-                _surface_distance(probability, grid, verdict.open_confidence),
-                grid,
-                centres[silent],
-                axis[silent],
-                np.full(int(silent.sum()), geometry.max_range),
-                half,
-            )
-        )
+        open_space = ~surface_met(verdict.open_confidence, silent, within, half)
         ok[silent] = np.where(lost, False, np.where(open_space, True, ok[silent]))
         why[silent] = np.where(
             lost, int(Stage.MAP_VERDICT), np.where(open_space, int(Stage.ACCEPTED), why[silent])
         )
     if np.any(echo):
-        blocked = np.isfinite(
-            first_surface(
-                _surface_distance(probability, grid, verdict.echo_confidence),
-                grid,
-                centres[echo],
-                axis[echo],
-                r[echo] - verdict.echo_margin,
-                half,
-            )
-        )
+        blocked = surface_met(verdict.echo_confidence, echo, r[echo] - verdict.echo_margin, half)
         clear = np.flatnonzero(echo)[~blocked]
         ok[clear] = True
         why[clear] = int(Stage.ACCEPTED)
