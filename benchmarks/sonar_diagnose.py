@@ -22,6 +22,13 @@ map, fed by an oracle that rejects exactly the readings the simulator labels spe
 in a second pair, the echoes from people too), and prints κ beside the default pipeline's
 and the baseline's own.
 
+``python benchmarks/sonar_diagnose.py verdict WORLDS SEEDS`` learns the thresholds of the
+map's verdict (:class:`~bayesmap.sonar.map_verdict.MapVerdict`): it maps one log per world
+and seed with the default pipeline's filter and streaming map, then judges the rings again
+by that map under each setting, by coordinate ascent from the shipped settings over a small
+grid (two rounds), maximising the worst log's min(rejection precision, recall) — the target
+holds in every world —, ties broken by the mean over logs; it prints every step.
+
 ``python benchmarks/sonar_diagnose.py speed WORLDS SEED`` times the default and the
 forward pipeline (filter and map, CPU seconds) on one log per world and prints readings per
 CPU second with the load average (a loaded machine inflates CPU time too).
@@ -57,6 +64,7 @@ from bayesmap.sim.polygons import world  # noqa: E402
 from bayesmap.sim.sonar import EchoKind, cast_rays  # noqa: E402
 from bayesmap.sim.sonar_log import simulate_log  # noqa: E402
 from bayesmap.sonar.filter import RingVerdict, Stage  # noqa: E402
+from bayesmap.sonar.map_verdict import MapVerdict, judge_by_map  # noqa: E402
 from bayesmap.sonar.pipeline import PIPELINES, build_map, grid_for_poses, map_log  # noqa: E402
 
 BASELINE = "elfes-ignore-no-echo"
@@ -72,6 +80,14 @@ def _variants(spec: str) -> dict[str, object]:
             kw[key] = value if key == "no_echo" else float(value)
         if kw.pop("nofilt", 0):
             kw.update(acceptability=False, agreeability=False, trait_verification=False)
+        # ``verdict=0`` drops the map's verdict; ``verdict.NAME=VALUE`` sets one threshold.
+        verdict = {k.removeprefix("verdict."): v for k, v in kw.items() if k.startswith("verdict")}
+        kw = {k: v for k, v in kw.items() if not k.startswith("verdict")}
+        base_verdict = PIPELINES["default"].map_verdict
+        if verdict.pop("verdict", 1) == 0:
+            kw["map_verdict"] = None
+        elif verdict and base_verdict is not None:
+            kw["map_verdict"] = dataclasses.replace(base_verdict, **verdict)  # type: ignore[arg-type]
         # ``filter.NAME=VALUE`` sets a SpecularFilter option on top of the default's.
         base = PIPELINES["default"]
         extra = {k.removeprefix("filter."): v for k, v in kw.items() if k.startswith("filter.")}
@@ -224,6 +240,93 @@ def ceiling(worlds: str, seeds: str) -> None:
             print(f"{name} seed {seed}: κ " + "; ".join(line), flush=True)
 
 
+VERDICT_GRID: dict[str, list[float]] = {
+    "silence_confidence": [0.9, 0.95, 0.97, 0.99],
+    "silence_width": [0.25, 0.5, 1.0],
+    "silence_margin": [0.0, 0.3, 0.5],
+    "open_confidence": [0.5, 0.6, 0.7, 0.9],
+    "echo_confidence": [0.5, 0.7, 0.9],
+    "echo_margin": [0.4, 0.8, 1.2],
+}
+
+
+def verdict(worlds: str, seeds: str) -> None:
+    """Learn the map's verdict by coordinate ascent on one log per world and seed."""
+    config = Config()
+    ring = make_ring(config)
+    geometry = ring_geometry(ring)
+    pipeline = dataclasses.replace(PIPELINES["default"], map_verdict=None)
+    cases = []
+    for name in worlds.split(","):
+        for seed in (int(s) for s in seeds.split(",")):
+            log = simulate_log(world(name), ring, config.realism, rng=np.random.default_rng(seed))
+            grid = grid_for_poses(log.odometry, ring.max_range + 1.0, config.resolution)
+            mapper = pipeline.make_mapper(grid, geometry)
+            run = map_log(
+                log.odometry,
+                log.ranges,
+                mapper,
+                pipeline.make_filter(geometry),
+                merge_repeats=pipeline.merge_repeats,
+            )
+            fresh = ~run.repeat
+            last = np.maximum.accumulate(np.where(fresh, np.arange(len(fresh)), 0))
+            cases.append((f"{name} {seed}", mapper, log, run, fresh, last))
+
+    def score(setting: dict[str, float]) -> tuple[float, float, list[str]]:
+        judged = MapVerdict(**setting)  # type: ignore[arg-type]
+        mins, shown = [], []
+        for label, mapper, log, run, fresh, last in cases:
+            accepted = run.accepted.copy()
+            accepted[fresh], _ = judge_by_map(
+                mapper.probability(),
+                mapper.grid,
+                geometry,
+                log.odometry[fresh],
+                log.ranges[fresh],
+                run.accepted[fresh],
+                run.stage[fresh],
+                judged,
+            )
+            rejected = ~accepted[last]
+            hits = int((rejected & log.specular).sum())
+            precision = hits / max(int(rejected.sum()), 1)
+            recall = hits / max(int(log.specular.sum()), 1)
+            mins.append(min(precision, recall))
+            shown.append(f"{label} {precision:.2f}/{recall:.2f}")
+        return min(mins), float(np.mean(mins)), shown
+
+    base = MapVerdict()
+    setting = {key: float(getattr(base, key)) for key in VERDICT_GRID}
+    best = score(setting)
+    print(f"start {setting}: worst {best[0]:.3f}, mean {best[1]:.3f}", flush=True)
+    for round_ in (1, 2):
+        for key, values in VERDICT_GRID.items():
+            for value in values:
+                if value == setting[key]:
+                    continue
+                trial = score({**setting, key: value})
+                print(f"round {round_} {key} = {value}: worst {trial[0]:.3f}, mean {trial[1]:.3f}")
+                if trial[:2] > best[:2]:
+                    best, setting = trial, {**setting, key: value}
+            print(f"  -> {key} = {setting[key]}", flush=True)
+    print(f"chosen {setting}: worst {best[0]:.3f}, mean {best[1]:.3f}")
+    print("; ".join(best[2]))
+    print("filter alone: " + "; ".join(_filter_alone(cases)))
+
+
+def _filter_alone(cases: list) -> list[str]:
+    shown = []
+    for label, _, log, run, _, _ in cases:
+        rejected = ~run.accepted
+        hits = int((rejected & log.specular).sum())
+        shown.append(
+            f"{label} {hits / max(int(rejected.sum()), 1):.2f}/"
+            f"{hits / max(int(log.specular.sum()), 1):.2f}"
+        )
+    return shown
+
+
 def speed(worlds: str, seed: str) -> None:
     """Print readings per CPU second of the default and the forward pipeline, and the load."""
     config = Config()
@@ -253,6 +356,8 @@ def main(argv: list[str]) -> None:
         ceiling(argv[1], argv[2])
     elif len(argv) == 3 and argv[0] == "labels":
         labels(argv[1], argv[2])
+    elif len(argv) == 3 and argv[0] == "verdict":
+        verdict(argv[1], argv[2])
     elif len(argv) == 3 and argv[0] == "speed":
         speed(argv[1], argv[2])
     else:

@@ -46,7 +46,12 @@ def test_map_writes_png_ros_map_and_summary(tmp_path: Path) -> None:
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["rows"] == 146 and summary["rows_skipped"] == 4
     assert summary["readings"] == (146 - 4) * 16
-    assert set(summary["rejected"]) == {"acceptability", "agreeability", "trait_verification"}
+    assert set(summary["rejected"]) == {
+        "acceptability",
+        "agreeability",
+        "trait_verification",
+        "map_verdict",
+    }
     assert sum(summary["rejected"].values()) > 0
     assert [row["line"] for row in summary["skipped"]] == [13, 21, 31, 41]
     assert (tmp_path / "map.png").stat().st_size > 1000

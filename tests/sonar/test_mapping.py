@@ -1,4 +1,4 @@
-"""Tests of the forward-model refinement of the eq. 1 map and of judging silences by the map."""
+"""Tests of the forward-model refinement of the eq. 1 map and of the map's verdict."""
 
 from __future__ import annotations
 
@@ -8,11 +8,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bayesmap.errors import ConfigError
+from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
 from bayesmap.sonar.filter import RingVerdict, Stage
 from bayesmap.sonar.geometry import SonarGeometry
-from bayesmap.sonar.mapping import ElfesMapper, surface_in_cone
+from bayesmap.sonar.map_verdict import MapVerdict, clearance, first_surface, judge_by_map
+from bayesmap.sonar.mapping import ElfesMapper
 from bayesmap.sonar.pipeline import PIPELINES, map_log
 
 FRONT_AND_BACK = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
@@ -123,21 +124,78 @@ def test_bad_refinement_settings_are_refused(bad: dict[str, float]) -> None:
         ElfesMapper(_grid(), FRONT_AND_BACK, **bad)  # type: ignore[arg-type]
 
 
-def test_a_cone_meets_a_held_surface_only_where_one_is() -> None:
+def test_the_first_surface_is_found_only_inside_the_cone_and_within_reach() -> None:
     grid = _grid()
     occupied = np.zeros(grid.shape, dtype=bool)
-    occupied[grid.world_to_cell(3.0, 0.5)] = True  # 9.5° off the +x axis, inside a 25° cone
-    centres = np.zeros((3, 2))
-    axis = np.array([0.0, math.pi, 0.0])
-    reach = np.array([5.0, 5.0, 2.5])
-    half = math.radians(12.5)
+    occupied[grid.world_to_cell(3.0, 0.5)] = True  # 9.5° off the +x axis, 3.04 m away
+    occupied[grid.world_to_cell(4.5, 0.0)] = True  # on the axis, 4.5 m away
+    free_distance = clearance(occupied, grid)
+    centres = np.zeros((4, 2))
+    axis = np.array([0.0, math.pi, 0.0, 0.0])
+    reach = np.array([5.0, 5.0, 2.5, 5.0])
+    half = np.radians([12.5, 12.5, 12.5, 4.0])
     found = [
-        bool(
-            surface_in_cone(occupied, grid, centres[i : i + 1], axis[i : i + 1], reach[i], half)[0]
-        )
-        for i in range(3)
+        first_surface(
+            free_distance, grid, centres[i : i + 1], axis[i : i + 1], reach[i : i + 1], half[i]
+        )[0]
+        for i in range(4)
     ]
-    assert found == [True, False, False]
+    assert 2.9 <= found[0] <= 3.25  # to within a cell or two
+    assert found[1] == np.inf and found[2] == np.inf  # behind the transducer; beyond the reach
+    assert 4.3 <= found[3] <= 4.65  # a narrower cone passes the point 9.5° off
+
+
+def _wall_ahead() -> tuple[OccupancyGrid, np.ndarray]:
+    """A grid holding a wall 3 m in front of the origin (+x) and nothing behind it."""
+    grid = _grid()
+    probability = np.full(grid.shape, 0.5)
+    rows, cols = grid.world_to_cell(np.full(9, 3.0), np.linspace(-0.4, 0.4, 9))
+    probability[rows, cols] = 0.999
+    return grid, probability
+
+
+def test_the_map_rejects_silences_facing_a_wall_it_is_sure_of_and_keeps_the_rest() -> None:
+    grid, probability = _wall_ahead()
+    poses = np.zeros((3, 3))
+    ranges = np.array([[6.0, 6.0], [6.0, 6.0], [2.0, 6.0]])
+    accepted = np.array([[True, False], [False, False], [False, True]])
+    stage = np.where(accepted, int(Stage.ACCEPTED), int(Stage.TRAIT_VERIFICATION))
+    stage[1, 0] = int(Stage.AGREEABILITY)  # the bottom-up stages' rejections stand
+    ok, why = judge_by_map(
+        probability, grid, FRONT_AND_BACK, poses, ranges, accepted, stage, MapVerdict()
+    )
+    # Facing the wall, silent: a lost echo; facing nothing, silent: open space.
+    assert not ok[0, 0] and why[0, 0] == Stage.MAP_VERDICT
+    assert ok[0, 1] and why[0, 1] == Stage.ACCEPTED and ok[1, 1]
+    assert not ok[1, 0] and why[1, 0] == Stage.AGREEABILITY
+    # An echo before the wall has nothing in its way: kept although the filter rejected it.
+    assert ok[2, 0] and why[2, 0] == Stage.ACCEPTED
+
+
+def test_an_echo_beyond_a_wall_the_map_is_sure_of_keeps_the_filters_verdict() -> None:
+    grid, probability = _wall_ahead()
+    ranges = np.array([[4.5, 6.0], [4.5, 6.0]])  # 1.5 m beyond the wall: a bounce
+    accepted = np.array([[False, True], [True, True]])
+    stage = np.where(accepted, int(Stage.ACCEPTED), int(Stage.TRAIT_VERIFICATION))
+    ok, why = judge_by_map(
+        probability, grid, FRONT_AND_BACK, np.zeros((2, 3)), ranges, accepted, stage, MapVerdict()
+    )
+    assert ok[:, 0].tolist() == [False, True]
+    assert why[0, 0] == Stage.TRAIT_VERIFICATION
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"silence_confidence": 0.3},
+        {"echo_confidence": 1.0},
+        {"silence_width": 0.0},
+        {"echo_margin": -0.1},
+    ],
+)
+def test_bad_map_verdict_settings_are_refused(bad: dict[str, float]) -> None:
+    with pytest.raises(ConfigError, match="map verdict"):
+        MapVerdict(**bad)  # type: ignore[arg-type]
 
 
 class _RejectEverySilence:
@@ -153,15 +211,45 @@ class _RejectEverySilence:
         )
 
 
-def test_silences_judged_by_the_map_are_kept_where_it_holds_nothing() -> None:
-    mapper = ElfesMapper(_grid(), FRONT_AND_BACK, no_echo="clear", clear_distance=1.0)
-    poses = np.zeros((4, 3))
-    ranges = np.array([[2.0, 6.0]] * 2 + [[6.0, 6.0]] * 2)  # a wall ahead, then silence
-    run = map_log(poses, ranges, mapper, _RejectEverySilence(), silences_by_map=True)  # type: ignore[arg-type]
-    # One batch: the map before it is empty, so no silence is explained by a surface.
-    assert run.accepted[:, 1].all() and run.accepted[2:, 0].all()
-    assert (run.stage == Stage.ACCEPTED).all()
-    ahead = mapper.surface_ahead(poses[2:], ranges[2:])
-    assert ahead[:, 0].all() and not ahead[:, 1].any()  # now the wall ahead is held
-    plain = map_log(poses, ranges, ElfesMapper(_grid(), FRONT_AND_BACK), _RejectEverySilence())  # type: ignore[arg-type]
-    assert not plain.accepted[:, 1].any()
+_CREEPING = np.c_[np.linspace(0.0, 0.11, 12), np.zeros((12, 2))]  # no ring repeats another
+_WALL_THEN_SILENCE = np.array([[2.0, 6.0]] * 8 + [[6.0, 6.0]] * 4)
+
+
+def _judged_log(verdict: MapVerdict | None) -> tuple[ElfesMapper, object]:
+    mapper = ElfesMapper(
+        _grid(), FRONT_AND_BACK, no_echo="clear", clear_distance=1.0, forward_sweeps=1
+    )
+    run = map_log(
+        _CREEPING,
+        _WALL_THEN_SILENCE,
+        mapper,
+        _RejectEverySilence(),  # type: ignore[arg-type]
+        map_verdict=verdict,
+    )
+    return mapper, run
+
+
+def test_map_log_judges_every_ring_by_the_map_the_pass_ended_with() -> None:
+    mapper, run = _judged_log(MapVerdict(silence_confidence=0.9, remap=False))
+    accepted, stage = run.accepted, run.stage  # type: ignore[attr-defined]
+    # The silences facing the wall the echoes built lost their echo; those behind saw nothing.
+    assert not accepted[8:, 0].any() and (stage[8:, 0] == Stage.MAP_VERDICT).all()
+    assert accepted[:, 1].all() and accepted[:8, 0].all()
+    # Without remap the verdict only labels the readings: the map is the filter's.
+    plain, _ = _judged_log(None)
+    assert np.array_equal(mapper.probability(), plain.probability())
+
+
+def test_with_remap_the_sweep_maps_the_readings_the_map_kept() -> None:
+    remapped, _ = _judged_log(MapVerdict(silence_confidence=0.9, remap=True))
+    labelled, _ = _judged_log(MapVerdict(silence_confidence=0.9, remap=False))
+    behind = remapped.grid.world_to_cell(-0.8, 0.0)  # only the kept rear silences clear it
+    assert labelled.probability()[behind] == 0.5
+    assert remapped.probability()[behind] < 0.5
+
+
+def test_remask_refuses_a_mask_of_the_wrong_shape() -> None:
+    mapper = ElfesMapper(_grid(), FRONT_AND_BACK, forward_sweeps=1)
+    mapper.integrate([0.0, 0.0, 0.0], [2.0, 6.0])
+    with pytest.raises(InputError, match="stored rings"):
+        mapper.remask(np.ones((2, 2), dtype=bool))

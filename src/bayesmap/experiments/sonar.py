@@ -238,7 +238,7 @@ def score_world(
             mapper,
             pipeline.make_filter(geometry),
             merge_repeats=pipeline.merge_repeats,
-            silences_by_map=pipeline.silences_by_map and pipeline.filtered,
+            map_verdict=pipeline.map_verdict if pipeline.filtered else None,
         )
         probability = mapper.probability()
         observed = mapper.observed()

@@ -4,6 +4,7 @@
 - :mod:`~bayesmap.sonar.traits`, :mod:`~bayesmap.sonar.verification`: traits, Trait Verification;
 - :mod:`~bayesmap.sonar.filter`: :class:`SpecularFilter`, the three stages as one stateful object;
 - :mod:`~bayesmap.sonar.mapping`: grid mappers (eq. 1 cone model, Thrun ±0.4, ROS range layer);
+- :mod:`~bayesmap.sonar.map_verdict`: the map's verdict on each reading after the pass;
 - :mod:`~bayesmap.sonar.logs`: real plain-text logs; :mod:`~bayesmap.sonar.pipeline`: log → map.
 
 See docs/sonar.md for every choice that fills the fragment's gaps.
@@ -24,6 +25,7 @@ if TYPE_CHECKING:
         filter,
         geometry,
         logs,
+        map_verdict,
         mapping,
         pipeline,
         ring,
@@ -35,6 +37,7 @@ if TYPE_CHECKING:
     from bayesmap.sonar.filter import Rejection, RingVerdict, SpecularFilter
     from bayesmap.sonar.geometry import SonarGeometry
     from bayesmap.sonar.logs import SonarLog, read_sonar_log, write_sonar_log
+    from bayesmap.sonar.map_verdict import MapVerdict
     from bayesmap.sonar.mapping import ElfesMapper, NoEcho, RosRangeLayerMapper, ThrunMapper
     from bayesmap.sonar.pipeline import DEFAULT_PIPELINE, PIPELINES, Pipeline, build_map, map_log
     from bayesmap.sonar.ring import load_ring, preset
@@ -43,6 +46,7 @@ if TYPE_CHECKING:
 _EXPORTS = {
     "DEFAULT_PIPELINE": "pipeline",
     "ElfesMapper": "mapping",
+    "MapVerdict": "map_verdict",
     "NoEcho": "mapping",
     "PIPELINES": "pipeline",
     "Pipeline": "pipeline",
@@ -64,6 +68,7 @@ _EXPORTS = {
     "load_ring": "ring",
     "logs": "logs",
     "map_log": "pipeline",
+    "map_verdict": "map_verdict",
     "mapping": "mapping",
     "pipeline": "pipeline",
     "preset": "ring",
@@ -79,6 +84,7 @@ __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 __all__ = [
     "DEFAULT_PIPELINE",
     "ElfesMapper",
+    "MapVerdict",
     "NoEcho",
     "PIPELINES",
     "Pipeline",
@@ -100,6 +106,7 @@ __all__ = [
     "load_ring",
     "logs",
     "map_log",
+    "map_verdict",
     "mapping",
     "pipeline",
     "preset",

@@ -45,6 +45,8 @@ class Stage(IntEnum):
     ACCEPTABILITY = 1
     AGREEABILITY = 2
     TRAIT_VERIFICATION = 3
+    MAP_VERDICT = 4
+    """After the pass, by the map of the whole log (:mod:`bayesmap.sonar.map_verdict`)."""
 
 
 _STAGE_REASONS = {
@@ -276,7 +278,9 @@ class SpecularFilter:
         self.l_passes_: IntArray = np.zeros(0, dtype=np.int64)
         self.rejections_: list[Rejection] = []
         self.counts_: dict[str, int] = {
-            stage.name.lower(): 0 for stage in Stage if stage != Stage.ACCEPTED
+            stage.name.lower(): 0
+            for stage in Stage
+            if stage not in (Stage.ACCEPTED, Stage.MAP_VERDICT)
         }
 
     @property

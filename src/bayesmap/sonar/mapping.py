@@ -17,14 +17,14 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._typing import BoolArray, FloatArray, Grid
+from bayesmap._typing import FloatArray, Grid
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid, Window
 from bayesmap.sensing.sonar import elfes_inverse_model, log_odds
 from bayesmap.sensing.sonar_baselines import ros_bayes_update, ros_sensor_model, thrun_inverse_model
 from bayesmap.sonar.geometry import ConeCells, SonarGeometry, cone_cells
 
-__all__ = ["ElfesMapper", "NoEcho", "RosRangeLayerMapper", "ThrunMapper", "surface_in_cone"]
+__all__ = ["ElfesMapper", "NoEcho", "RosRangeLayerMapper", "ThrunMapper"]
 
 NoEcho = Literal["cone", "clear", "ignore"]
 """How a mapper treats a no-echo reading (see :class:`ElfesMapper`)."""
@@ -305,29 +305,6 @@ class _LogOddsMapper(_ConeMapper):
         inside &= (rows >= 0) & (rows < ny) & (cols >= 0) & (cols < nx)
         return rows, cols, inside
 
-    def surface_ahead(self, poses: npt.ArrayLike, ranges: npt.ArrayLike) -> BoolArray:
-        """Which silent readings of ``m`` rings the map says should have met a surface.
-
-        Returns ``(m, n)``: ``True`` for a no-echo reading whose cone, cast on the map as it
-        stands (:func:`surface_in_cone`), meets a cell held occupied (log-odds above the
-        prior) within the max range; such a silence lost its echo (specular). Echoes and
-        silences whose cone the map holds free or unknown are ``False``.
-        """
-        r = np.asarray(ranges, dtype=np.float64)
-        centres, axis = self.geometry.sensors_many(np.asarray(poses, dtype=np.float64))
-        silent = ~self.geometry.echo(r)
-        out = np.zeros(r.shape, dtype=bool)
-        if np.any(silent):
-            out[silent] = surface_in_cone(
-                self.log_odds_ > self.prior_log_odds,
-                self.grid,
-                centres[silent],
-                axis[silent],
-                self.geometry.max_range,
-                self.geometry.beam_width / 2.0,
-            )
-        return out
-
     def probability(self) -> Grid:
         """``(ny, nx)`` occupancy probability of each cell."""
         return np.asarray(1.0 / (1.0 + np.exp(-self.log_odds_)))
@@ -341,38 +318,6 @@ class _LogOddsMapper(_ConeMapper):
         ny, nx = self.grid.shape
         self.grid.set_probability(Window(0, ny, 0, nx), self.probability())
         return self.grid
-
-
-def surface_in_cone(
-    occupied: np.ndarray,
-    grid: OccupancyGrid,
-    centres: FloatArray,
-    axis: FloatArray,
-    reach: float,
-    half_width: float,
-) -> BoolArray:
-    """Whether each cone meets an ``occupied`` cell within ``reach`` [m].
-
-    The cone of each transducer (``centres`` ``(k, 2)`` [m], ``axis`` ``(k,)`` [rad]) is
-    cast as rays spread evenly across ``±half_width``, at most half a cell apart at
-    ``reach`` and sampled every half cell from the transducer out. This is the forward
-    model's question for a silence: would the map, as it stands, have returned an echo
-    in this cone?
-    """
-    k = len(axis)
-    if k == 0:
-        return np.zeros(0, dtype=bool)
-    step = grid.resolution / 2.0
-    rays = math.ceil(2.0 * half_width * reach / step) + 1
-    distance = np.arange(step, reach + step / 2.0, step)
-    bearings = axis[:, None] + np.linspace(-half_width, half_width, rays)[None, :]
-    x = centres[:, 0, None, None] + distance[None, None, :] * np.cos(bearings)[:, :, None]
-    y = centres[:, 1, None, None] + distance[None, None, :] * np.sin(bearings)[:, :, None]
-    rows, cols = grid.world_to_cell(x, y)
-    inside = grid.in_bounds(rows, cols)
-    hit = np.zeros(rows.shape, dtype=bool)
-    hit[inside] = occupied[rows[inside], cols[inside]]
-    return np.asarray(hit.any(axis=(1, 2)))
 
 
 class ElfesMapper(_LogOddsMapper):
@@ -506,6 +451,25 @@ class ElfesMapper(_LogOddsMapper):
             mask = np.ones(r.shape, dtype=bool) if use is None else np.asarray(use, dtype=bool)
             limit = None if free_limit is None else np.asarray(free_limit, dtype=np.float64)
             self._mapped.append((np.asarray(poses, dtype=np.float64), r, mask, limit))
+
+    def remask(self, use: npt.ArrayLike) -> None:
+        """Replace which readings of the stored rings the sweeps map (the map's verdict).
+
+        ``use`` ``(k, n)``: one row per ring stored for the refinement, in the order they
+        were integrated. The streaming map is left as it is; the next :meth:`refine`
+        maps the readings ``use`` keeps.
+        """
+        if self.forward_sweeps == 0:
+            return
+        mask = np.asarray(use, dtype=bool)
+        stored = sum(len(ranges) for _, ranges, _, _ in self._mapped)
+        if mask.shape != (stored, self.geometry.n):
+            raise InputError(f"'use' has shape {mask.shape}, the stored rings ({stored}, n)")
+        start = 0
+        for k, (poses, ranges, _, limit) in enumerate(self._mapped):
+            self._mapped[k] = (poses, ranges, mask[start : start + len(ranges)], limit)
+            start += len(ranges)
+        self._refined = 0
 
     def refine(self) -> None:
         """Run the forward-model sweeps over every ring mapped so far (see the class).

@@ -21,8 +21,9 @@ import numpy.typing as npt
 from bayesmap._typing import BoolArray, FloatArray, Grid, IntArray, Poses, Ranges
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
-from bayesmap.sonar.filter import SpecularFilter, Stage
+from bayesmap.sonar.filter import SpecularFilter
 from bayesmap.sonar.geometry import SonarGeometry
+from bayesmap.sonar.map_verdict import MapVerdict, judge_by_map
 from bayesmap.sonar.mapping import ElfesMapper, NoEcho, RosRangeLayerMapper, ThrunMapper
 
 __all__ = [
@@ -158,7 +159,7 @@ def map_log(
     filt: SpecularFilter | None = None,
     *,
     merge_repeats: bool = False,
-    silences_by_map: bool = False,
+    map_verdict: MapVerdict | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> MapRun:
     """Feed each ring through ``filt`` (if any) and integrate the accepted readings.
@@ -176,13 +177,12 @@ def map_log(
     merge_repeats
         Count a ring that repeats the last one (:func:`repeats_last`) once: it takes the
         last ring's verdict and is neither filtered nor mapped again.
-    silences_by_map
-        Judge the no-echo readings that reach Trait Verification by the map instead of
-        ``L``: a silence whose cone meets a surface the map holds within range lost its
-        echo and is rejected (as by Trait Verification), one whose cone the map holds free
-        or unknown is true free space and kept. Needs a mapper with ``surface_ahead``
-        (:class:`~bayesmap.sonar.mapping.ElfesMapper`); the map is the one before each
-        batch of rings.
+    map_verdict
+        After the pass, judge every ring again by the map it ended with
+        (:func:`~bayesmap.sonar.map_verdict.judge_by_map`: silences by the surfaces the map
+        is sure of in their cones, echoes by what stands in front of them). With
+        ``remap``, a mapper that refines the whole log (``forward_sweeps``) maps the
+        readings as the verdict judged them. Needs a mapper with ``geometry``.
     progress
         Optional ``progress(done, total)`` callback, called every 100 rings and at the end.
     """
@@ -198,9 +198,8 @@ def map_log(
     repeat = np.zeros(len(p), dtype=bool)
     geometry: SonarGeometry | None = getattr(mapper, "geometry", None)
     integrate_many: Callable[..., None] | None = getattr(mapper, "integrate_many", None)
-    surface_ahead: Callable[..., BoolArray] | None = getattr(mapper, "surface_ahead", None)
-    if silences_by_map and (surface_ahead is None or geometry is None):
-        raise ConfigError("judging silences by the map needs a mapper with surface_ahead")
+    if map_verdict is not None and geometry is None:
+        raise ConfigError("the map's verdict needs a mapper with the ring's geometry")
     last = -1
     # Rings go through in batches: which rings repeat the last one, the filter's
     # trait-independent stages and the cone cells are computed for a batch at once.
@@ -224,14 +223,6 @@ def map_log(
                 accepted[fresh] = verdict.accepted
                 stage[fresh] = verdict.stage
                 free_limit[fresh] = verdict.free_limit
-                if silences_by_map and surface_ahead is not None and geometry is not None:
-                    _judge_silences(
-                        surface_ahead(p[fresh], r[fresh]),
-                        ~geometry.echo(r[fresh]),
-                        accepted,
-                        stage,
-                        fresh,
-                    )
             # Only a filter that stops free space (keep_supported_echoes) sets a limit.
             limited = bool(np.isfinite(free_limit[fresh]).any())
             if integrate_many is not None:
@@ -251,26 +242,40 @@ def map_log(
                 accepted[i], stage[i] = accepted[i - 1], stage[i - 1]
         if progress is not None:
             progress(stop, len(p))
+    if map_verdict is not None and geometry is not None:
+        _judge_by_map(p, r, mapper, geometry, map_verdict, accepted, stage, repeat)
     mapper.sync()
     return MapRun(accepted=accepted, stage=stage, repeat=repeat)
 
 
-def _judge_silences(
-    ahead: BoolArray,
-    silent: BoolArray,
+def _judge_by_map(
+    poses: FloatArray,
+    ranges: FloatArray,
+    mapper: RingMapper,
+    geometry: SonarGeometry,
+    verdict: MapVerdict,
     accepted: BoolArray,
     stage: IntArray,
-    fresh: list[int],
+    repeat: BoolArray,
 ) -> None:
-    """Re-judge (in place) the silences of rings ``fresh`` that reached Trait Verification.
-
-    ``ahead``: the map holds a surface in the reading's cone within range. The bottom-up
-    stages' rejections stand.
-    """
-    judged = silent & (stage[fresh] != Stage.ACCEPTABILITY) & (stage[fresh] != Stage.AGREEABILITY)
-    verdict_stage = np.where(ahead, int(Stage.TRAIT_VERIFICATION), int(Stage.ACCEPTED))
-    stage[fresh] = np.where(judged, verdict_stage, stage[fresh])
-    accepted[fresh] = np.where(judged, ~ahead, accepted[fresh])
+    """Replace (in place) the verdicts of a mapped log by the map's (see :func:`map_log`)."""
+    fresh = ~repeat
+    accepted[fresh], stage[fresh] = judge_by_map(
+        mapper.probability(),
+        mapper.grid,
+        geometry,
+        poses[fresh],
+        ranges[fresh],
+        accepted[fresh],
+        stage[fresh],
+        verdict,
+    )
+    # A repeat takes the verdict of the last ring mapped before it.
+    last = np.maximum.accumulate(np.where(fresh, np.arange(len(fresh)), 0))
+    accepted[:], stage[:] = accepted[last], stage[last]
+    remask: Callable[[BoolArray], None] | None = getattr(mapper, "remask", None)
+    if verdict.remap and remask is not None:
+        remask(accepted[fresh])
 
 
 @dataclass(frozen=True)
@@ -300,8 +305,9 @@ class Pipeline:
         see ``ElfesMapper``).
     merge_repeats
         Count identical stationary rings once.
-    silences_by_map
-        Judge silences that reach Trait Verification by the map (see :func:`map_log`).
+    map_verdict
+        Thresholds of the map's verdict on every reading after the pass (see
+        :func:`map_log`), or ``None``: the filter's verdicts stand.
     filter_options
         Further :class:`~bayesmap.sonar.filter.SpecularFilter` settings, as (name, value).
     """
@@ -325,7 +331,7 @@ class Pipeline:
     forward_free_stop: bool = False
     forward_no_echo: float = 0.0
     merge_repeats: bool = False
-    silences_by_map: bool = False
+    map_verdict: MapVerdict | None = None
     filter_options: tuple[tuple[str, float | None], ...] = ()
 
     @property
@@ -389,6 +395,7 @@ _DEFAULT = Pipeline(
         ("static_span", 0.5),
         ("l_in_case_a", True),
     ),
+    map_verdict=MapVerdict(),
 )
 
 PIPELINES: dict[str, Pipeline] = {
@@ -413,7 +420,10 @@ space it then stops short of (``keep_supported_echoes``, ``static_span``); ``L``
 silent readings and stops free space from the start (``l_in_case_a``); no-echo readings
 clear 1 m; the robot's footprint (0.2 m) cleared and kept free; Elfes' free strength
 ``p_free`` 0.35; an echo's occupied evidence beyond 2 m shared along its arc by the
-current map (``explain_away``); identical stationary rings merged. ``forward``: the
+current map (``explain_away``); identical stationary rings merged; after the pass, every
+reading judged again by the map it ended with (``map_verdict``, the learnt
+:class:`~bayesmap.sonar.map_verdict.MapVerdict`; it labels the readings, the map stays the
+filter's). ``forward``: the
 default's filter and streaming map, then one sweep of the forward-model refinement over the
 whole log (``ElfesMapper.refine``: echo arcs shared by the whole log's map, free space
 stopped at the first surface it holds, accepted silences clearing 3 m); a fifth to three
@@ -460,7 +470,7 @@ def build_map(
         mapper,
         filt,
         merge_repeats=chosen.merge_repeats,
-        silences_by_map=chosen.silences_by_map and filt is not None,
+        map_verdict=chosen.map_verdict if filt is not None else None,
         progress=progress,
     )
     return BuiltMap(mapper=mapper, run=outcome, filt=filt)
