@@ -61,6 +61,8 @@ def test_import_bayesmap_bn_loads_only_numpy_and_the_engine():
     assert not heavy & modules
     assert "bayesmap.bn.inference" in modules
     assert "bayesmap.bn.io" not in modules  # the file formats load on first use
+    # opt_einsum is registered lazily (bayesmap._lazy.lazy_module) and runs on first use:
+    assert "opt_einsum.contract" not in modules
 
 
 def test_lazy_exports_resolve_to_the_modules_names():
