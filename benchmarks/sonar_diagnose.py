@@ -29,6 +29,11 @@ by that map under each setting, by coordinate ascent from the shipped settings o
 grid (two rounds), maximising the worst log's min(rejection precision, recall) — the target
 holds in every world —, ties broken by the mean over logs; it prints every step.
 
+``python benchmarks/sonar_diagnose.py wrong WORLDS SEEDS`` maps one log per world and seed
+with the default pipeline (the map's verdict included) and prints the good readings it
+rejects, by the stage that rejected them and the simulator's kind of reading, and the
+specular readings it keeps, by kind.
+
 ``python benchmarks/sonar_diagnose.py speed WORLDS SEED`` times the default and the
 forward pipeline (filter and map, CPU seconds) on one log per world and prints readings per
 CPU second with the load average (a loaded machine inflates CPU time too).
@@ -327,6 +332,51 @@ def _filter_alone(cases: list) -> list[str]:
     return shown
 
 
+def wrong(worlds: str, seeds: str) -> None:
+    """Print the default pipeline's wrong rejections by stage and kind, and the specular missed."""
+    config = Config()
+    ring = make_ring(config)
+    geometry = ring_geometry(ring)
+    pipeline = PIPELINES["default"]
+    for name in worlds.split(","):
+        for seed in (int(s) for s in seeds.split(",")):
+            log = simulate_log(world(name), ring, config.realism, rng=np.random.default_rng(seed))
+            grid = grid_for_poses(log.odometry, ring.max_range + 1.0, config.resolution)
+            run = map_log(
+                log.odometry,
+                log.ranges,
+                pipeline.make_mapper(grid, geometry),
+                pipeline.make_filter(geometry),
+                merge_repeats=pipeline.merge_repeats,
+                map_verdict=pipeline.map_verdict,
+            )
+            rejected, specular = ~run.accepted, log.specular
+            hits = int((rejected & specular).sum())
+            print(
+                f"{name} seed {seed}: precision {_share(hits, int(rejected.sum()))}, "
+                f"recall {_share(hits, int(specular.sum()))}",
+                flush=True,
+            )
+            for stage in Stage:
+                wrongly = rejected & ~specular & (run.stage == stage)
+                if wrongly.any():
+                    kinds = _by_kind(wrongly, log.kind)
+                    print(f"  good readings rejected by {stage.name.lower()}: {kinds}")
+            print(
+                f"  specular readings kept: {_by_kind(run.accepted & specular, log.kind)}",
+                flush=True,
+            )
+
+
+def _by_kind(chosen: np.ndarray, kinds: np.ndarray) -> str:
+    """``kind count, ...`` of the chosen readings, by the simulator's kind."""
+    return ", ".join(
+        f"{kind.name.lower()} {int((chosen & (kinds == kind)).sum())}"
+        for kind in EchoKind
+        if (chosen & (kinds == kind)).any()
+    )
+
+
 def speed(worlds: str, seed: str) -> None:
     """Print readings per CPU second of the default and the forward pipeline, and the load."""
     config = Config()
@@ -358,6 +408,8 @@ def main(argv: list[str]) -> None:
         labels(argv[1], argv[2])
     elif len(argv) == 3 and argv[0] == "verdict":
         verdict(argv[1], argv[2])
+    elif len(argv) == 3 and argv[0] == "wrong":
+        wrong(argv[1], argv[2])
     elif len(argv) == 3 and argv[0] == "speed":
         speed(argv[1], argv[2])
     else:
