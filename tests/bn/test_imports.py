@@ -145,3 +145,13 @@ def test_a_bn_question_loads_the_engine_but_no_heavy_library():
 def test_a_json_answer_loads_no_console_library(args):
     modules = command_modules(*args)
     assert not {*NEVER, "rich", *OTHER_GROUPS} & modules
+
+
+@pytest.mark.parametrize("command", ["info", "convert"])
+def test_describing_or_converting_a_network_loads_no_inference_engine(command, tmp_path):
+    args = ("bn", "info", str(ALARM), "--json")
+    if command == "convert":
+        args = ("bn", "convert", str(ALARM), str(tmp_path / "alarm.xml"))
+    modules = command_modules(*args)
+    assert "bayesmap.bn.model" in modules
+    assert not {*ENGINE, "opt_einsum"} & modules
