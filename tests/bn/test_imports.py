@@ -55,14 +55,50 @@ def command_modules(*args: str) -> set[str]:
     return loaded_modules(code)
 
 
-def test_import_bayesmap_bn_loads_only_numpy_and_the_engine():
+ENGINE = (
+    "bayesmap.bn.inference",
+    "bayesmap.bn.plans",
+    "bayesmap.bn.elimination",
+    "bayesmap.bn.numbers",
+    "bayesmap.bn.fixed_point",
+    "bayesmap.bn.propositions",
+    "bayesmap.bn.learning",
+    "bayesmap.bn.cases",
+    "bayesmap.bn.soft",
+    "bayesmap.bn.sampling",
+)
+"""The engine and each feature's module: loaded by the first question that needs them."""
+
+DEFERRED_STDLIB = ("pathlib", "urllib.parse", "ipaddress", "heapq", "importlib.util")
+"""Standard modules numpy does not load and a plain ``import bayesmap.bn`` has no use for."""
+
+RAIN = """
+from bayesmap.bn import BayesNet
+net = BayesNet("rain")
+net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+net.add_variable("Wet", ["no", "yes"], parents=["Rain"], cpt=[[0.9, 0.1], [0.1, 0.9]])
+"""
+
+
+def test_import_bayesmap_bn_loads_only_numpy_and_the_model():
     modules = loaded_modules("import bayesmap.bn")
     heavy = {*NEVER, "pydantic", "rich", "typer", "yaml", "lxml", "numpy.random", "bayesmap._io"}
     assert not heavy & modules
-    assert "bayesmap.bn.inference" in modules
+    assert "bayesmap.bn.model" in modules
     assert "bayesmap.bn.io" not in modules  # the file formats load on first use
-    # opt_einsum is registered lazily (bayesmap._lazy.lazy_module) and runs on first use:
-    assert "opt_einsum.contract" not in modules
+    assert not {*ENGINE, *DEFERRED_STDLIB, "opt_einsum"} & modules
+
+
+def test_building_a_network_loads_no_engine_and_its_first_question_loads_it():
+    built = loaded_modules(RAIN)
+    assert not {*ENGINE, "opt_einsum"} & built
+    question = 'assert round(net.posterior("Rain", {"Wet": "yes"})["yes"], 4) == 0.6923\n'
+    asked = loaded_modules(RAIN + question)
+    assert {"bayesmap.bn.inference", "bayesmap.bn.plans", "bayesmap.bn.propositions"} <= asked
+    # learning and tables of cases wait for their own first use; opt_einsum for a plan
+    # that needs it:
+    assert not {"bayesmap.bn.learning", "bayesmap.bn.cases", "pathlib"} & asked
+    assert "opt_einsum.contract" not in asked
 
 
 def test_lazy_exports_resolve_to_the_modules_names():
@@ -70,7 +106,8 @@ def test_lazy_exports_resolve_to_the_modules_names():
         "import bayesmap.bn as bn\n"
         "from bayesmap.bn.io import read\n"
         "from bayesmap.bn.fixed_point import QFormat\n"
-        "assert bn.read is read and bn.QFormat is QFormat\n"
+        "from bayesmap.bn.propositions import V\n"
+        "assert bn.read is read and bn.QFormat is QFormat and bn.V is V\n"
         "assert set(bn.__all__) <= set(dir(bn))\n"
     )
     assert "bayesmap.bn.io" in modules
@@ -108,3 +145,13 @@ def test_a_bn_question_loads_the_engine_but_no_heavy_library():
 def test_a_json_answer_loads_no_console_library(args):
     modules = command_modules(*args)
     assert not {*NEVER, "rich", *OTHER_GROUPS} & modules
+
+
+@pytest.mark.parametrize("command", ["info", "convert"])
+def test_describing_or_converting_a_network_loads_no_inference_engine(command, tmp_path):
+    args = ("bn", "info", str(ALARM), "--json")
+    if command == "convert":
+        args = ("bn", "convert", str(ALARM), str(tmp_path / "alarm.xml"))
+    modules = command_modules(*args)
+    assert "bayesmap.bn.model" in modules
+    assert not {*ENGINE, "opt_einsum"} & modules

@@ -22,13 +22,13 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from bayesmap.bn.model import BayesNet, NodeKind, Variable, cpt_from_flat
-from bayesmap.bn.propositions import Proposition, V, parse
 
 if TYPE_CHECKING:
     from bayesmap.bn.fixed_point import FixedResult, QFormat
     from bayesmap.bn.forms import discretised_gaussian, gaussian_cpt
     from bayesmap.bn.io import read, write
     from bayesmap.bn.naive_bayes import class_ratio
+    from bayesmap.bn.propositions import Proposition, V, parse
 
 _LAZY = {
     "FixedResult": "bayesmap.bn.fixed_point",
@@ -38,10 +38,14 @@ _LAZY = {
     "read": "bayesmap.bn.io",
     "write": "bayesmap.bn.io",
     "class_ratio": "bayesmap.bn.naive_bayes",
+    "Proposition": "bayesmap.bn.propositions",
+    "V": "bayesmap.bn.propositions",
+    "parse": "bayesmap.bn.propositions",
 }
 """Public names whose modules load on first use: the file formats (and the file plumbing
 they need) cost more to import than the engine itself, and a program that builds its
-network in code never reads one."""
+network in code never reads one. The inference engine loads with a network's first
+question (``BayesNet._engine``)."""
 
 
 def __getattr__(name: str) -> Any:

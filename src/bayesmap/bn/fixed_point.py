@@ -52,7 +52,8 @@ import numpy.typing as npt
 from bayesmap._typing import FloatArray, IntArray
 from bayesmap.errors import ConfigError, InputError
 
-_PATTERN = re.compile(r"^\s*[Qq](\d+)\.(\d+)\s*$")
+_PATTERN = r"^\s*[Qq](\d+)\.(\d+)\s*$"
+"""A Q-format's name; compiled on first use (and kept in :mod:`re`'s cache)."""
 _SLACK = 2.0**-50
 """Added to every bound: the bound itself is evaluated in float64."""
 
@@ -90,7 +91,7 @@ class QFormat:
         """Parse ``"Q16.16"``, ``"Q8.24"``, ... (or pass a :class:`QFormat` through)."""
         if isinstance(text, QFormat):
             return text
-        match = _PATTERN.match(str(text))
+        match = re.match(_PATTERN, str(text))
         if match is None:
             raise ConfigError(
                 f"cannot read fixed-point format {text!r}; write Q<integer bits>.<fraction "

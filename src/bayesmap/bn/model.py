@@ -36,26 +36,13 @@ import math
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from bayesmap._typing import CPT, FloatArray, IntArray
-from bayesmap.bn.cases import case_array, posterior_frame
-from bayesmap.bn.fixed_point import FixedResult, QFormat
-from bayesmap.bn.inference import BatchEvidence, Engine, Evidence
-from bayesmap.bn.learning import (
-    FitReport,
-    Prior,
-    complete_log_likelihood,
-    estimate,
-    family_counts,
-    pseudo_counts,
-)
-from bayesmap.bn.propositions import Proposition
-from bayesmap.bn.sampling import forward_sample
-from bayesmap.bn.soft import Likelihoods, Shadow, likelihood
 from bayesmap.bn.suggest import unknown
 from bayesmap.bn.tables import SUM_TOLERANCE as SUM_TOLERANCE
 from bayesmap.bn.tables import WARN_TOLERANCE as WARN_TOLERANCE
@@ -65,8 +52,13 @@ from bayesmap.bn.tables import checked_cpt
 from bayesmap.bn.tuning import TUNING, Tuning
 from bayesmap.errors import ConfigError, InputError, ModelError
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the engine and each feature's module load on first use (issue 15 item 5)
     from bayesmap._rng import RNGLike
+    from bayesmap.bn.fixed_point import FixedResult, QFormat
+    from bayesmap.bn.inference import BatchEvidence, Engine, Evidence
+    from bayesmap.bn.learning import FitReport, Prior
+    from bayesmap.bn.propositions import Proposition
+    from bayesmap.bn.soft import Likelihoods, Shadow
 
 _MAX_SHADOWS = 32
 """Shadow networks kept for soft evidence (one per set of softly observed variables)."""
@@ -169,7 +161,7 @@ class BayesNet:
         self._variables: dict[str, Variable] = {}
         self.properties: dict[str, str] = {}
         self._version = 0
-        self._engine = Engine(self, tuning)
+        self._tuning = tuning
         self._shadows: dict[tuple[str, ...], Shadow] = {}
         self._counts: list[FloatArray] | None = None
         self._counts_version = -1
@@ -177,12 +169,24 @@ class BayesNet:
     @property
     def tuning(self) -> Tuning:
         """The inference engine's tuning; setting it drops the engine's caches."""
-        return self._engine.tuning
+        return self._tuning
 
     @tuning.setter
     def tuning(self, tuning: Tuning) -> None:
-        self._engine = Engine(self, tuning)
+        self._tuning = tuning
+        self.__dict__.pop("_engine", None)
         self._shadows.clear()
+
+    @cached_property
+    def _engine(self) -> Engine:
+        """The inference engine with its caches, built by the first question.
+
+        Its modules load then too, so ``import bayesmap.bn`` and a program that only
+        builds, reads or writes networks never load them (issue 15, fast start).
+        """
+        from bayesmap.bn.inference import Engine
+
+        return Engine(self, self._tuning)
 
     # ------------------------------------------------------------------ structure
     @property
@@ -499,6 +503,8 @@ class BayesNet:
         if _is_frame(evidence):
             if columns is not None or soft:
                 raise InputError("posterior_batch: a DataFrame names its own columns; no soft")
+            from bayesmap.bn.cases import posterior_frame
+
             return posterior_frame(self, evidence, [target])
         return self._engine.posterior_batch(target, evidence, columns=columns, soft=soft)
 
@@ -592,6 +598,7 @@ class BayesNet:
         (5, 1)
         """
         from bayesmap._rng import as_generator  # numpy.random loads only for sampling
+        from bayesmap.bn.sampling import forward_sample
 
         return forward_sample(self._engine.compiled, n, rng=as_generator(rng))
 
@@ -616,7 +623,7 @@ class BayesNet:
         if soft:
             net, hard = self._with_soft(evidence, soft)
             return net.posterior_fixed(target, hard, fixed_point)
-        return self._engine.fixed_posterior(target, evidence or {}, QFormat.parse(fixed_point))
+        return self._engine.fixed_posterior(target, evidence or {}, _qformat(fixed_point))
 
     def joint_posterior_fixed(
         self,
@@ -630,7 +637,7 @@ class BayesNet:
         if soft:
             net, hard = self._with_soft(evidence, soft)
             return net.joint_posterior_fixed(targets, hard, fixed_point)
-        q = QFormat.parse(fixed_point)
+        q = _qformat(fixed_point)
         return self._engine.fixed_joint_posterior(list(targets), evidence or {}, q)
 
     def posterior_batch_fixed(
@@ -648,7 +655,7 @@ class BayesNet:
         as in :meth:`posterior_batch`; each case's weights are scaled to a largest weight of
         1 and quantised like a CPT, so the bound covers their rounding too.
         """
-        q = QFormat.parse(fixed_point)
+        q = _qformat(fixed_point)
         return self._engine.fixed_posterior_batch(target, evidence, q, columns=columns, soft=soft)
 
     def map(
@@ -691,7 +698,7 @@ class BayesNet:
         if soft:
             net, hard = self._with_soft(evidence, soft)
             return net.map_fixed(hard, fixed_point)
-        return self._engine.fixed_mpe(evidence or {}, QFormat.parse(fixed_point))
+        return self._engine.fixed_mpe(evidence or {}, _qformat(fixed_point))
 
     def marginal_map(
         self,
@@ -728,7 +735,7 @@ class BayesNet:
         if soft:
             net, hard = self._with_soft(evidence, soft)
             return net.marginal_map_fixed(variables, hard, fixed_point)
-        q = QFormat.parse(fixed_point)
+        q = _qformat(fixed_point)
         return self._engine.fixed_marginal_map(list(variables), evidence or {}, q)
 
     def probability(
@@ -778,7 +785,7 @@ class BayesNet:
         if soft:
             net, hard = self._with_soft(evidence, soft)
             return net.probability_fixed(proposition, hard, fixed_point, given=given)
-        q = QFormat.parse(fixed_point)
+        q = _qformat(fixed_point)
         return self._engine.fixed_probability(proposition, evidence or {}, q, given)
 
     # --------------------------------------------------------------- learning
@@ -830,6 +837,13 @@ class BayesNet:
         >>> net.cpt("Rain").round(3).tolist(), report.iterations > 0
         ([0.75, 0.25], True)
         """
+        from bayesmap.bn.learning import (
+            FitReport,
+            complete_log_likelihood,
+            family_counts,
+            pseudo_counts,
+        )
+
         if max_iterations < 1:
             raise ConfigError(f"max_iterations must be at least 1, got {max_iterations}")
         table, n_cases = self._learning_table(data, columns)
@@ -880,6 +894,8 @@ class BayesNet:
         E-step: the sequential updating of Spiegelhalter & Lauritzen 1990).
         ``cases`` takes the forms :meth:`fit` takes.
         """
+        from bayesmap.bn.learning import family_counts, pseudo_counts
+
         table, _ = self._learning_table(cases, columns)
         compiled = self._engine.compiled
         learned = [v for v in range(len(compiled.names)) if v not in compiled.sources]
@@ -913,6 +929,8 @@ class BayesNet:
                 data = pd.DataFrame(array, columns=list(columns or self.variables))
                 columns = None
         if _is_frame(data):
+            from bayesmap.bn.cases import case_array
+
             table, names = case_array(self, data)
             cols = [self._engine.compiled.id(n) for n in names]
         else:
@@ -926,6 +944,8 @@ class BayesNet:
     def _set_learned(
         self, learned: list[int], counts: list[FloatArray], pseudo: list[FloatArray]
     ) -> list[CPT]:
+        from bayesmap.bn.learning import estimate
+
         names = self.variables
         tables = []
         for v, n, a in zip(learned, counts, pseudo, strict=True):
@@ -947,6 +967,8 @@ class BayesNet:
         One shadow is kept per set of softly observed variables while the network is
         unchanged, so repeated questions reuse its plans.
         """
+        from bayesmap.bn.soft import Shadow, likelihood
+
         names = tuple(sorted(soft))
         weights = {x: likelihood(x, self.states(x), soft[x]) for x in names}
         shadow = self._shadows.get(names)
@@ -1028,6 +1050,13 @@ def cpt_from_flat(flat: npt.ArrayLike, shape: Sequence[int]) -> CPT:
             f"flat table has {values.size} values; shape {tuple(shape)} needs {int(np.prod(shape))}"
         )
     return np.asarray(values.reshape(tuple(shape), order="F"))
+
+
+def _qformat(fixed_point: QFormat | str) -> QFormat:
+    """The Q-format named by ``fixed_point`` (its module loads with the first such question)."""
+    from bayesmap.bn.fixed_point import QFormat
+
+    return QFormat.parse(fixed_point)
 
 
 def _is_frame(value: object) -> bool:

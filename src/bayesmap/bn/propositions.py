@@ -149,14 +149,13 @@ def _checked(other: object) -> Proposition:
     return other
 
 
-_TOKEN = re.compile(
-    r"""\s*(?:
+_TOKEN = r"""\s*(?:
         (?P<op>==|!=|=|&&|\|\||[&|!~¬∧∨()])
       | (?P<quoted>"(?:[^"\\]|\\.)*"|'(?:[^'\\]|\\.)*')
       | (?P<word>[^\s&|!~¬∧∨()="']+)
-    )""",
-    re.VERBOSE,
-)
+    )"""
+"""One token (verbose regular expression), compiled by the first :func:`parse` and kept in
+:mod:`re`'s cache, so importing the module compiles nothing."""
 _KEYWORDS = {"and": "&", "or": "|", "not": "!"}
 _SYMBOLS = {"&&": "&", "∧": "&", "||": "|", "∨": "|", "~": "!", "¬": "!", "==": "="}
 
@@ -259,10 +258,11 @@ def _quote(text: str) -> str:
 def _tokenise(text: str) -> list[tuple[tuple[str, str], str]]:
     """``[((kind, value), raw text)]`` of a proposition; kind is "op" or "name"."""
     tokens: list[tuple[tuple[str, str], str]] = []
+    token = re.compile(_TOKEN, re.VERBOSE)
     position = 0
     stripped = text.rstrip()
     while position < len(stripped):
-        match = _TOKEN.match(stripped, position)
+        match = token.match(stripped, position)
         if match is None or match.end() == position:
             raise InputError(f"proposition {text!r}: cannot read from position {position}")
         position = match.end()
