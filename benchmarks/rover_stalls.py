@@ -36,7 +36,9 @@ in the first class that fits (``uncertain_by_cause`` in the JSON, :func:`uncerta
 Each cause's cells are also counted by what they truly hold (``uncertain_holding_obstacle``
 in the JSON, :func:`holding_obstacle`): a cell that an obstacle overlaps by a positive
 area (the coverage truth, :func:`~bayesmap.sim.world2d.world_truth`) is a wall's own cell,
-partly free and partly not; the others are wholly free ground.
+partly free and partly not; the others are wholly free ground. ``map_errors`` in the JSON
+(:func:`map_honesty`) counts what the final map gets wrong: free cells mapped likely,
+occupied cells mapped certainly free, and passages the likely cells close.
 
 It rewrites its section of docs/benchmarks.md. Run from the repository root, e.g.::
 
@@ -188,6 +190,29 @@ def holding_obstacle(
     return {cause: int((cells & truth).sum()) for cause, cells in by_cause.items()}
 
 
+def map_honesty(
+    world: Any, grid: OccupancyGrid, observable: np.ndarray, params: RoverParams
+) -> dict[str, int]:
+    """What the final map gets wrong against the truth (any part occupied = occupied).
+
+    ``free_mapped_likely``: observable free cells at ``p >= p_block`` (the planner's
+    walls); ``occupied_mapped_certain_free``: observable cells an obstacle overlaps, mapped
+    certainly free; ``free_regions_split``: how many more 4-connected pieces the free
+    ground falls into when the cells mapped likely are taken out of it (a passage closed
+    on the map; 0 when none is).
+    """
+    truth = world_truth(world, grid.shape, grid.resolution, grid.origin)
+    likely = grid.probability >= params.p_block
+    certain_free = (grid.entropy < params.h_desired) & ~likely
+    _, pieces_true = ndimage.label(~truth)
+    _, pieces_mapped = ndimage.label(~truth & ~likely)
+    return {
+        "free_mapped_likely": int((observable & ~truth & likely).sum()),
+        "occupied_mapped_certain_free": int((observable & truth & certain_free).sum()),
+        "free_regions_split": int(pieces_mapped - pieces_true),
+    }
+
+
 def category(row: dict[str, Any], resolution: float) -> str:
     """What a stalled cycle was doing (the module docstring's categories, first match)."""
     if not row["any_safe"]:
@@ -274,6 +299,8 @@ def main() -> None:
     holding = holding_obstacle(spec.world, trace.explorer.grid, cells_by_cause)
     summary["uncertain_by_cause"] = causes
     summary["uncertain_holding_obstacle"] = holding
+    honesty = map_honesty(spec.world, trace.explorer.grid, trace.observable, config.rover_params())
+    summary["map_errors"] = honesty
     np.savez_compressed(
         args.out / f"{name}.npz",
         probability=trace.explorer.grid.probability,
@@ -328,6 +355,11 @@ def main() -> None:
         "| observable cell still uncertain at the end | cells | share | holding an obstacle |",
         "|---|---|---|---|",
         *(f"| {c} | {n} | {n / n_left:.0%} | {holding[c]} |" for c, n in causes.items()),
+        "",
+        f"ROC AUC {metrics['roc_auc']:.3f}; final map against the truth (observable cells): "
+        f"{honesty['free_mapped_likely']} free cells mapped likely, "
+        f"{honesty['occupied_mapped_certain_free']} occupied cells mapped certainly free, "
+        f"free ground split into {honesty['free_regions_split']} more pieces.",
         "",
         "Coverage against distance: "
         + ", ".join(f"{c:.2f} at {d:.0f} m" for d, c in checkpoints if math.isfinite(d))
