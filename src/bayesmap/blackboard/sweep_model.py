@@ -471,9 +471,9 @@ def _overlaps_one(
     ``first_reach``) overlaps the table ``row`` ``x, y, θ, k``: centres closer than the
     two half diagonals (``reach`` per type), then the separating-axis test."""
     x, y, theta, k = row
-    if math.hypot(x - first[0], y - first[1]) >= first_reach + reach[int(k)]:
-        return False
-    return rectangles_overlap_scalar(first, (x, y, theta, *_half_sides(catalogue[int(k)])))
+    if math.hypot(x - first[0], y - first[1]) < first_reach + reach[int(k)]:
+        return rectangles_overlap_scalar(first, (x, y, theta, *_half_sides(catalogue[int(k)])))
+    return False
 
 
 SCREEN_ROWS = 8
