@@ -11,7 +11,11 @@ Runs, one after the other in this process:
 - generated stress worlds (:func:`bayesmap.sim.whisker_worlds.generate_world`, generator
   seeds ``--worlds``, default 9317 and 4: 7 tables in a 4.0 × 9.0 m arena and 10 tables in
   a 9.7 × 7.1 m one) under ``--conditions`` (default normal and noisy), run seed 0, as
-  ``bayesmap blackboard run --world`` runs them.
+  ``bayesmap blackboard run --world`` runs them;
+- the slowest runs of the accuracy grid (``benchmarks/blackboard.py``): its worlds and run
+  seeds ``--grid`` (default ``3:2 2:2``: worlds 3 and 2, seed 2, small arenas of
+  4.5 × 5.4 m with 4 tables and 5.6 × 5.8 m with 6), noisy, so the table holds the worst
+  case, not only the shipped world.
 
 Reported per run: CPU seconds of the whole run and of the final pass, the median and 95th
 percentile of the CPU time of each pose's step [ms] (a loaded machine still inflates them), fused
@@ -35,6 +39,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks._report import machine, update_section  # noqa: E402
+from benchmarks.blackboard import world_of  # noqa: E402
 
 from bayesmap.blackboard.fused import FusedMapper  # noqa: E402
 from bayesmap.experiments import blackboard  # noqa: E402
@@ -153,11 +158,28 @@ def stress_worlds(seeds: list[int]) -> list[tuple[str, Any]]:
     ]
 
 
+def grid_worlds(runs: list[str], plain: int = 4) -> list[tuple[str, Any, int]]:
+    """The accuracy grid's worlds and run seeds ``WORLD:SEED``, each with its name."""
+    out = []
+    for run in runs:
+        index, seed = (int(part) for part in run.split(":"))
+        world = world_of(index, plain)
+        name = (
+            f"grid world {index} seed {seed} ({len(world.tables)} tables, "
+            f"{world.arena[0]:.1f} × {world.arena[1]:.1f} m)"
+        )
+        out.append((name, world, seed))
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", type=int, nargs="*", default=[9317, 4])
     parser.add_argument("--conditions", nargs="*", default=["normal", "noisy"])
     parser.add_argument("--shipped", nargs="*", default=["normal", "noiseless", "noisy"])
+    parser.add_argument(
+        "--grid", nargs="*", default=["3:2", "2:2"], help="noisy grid runs WORLD:SEED"
+    )
     args = parser.parse_args()
     runs: list[tuple[str, str, Any]] = [
         ("whisker-tables-v1", condition, lambda c=condition: shipped_run(c))
@@ -172,6 +194,14 @@ def main() -> None:
                     lambda w=world, c=condition, n=name: fused_world_run(w, c, 0, name=n)[1:],
                 )
             )
+    for name, world, seed in grid_worlds(args.grid):
+        runs.append(
+            (
+                name,
+                "noisy",
+                lambda w=world, s=seed, n=name: fused_world_run(w, "noisy", s, name=n)[1:],
+            )
+        )
     runs.sort(key=lambda run: run[1] == "noisy")  # the slow noisy runs last
     rows: list[dict[str, Any]] = []
     for name, condition, runner in runs:

@@ -273,3 +273,21 @@ def _noisy_desk_tour() -> tuple[
         ),
     )
     return arena, truth, catalogue, model, contacts, floor
+
+
+def test_candidate_weights_count_the_corners_a_leg_supports() -> None:
+    """A candidate's weight is e^{2(m − 2)}, m its corners with a candidate leg within the
+    spacing tolerance: against a corner-by-corner, leg-by-leg count on random legs."""
+    catalogue = (ObjectType("desk", 1.2, 0.8, 0.1), ObjectType("stool", 0.8, 0.8, 0.08))
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        legs = np.column_stack([rng.uniform(0.0, 4.0, (40, 2)), np.ones(40)])
+        tables, weights = table_candidates(legs, catalogue, (4.0, 4.0), 0.12)
+        assert len(tables) > 0
+        corners = leg_centres(tables, catalogue)
+        for table_corners, weight in zip(corners, weights, strict=True):
+            m = sum(
+                any(math.hypot(cx - lx, cy - ly) < 0.12 for lx, ly, _ in legs)
+                for cx, cy, _ in table_corners
+            )
+            assert weight == math.exp(2.0 * (m - 2.0))

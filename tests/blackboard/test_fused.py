@@ -19,6 +19,7 @@ from bayesmap.blackboard.data_driven import (
 from bayesmap.blackboard.evidence import EvidenceStore
 from bayesmap.blackboard.fused import FusedMapper, FusedParams, _suppress_duplicates
 from bayesmap.blackboard.rjmcmc import (
+    CandidateScreen,
     ChainState,
     Context,
     Move,
@@ -27,11 +28,13 @@ from bayesmap.blackboard.rjmcmc import (
     _best_cause,
     apply,
     evaluate,
+    holding,
     propose,
     removal_costs,
     run,
 )
 from bayesmap.blackboard.sweep_model import (
+    SCREEN_ROWS,
     ObjectType,
     SweepModel,
     arena_contains,
@@ -738,6 +741,53 @@ def test_a_refill_that_overlaps_the_exchanged_table_is_never_added() -> None:
         assert delta == -math.inf
         assert _joint(ctx, np.vstack([truth, other])) == -math.inf
         tried += 1
+
+
+@pytest.mark.parametrize("log_overlap", [-math.inf, -12.0])
+def test_the_greedy_screen_blocks_exactly_the_refills_a_birth_cannot_add(
+    log_overlap: float,
+) -> None:
+    """The greedy ascent's :class:`CandidateScreen` against the plain computation on random
+    maps: a candidate is blocked exactly when the map already holds one like it
+    (``holding`` asked for it alone) or its birth's Δlog π is −∞ (``evaluate``); its kept
+    overlaps equal ``tables_overlap`` asked afresh, for maps of up to and over
+    ``SCREEN_ROWS`` tables."""
+    store, truth = _store(sensor=condition("noisy"))
+    ctx = _context(store, NOISY_MODEL._replace(log_overlap=log_overlap))
+    rng = np.random.default_rng(12)
+
+    def scattered(n: int) -> np.ndarray:
+        tables = np.column_stack(
+            [
+                rng.uniform(0.0, ARENA[0], n),
+                rng.uniform(0.0, ARENA[1], n),
+                rng.uniform(0.0, math.pi, n),
+                rng.integers(0, 2, n).astype(float),
+            ]
+        )
+        return tables
+
+    candidates = np.vstack([scattered(150), truth + [0.01, -0.01, 0.02, 0.0]])
+    screen = CandidateScreen(candidates, ctx)
+    every = np.arange(len(candidates))
+    blocked_seen = open_seen = 0
+    for size in (1, 2, 4, SCREEN_ROWS, SCREEN_ROWS + 3):
+        for _ in range(3):
+            tables = np.vstack([truth, scattered(size)])[: max(size, 1)]
+            state = _state(ctx, tables)
+            rows = rng.permutation(every)[:60]
+            overlaps = screen.overlapping(rows, tables)
+            for position, row in enumerate(rows):
+                want = tables_overlap(candidates[row], tables, CATALOGUE)
+                assert np.array_equal(overlaps[position], want)
+            blocked = screen.blocked(tables, rows)
+            for position, row in enumerate(rows):
+                held = holding(tables, candidates[row][None], 0.03, 0.05, np.array([math.pi]))[0]
+                delta, _ = evaluate(state, ctx, Move(MoveKind.BIRTH, (), (candidates[row],)))
+                assert blocked[position] == (held or delta == -math.inf)
+            blocked_seen += int(blocked.sum())
+            open_seen += int((~blocked).sum())
+    assert blocked_seen > 0 and open_seen > 0
 
 
 def test_duplicate_candidates_are_thinned_to_the_best_of_each_table() -> None:

@@ -227,9 +227,11 @@ def table_candidates(
     tables = tables[moved <= spacing_tol]
     if not len(tables):
         return np.zeros((0, 4)), np.zeros(0)
-    corners = leg_centres(tables, catalogue)[..., :2]
-    gaps = np.linalg.norm(corners[:, :, None, :] - p[None, None], axis=-1)
-    support = (gaps.min(axis=2) < spacing_tol).sum(axis=1)
+    corners = leg_centres(tables, catalogue)
+    dx = corners[:, :, None, 0] - p[:, 0]
+    dy = corners[:, :, None, 1] - p[:, 1]
+    nearest = np.sqrt((dx * dx + dy * dy).min(axis=2))  # each corner's nearest leg [m]
+    support = (nearest < spacing_tol).sum(axis=1)
     return tables, np.exp(support_gain * (support - 2.0))
 
 

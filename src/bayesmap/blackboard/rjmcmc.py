@@ -55,6 +55,7 @@ from bayesmap.blackboard.data_driven import (
 )
 from bayesmap.blackboard.evidence import EvidenceStore
 from bayesmap.blackboard.sweep_model import (
+    SCREEN_ROWS,
     ObjectType,
     SweepModel,
     arena_contains,
@@ -63,11 +64,13 @@ from bayesmap.blackboard.sweep_model import (
     leg_contact_density,
     legs_swept,
     log_posterior,
+    overlap_pairs,
     tables_overlap,
     wall_contact_density,
 )
 
 __all__ = [
+    "CandidateScreen",
     "ChainState",
     "Move",
     "MoveKind",
@@ -663,11 +666,6 @@ def visit_frequencies(
     return held / len(samples)
 
 
-def _holds(tables: FloatArray, table: FloatArray, xy: float = 0.03, theta: float = 0.05) -> bool:
-    """Whether ``tables`` holds one of the same type within ``xy`` [m] and ``theta`` [rad]."""
-    return bool(holding(tables, table[None], xy, theta, np.array([math.pi]))[0])
-
-
 def _try(state: ChainState, ctx: Context, move: Move) -> float:
     """Apply ``move`` to ``state`` and return its Δlog π (−∞, state unchanged, if forbidden)."""
     delta, free_new = evaluate(state, ctx, move)
@@ -719,6 +717,71 @@ def removal_costs(state: ChainState, ctx: Context) -> FloatArray:
     return costs
 
 
+class CandidateScreen:
+    """What the greedy ascent can tell about its fixed candidate tables without evaluating
+    a move: whether the map already holds one, whether it crosses a wall, whether it
+    overlaps a given table.
+
+    Overlaps are computed once per (candidate, table) pair, as
+    ``tables_overlap(candidate, table[None])[0]`` answers
+    (:func:`~bayesmap.blackboard.sweep_model.overlap_pairs`), and kept under the table's exact
+    ``x, y, θ, k``: the ascent asks about the same few tables of the map (and the candidate
+    each exchange puts in) for thousands of candidates. That is, row by row, what
+    :func:`~bayesmap.blackboard.sweep_model.tables_overlap` answers for a candidate against
+    up to :data:`~bayesmap.blackboard.sweep_model.SCREEN_ROWS` tables at once (its
+    plain-float path treats each row alone); against more, the answers are not kept but
+    computed by that call itself. So they are always the answers a move's evaluation gets.
+    """
+
+    def __init__(self, candidates: FloatArray, ctx: Context) -> None:
+        self.candidates = candidates
+        self.catalogue = ctx.catalogue
+        self.inside = arena_contains(candidates, ctx.catalogue, ctx.model.arena)
+        self.forbidden = ctx.model.log_overlap == -math.inf
+        self._known: dict[bytes, IntArray] = {}
+
+    def overlapping(self, rows: IntArray, tables: FloatArray) -> BoolArray:
+        """``(len(rows), len(tables))`` whether candidate ``rows`` overlap each of
+        ``tables`` (n, 4)."""
+        if len(tables) > SCREEN_ROWS:
+            return np.array(
+                [tables_overlap(self.candidates[r], tables, self.catalogue) for r in rows],
+                dtype=bool,
+            ).reshape(len(rows), len(tables))
+        out = np.empty((len(rows), len(tables)), dtype=bool)
+        for column, table in enumerate(tables):
+            known = self._known.get(table.tobytes())
+            if known is None:
+                known = np.full(len(self.candidates), -1, dtype=np.int8)
+                self._known[table.tobytes()] = known
+            values = known[rows]
+            unknown = np.flatnonzero(values < 0)
+            if len(unknown):
+                new = rows[unknown]
+                answers = overlap_pairs(
+                    self.candidates[new], np.tile(table, (len(new), 1)), self.catalogue
+                )
+                values[unknown] = known[new] = answers
+            out[:, column] = values == 1
+        return out
+
+    def held(self, tables: FloatArray, rows: IntArray) -> BoolArray:
+        """``(len(rows),)`` whether ``tables`` holds, for each candidate of ``rows``, one of
+        the same type within 3 cm and 0.05 rad (modulo π): the ascent adds no table twice."""
+        reference = self.candidates[rows]
+        return holding(tables, reference, 0.03, 0.05, np.full(len(reference), math.pi))
+
+    def blocked(self, tables: FloatArray, rows: IntArray) -> BoolArray:
+        """``(len(rows),)`` whether each candidate of ``rows`` is held by the map ``tables``
+        or could not join it (its birth's Δlog π is −∞): it crosses a wall or, with
+        overlaps forbidden, overlaps one of ``tables``."""
+        out = self.held(tables, rows) | ~self.inside[rows]
+        if self.forbidden and len(tables):
+            open_rows = np.flatnonzero(~out)
+            out[open_rows] = self.overlapping(rows[open_rows], tables).any(axis=1)
+        return out
+
+
 def greedy_ascent(
     state: ChainState, ctx: Context, candidates: FloatArray, *, passes: int = 2
 ) -> dict[str, int]:
@@ -751,20 +814,30 @@ def greedy_ascent(
     those c overlaps — are neither tried nor counted in the bound (in the noisy condition
     most refills near a removed table overlap the candidate that replaces it, and counting
     them left the bound unable to rule anything out).
+
+    Refills that could not join the trial map are skipped without evaluating their birth,
+    found for all of an exchange's refills at once (:class:`CandidateScreen`): those the
+    map already holds, those across a wall, and, with overlaps forbidden, those that
+    overlap one of its tables (the same answers as the birth's own overlap test). One by
+    one, each would have been skipped or its birth scored −∞.
     """
     info = {"greedy_tried": 0, "greedy_kept": 0, "greedy_ruled_out": 0}
     reach = ctx.half_diagonal
     alone = np.array([ctx.gain_alone(c) for c in candidates])
     refill_gain = np.maximum(alone, 0.0)
     own = np.array([ctx.log_intensity + ctx.table_free_space(c) for c in candidates])
+    screen = CandidateScreen(candidates, ctx)
+    every = np.arange(len(candidates))
+
     for _ in range(passes):
         changed = False
         costs = removal_costs(state, ctx)
+        held = screen.held(state.tables, every)
         for j, c in enumerate(candidates):
-            if _holds(state.tables, c):
+            if held[j]:
                 continue
             hit = (
-                np.flatnonzero(tables_overlap(c, state.tables, ctx.catalogue))
+                np.flatnonzero(screen.overlapping(every[j : j + 1], state.tables)[0])
                 if len(state.tables)
                 else np.zeros(0, dtype=np.int64)
             )
@@ -785,7 +858,9 @@ def greedy_ascent(
                 if ctx.model.log_overlap == -math.inf and near.any():
                     near[near] = ~tables_overlap(c, candidates[near], ctx.catalogue)
             bound = alone[j] + refill_gain[near].sum()
-            if near.any():  # the refills compete with c and each other for contacts
+            if near.any() and bound - costs[hit].sum() >= -_BOUND_SLACK:
+                # the refills compete with c and each other for contacts (a tighter bound,
+                # needed only when the first does not rule the exchange out)
                 together = ctx.contact_gain(np.vstack([c, candidates[near]]))
                 bound = min(bound, own[j] + np.maximum(own[near], 0.0).sum() + together)
             if bound - costs[hit].sum() < -_BOUND_SLACK:
@@ -799,17 +874,21 @@ def greedy_ascent(
             if len(hit):
                 # what the refills not yet tried could still add, at most (their gains alone)
                 left = float(refill_gain[near].sum())
-                for other, other_gain in zip(candidates[near], refill_gain[near], strict=True):
+                refills = np.flatnonzero(near)
+                skip = screen.blocked(trial.tables, refills)
+                for position, row in enumerate(refills.tolist()):
                     if gain + left <= 1e-9:
                         break  # even every remaining refill could not make it pay: not kept
-                    left -= other_gain
-                    if _holds(trial.tables, other):
+                    left -= refill_gain[row]
+                    if skip[position]:
                         continue
-                    birth = Move(MoveKind.BIRTH, (), (other,))
+                    birth = Move(MoveKind.BIRTH, (), (candidates[row],))
                     extra, free_new = evaluate(trial, ctx, birth)
                     if extra > 0:
                         apply(trial, birth, free_new, extra)
                         gain += extra
+                        rest = refills[position + 1 :]
+                        skip[position + 1 :] = screen.blocked(trial.tables, rest)
             if gain > 1e-9:
                 state.tables, state.free_space, state.log_pi = (
                     trial.tables,
@@ -819,6 +898,7 @@ def greedy_ascent(
                 info["greedy_kept"] += 1
                 changed = True
                 costs = removal_costs(state, ctx)
+                held = screen.held(state.tables, every)
         index = 0
         while index < len(state.tables):
             trial = _copy(state)

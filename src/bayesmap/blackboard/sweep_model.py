@@ -55,6 +55,7 @@ from bayesmap.geometry import wrap_angle
 
 __all__ = [
     "ACROSS_CUT",
+    "SCREEN_ROWS",
     "ObjectType",
     "SweepModel",
     "arena_contains",
@@ -64,6 +65,7 @@ __all__ = [
     "leg_contact_density",
     "legs_swept",
     "log_posterior",
+    "overlap_pairs",
     "reachable_point",
     "tables_overlap",
     "wall_contact_density",
@@ -431,24 +433,52 @@ def tables_overlap(p: FloatArray, q: FloatArray, catalogue: tuple[ObjectType, ..
     own = catalogue[int(p[3])]
     first = (float(p[0]), float(p[1]), float(p[2]), *_half_sides(own))
     reach = [0.5 * math.hypot(t.length, t.width) for t in catalogue]
-    if len(q) > _SCREEN_ROWS:
+    if len(q) > SCREEN_ROWS:
         gap = np.hypot(q[:, 0] - p[0], q[:, 1] - p[1])
         rows = np.flatnonzero(gap < np.take(reach, q[:, 3].astype(np.int64)) + reach[int(p[3])])
-        if len(rows) > _SCREEN_ROWS:
+        if len(rows) > SCREEN_ROWS:
             halves = np.array([_half_sides(t) for t in catalogue])[q[rows, 3].astype(np.int64)]
             out[rows] = rectangles_overlap(np.array(first), np.column_stack([q[rows, :3], halves]))
             return out
     else:
         rows = np.arange(len(q))
-    for j, (x, y, theta, k) in zip(rows, q[rows].tolist(), strict=True):
-        kind = catalogue[int(k)]
-        if math.hypot(x - first[0], y - first[1]) < reach[int(p[3])] + reach[int(k)]:
-            out[j] = rectangles_overlap_scalar(first, (x, y, theta, *_half_sides(kind)))
+    for j, row in zip(rows, q[rows].tolist(), strict=True):
+        out[j] = _overlaps_one(first, reach[int(p[3])], row, catalogue, reach)
     return out
 
 
-_SCREEN_ROWS = 8
-"""Above this many rows, :func:`tables_overlap` works in numpy passes."""
+def overlap_pairs(p: FloatArray, q: FloatArray, catalogue: tuple[ObjectType, ...]) -> BoolArray:
+    """``(n,)`` whether table ``p[i]`` overlaps table ``q[i]`` (both ``(n, 4)``), pair by
+    pair on plain floats: for each pair, what ``tables_overlap(p[i], q[i][None])[0]``
+    answers, without a numpy call per pair."""
+    reach = [0.5 * math.hypot(t.length, t.width) for t in catalogue]
+    out = np.zeros(len(p), dtype=bool)
+    for i, (own, row) in enumerate(zip(p.tolist(), q.tolist(), strict=True)):
+        kind = catalogue[int(own[3])]
+        first = (own[0], own[1], own[2], *_half_sides(kind))
+        out[i] = _overlaps_one(first, reach[int(own[3])], row, catalogue, reach)
+    return out
+
+
+def _overlaps_one(
+    first: tuple[float, float, float, float, float],
+    first_reach: float,
+    row: list[float],
+    catalogue: tuple[ObjectType, ...],
+    reach: list[float],
+) -> bool:
+    """Whether the rectangle ``first`` (``x, y, θ``, half sides; half diagonal
+    ``first_reach``) overlaps the table ``row`` ``x, y, θ, k``: centres closer than the
+    two half diagonals (``reach`` per type), then the separating-axis test."""
+    x, y, theta, k = row
+    if math.hypot(x - first[0], y - first[1]) < first_reach + reach[int(k)]:
+        return rectangles_overlap_scalar(first, (x, y, theta, *_half_sides(catalogue[int(k)])))
+    return False
+
+
+SCREEN_ROWS = 8
+"""Above this many rows, :func:`tables_overlap` works in numpy passes; up to this many it
+answers each row as it would answer that row alone."""
 
 
 def _half_sides(kind: ObjectType) -> tuple[float, float]:
