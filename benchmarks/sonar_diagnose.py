@@ -48,6 +48,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
@@ -140,12 +141,17 @@ def _share(k: int, n: int) -> str:
     return f"{k / n:.3f} [{ci.low:.3f}, {ci.high:.3f}] (n={n})"
 
 
-def labels(worlds: str, seed: str) -> None:
-    """Print the default filter's precision/recall under the simulator's and the axis label."""
+def _ring_setup() -> tuple[Config, Any, Any]:
+    """The experiment's configuration, its ring and the ring's geometry."""
     config = Config()
     ring = make_ring(config)
-    geometry = ring_geometry(ring)
-    pipeline = PIPELINES["default"]
+    return config, ring, ring_geometry(ring)
+
+
+def labels(worlds: str, seed: str) -> None:
+    """Print the default filter's precision/recall under the simulator's and the axis label."""
+    config, ring, geometry = _ring_setup()
+    pipeline = dataclasses.replace(PIPELINES["default"], map_verdict=None)  # the filter alone
     for name in worlds.split(","):
         w = world(name)
         log = simulate_log(w, ring, config.realism, rng=np.random.default_rng(int(seed)))
@@ -156,14 +162,9 @@ def labels(worlds: str, seed: str) -> None:
         echo = log.ranges < ring.max_range
         person = log.kind == EchoKind.PERSON
         on_axis = np.where(echo, (log.ranges > surface + 0.1) & ~person, surface < ring.max_range)
-        grid = grid_for_poses(log.odometry, ring.max_range + 1.0, config.resolution)
-        run = map_log(
-            log.odometry,
-            log.ranges,
-            pipeline.make_mapper(grid, geometry),
-            pipeline.make_filter(geometry),
-            merge_repeats=pipeline.merge_repeats,
-        )
+        run = build_map(
+            log.odometry, log.ranges, geometry, config.resolution, pipeline=pipeline
+        ).run
         rejected = ~run.accepted
         for label, specular in (("simulator (cone)", log.specular), ("axis only", on_axis)):
             hits = int((rejected & specular).sum())
@@ -204,9 +205,7 @@ class _Oracle:
 
 def ceiling(worlds: str, seeds: str) -> None:
     """Print κ of the default and baseline maps fed by a truth-label oracle filter."""
-    config = Config()
-    ring = make_ring(config)
-    geometry = ring_geometry(ring)
+    config, ring, geometry = _ring_setup()
     for name in worlds.split(","):
         w = world(name)
         for seed in (int(s) for s in seeds.split(",")):
@@ -257,9 +256,7 @@ VERDICT_GRID: dict[str, list[float]] = {
 
 def verdict(worlds: str, seeds: str) -> None:
     """Learn the map's verdict by coordinate ascent on one log per world and seed."""
-    config = Config()
-    ring = make_ring(config)
-    geometry = ring_geometry(ring)
+    config, ring, geometry = _ring_setup()
     pipeline = dataclasses.replace(PIPELINES["default"], map_verdict=None)
     cases = []
     for name in worlds.split(","):
@@ -334,22 +331,14 @@ def _filter_alone(cases: list) -> list[str]:
 
 def wrong(worlds: str, seeds: str) -> None:
     """Print the default pipeline's wrong rejections by stage and kind, and the specular missed."""
-    config = Config()
-    ring = make_ring(config)
-    geometry = ring_geometry(ring)
+    config, ring, geometry = _ring_setup()
     pipeline = PIPELINES["default"]
     for name in worlds.split(","):
         for seed in (int(s) for s in seeds.split(",")):
             log = simulate_log(world(name), ring, config.realism, rng=np.random.default_rng(seed))
-            grid = grid_for_poses(log.odometry, ring.max_range + 1.0, config.resolution)
-            run = map_log(
-                log.odometry,
-                log.ranges,
-                pipeline.make_mapper(grid, geometry),
-                pipeline.make_filter(geometry),
-                merge_repeats=pipeline.merge_repeats,
-                map_verdict=pipeline.map_verdict,
-            )
+            run = build_map(
+                log.odometry, log.ranges, geometry, config.resolution, pipeline=pipeline
+            ).run
             rejected, specular = ~run.accepted, log.specular
             hits = int((rejected & specular).sum())
             print(
