@@ -148,6 +148,21 @@ def _ring_setup() -> tuple[Config, Any, Any]:
     return config, ring, ring_geometry(ring)
 
 
+def _mapped(log: Any, ring: Any, config: Config, geometry: Any, pipeline: Any) -> tuple[Any, Any]:
+    """Map a simulated log's odometry with ``pipeline``: the mapper and the run's verdicts."""
+    grid = grid_for_poses(log.odometry, ring.max_range + 1.0, config.resolution)
+    mapper = pipeline.make_mapper(grid, geometry)
+    run = map_log(
+        log.odometry,
+        log.ranges,
+        mapper,
+        pipeline.make_filter(geometry),
+        merge_repeats=pipeline.merge_repeats,
+        map_verdict=pipeline.map_verdict,
+    )
+    return mapper, run
+
+
 def labels(worlds: str, seed: str) -> None:
     """Print the default filter's precision/recall under the simulator's and the axis label."""
     config, ring, geometry = _ring_setup()
@@ -162,9 +177,7 @@ def labels(worlds: str, seed: str) -> None:
         echo = log.ranges < ring.max_range
         person = log.kind == EchoKind.PERSON
         on_axis = np.where(echo, (log.ranges > surface + 0.1) & ~person, surface < ring.max_range)
-        run = build_map(
-            log.odometry, log.ranges, geometry, config.resolution, pipeline=pipeline
-        ).run
+        _, run = _mapped(log, ring, config, geometry, pipeline)
         rejected = ~run.accepted
         for label, specular in (("simulator (cone)", log.specular), ("axis only", on_axis)):
             hits = int((rejected & specular).sum())
@@ -262,15 +275,7 @@ def verdict(worlds: str, seeds: str) -> None:
     for name in worlds.split(","):
         for seed in (int(s) for s in seeds.split(",")):
             log = simulate_log(world(name), ring, config.realism, rng=np.random.default_rng(seed))
-            grid = grid_for_poses(log.odometry, ring.max_range + 1.0, config.resolution)
-            mapper = pipeline.make_mapper(grid, geometry)
-            run = map_log(
-                log.odometry,
-                log.ranges,
-                mapper,
-                pipeline.make_filter(geometry),
-                merge_repeats=pipeline.merge_repeats,
-            )
+            mapper, run = _mapped(log, ring, config, geometry, pipeline)
             fresh = ~run.repeat
             last = np.maximum.accumulate(np.where(fresh, np.arange(len(fresh)), 0))
             cases.append((f"{name} {seed}", mapper, log, run, fresh, last))
@@ -336,9 +341,7 @@ def wrong(worlds: str, seeds: str) -> None:
     for name in worlds.split(","):
         for seed in (int(s) for s in seeds.split(",")):
             log = simulate_log(world(name), ring, config.realism, rng=np.random.default_rng(seed))
-            run = build_map(
-                log.odometry, log.ranges, geometry, config.resolution, pipeline=pipeline
-            ).run
+            _, run = _mapped(log, ring, config, geometry, pipeline)
             rejected, specular = ~run.accepted, log.specular
             hits = int((rejected & specular).sum())
             print(
