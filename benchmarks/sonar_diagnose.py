@@ -22,10 +22,11 @@ map, fed by an oracle that rejects exactly the readings the simulator labels spe
 in a second pair, the echoes from people too), and prints κ beside the default pipeline's
 and the baseline's own.
 
-``python benchmarks/sonar_diagnose.py verdict WORLDS SEEDS`` learns the thresholds of the
-map's verdict (:class:`~bayesmap.sonar.map_verdict.MapVerdict`): it maps one log per world
-and seed with the default pipeline's filter and streaming map, then judges the rings again
-by that map under each setting, by coordinate ascent from the shipped settings over a small
+``python benchmarks/sonar_diagnose.py verdict WORLDS SEEDS [PIPELINE]`` learns the
+thresholds of the map's verdict (:class:`~bayesmap.sonar.map_verdict.MapVerdict`) of a
+pipeline (default ``default``; ``forward`` judges by its refined map): it maps one log per
+world and seed with the pipeline's filter and map, then judges the rings again by that map
+under each setting, by coordinate ascent from the shipped settings over a small
 grid (two rounds), maximising the worst log's min(rejection precision, recall) — the target
 holds in every world —, ties broken by the mean over logs; it prints every step.
 
@@ -258,24 +259,25 @@ def ceiling(worlds: str, seeds: str) -> None:
 
 
 VERDICT_GRID: dict[str, list[float]] = {
-    "silence_confidence": [0.9, 0.95, 0.97, 0.99],
+    "silence_confidence": [0.9, 0.95, 0.97, 0.99, 0.999],
     "silence_width": [0.25, 0.5, 1.0],
     "silence_margin": [0.0, 0.3, 0.5],
-    "open_confidence": [0.5, 0.6, 0.7, 0.9],
+    "open_confidence": [0.5, 0.6, 0.7, 0.9, 0.95, 0.99, 0.999],
     "echo_confidence": [0.5, 0.7, 0.9],
     "echo_margin": [0.4, 0.8, 1.2],
 }
 
 
-def verdict(worlds: str, seeds: str) -> None:
-    """Learn the map's verdict by coordinate ascent on one log per world and seed."""
+def verdict(worlds: str, seeds: str, pipeline_name: str = "default") -> None:
+    """Learn a pipeline's map verdict by coordinate ascent on one log per world and seed."""
     config, ring, geometry = _ring_setup()
-    pipeline = dataclasses.replace(PIPELINES["default"], map_verdict=None)
+    pipeline = dataclasses.replace(PIPELINES[pipeline_name], map_verdict=None)
     cases = []
     for name in worlds.split(","):
         for seed in (int(s) for s in seeds.split(",")):
             log = simulate_log(world(name), ring, config.realism, rng=np.random.default_rng(seed))
             mapper, run = _mapped(log, ring, config, geometry, pipeline)
+            mapper.sync()  # the map the pipeline ends with (refined, where it refines)
             fresh = ~run.repeat
             last = np.maximum.accumulate(np.where(fresh, np.arange(len(fresh)), 0))
             cases.append((f"{name} {seed}", mapper, log, run, fresh, last))
@@ -398,8 +400,8 @@ def main(argv: list[str]) -> None:
         ceiling(argv[1], argv[2])
     elif len(argv) == 3 and argv[0] == "labels":
         labels(argv[1], argv[2])
-    elif len(argv) == 3 and argv[0] == "verdict":
-        verdict(argv[1], argv[2])
+    elif len(argv) in (3, 4) and argv[0] == "verdict":
+        verdict(*argv[1:])
     elif len(argv) == 3 and argv[0] == "wrong":
         wrong(argv[1], argv[2])
     elif len(argv) == 3 and argv[0] == "speed":

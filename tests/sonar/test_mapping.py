@@ -14,7 +14,7 @@ from bayesmap.sonar.filter import RingVerdict, Stage
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.map_verdict import MapVerdict, clearance, first_surface, judge_by_map
 from bayesmap.sonar.mapping import ElfesMapper
-from bayesmap.sonar.pipeline import PIPELINES, map_log
+from bayesmap.sonar.pipeline import PIPELINES, MapRun, map_log
 
 FRONT_AND_BACK = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
 
@@ -253,3 +253,67 @@ def test_remask_refuses_a_mask_of_the_wrong_shape() -> None:
     mapper.integrate([0.0, 0.0, 0.0], [2.0, 6.0])
     with pytest.raises(InputError, match="stored rings"):
         mapper.remask(np.ones((2, 2), dtype=bool))
+
+
+class _RejectLastSilences:
+    """A stand-in filter: Trait Verification rejects the silences of the last three rings."""
+
+    def process_many(self, poses: np.ndarray, ranges: np.ndarray) -> RingVerdict:
+        ring = np.rint(poses[:, 0] / 0.01).astype(int)[:, None]  # _CREEPING moves 1 cm a ring
+        rejected = (ranges >= 5.0) & (ring >= 9)
+        return RingVerdict(
+            accepted=~rejected,
+            flagged=np.zeros(ranges.shape, dtype=bool),
+            stage=np.where(rejected, int(Stage.TRAIT_VERIFICATION), int(Stage.ACCEPTED)),
+            free_limit=np.full(ranges.shape, np.inf),
+        )
+
+
+def _forward_run(front: list[float], verdict: MapVerdict) -> tuple[ElfesMapper, MapRun]:
+    """The creeping log with ``front`` ranges ahead and silence behind, mapped as ``forward``.
+
+    The filter keeps every reading but the silences of the last three rings.
+    """
+    mapper = ElfesMapper(
+        _grid(),
+        FRONT_AND_BACK,
+        no_echo="clear",
+        clear_distance=1.0,
+        forward_sweeps=1,
+        forward_free_stop=True,
+        forward_no_echo=3.0,
+    )
+    ranges = np.c_[front, np.full(len(front), 6.0)]
+    run = map_log(_CREEPING, ranges, mapper, _RejectLastSilences(), map_verdict=verdict)  # type: ignore[arg-type]
+    return mapper, run
+
+
+_PASSER_BY = [2.0] * 3 + [6.0] * 9  # someone 2 m ahead for three rings, then open space
+_JUDGE = MapVerdict(silence_confidence=0.9, open_confidence=0.9)
+
+
+def test_a_silence_facing_a_transient_trace_is_judged_open_by_the_refined_map() -> None:
+    # The streaming map (kept silences clear 1 m) keeps the passer-by's trace at 2 m: judged
+    # by it, the rejected silences of the last rings would stay rejected, as lost echoes.
+    _, streaming = _forward_run(_PASSER_BY, replace(_JUDGE, remap=True))
+    assert not streaming.accepted[9:, 0].any()
+    assert (streaming.stage[9:, 0] == Stage.MAP_VERDICT).all()
+    # In the refined map the kept silences (clearing 3 m) have erased the trace: open space.
+    mapper, refined = _forward_run(_PASSER_BY, _JUDGE)
+    assert mapper.probability()[mapper.grid.world_to_cell(2.0, 0.0)] < 0.5
+    assert refined.accepted[9:, 0].all()
+    assert (refined.stage[9:, 0] == Stage.ACCEPTED).all()
+
+
+def test_a_silence_facing_a_wall_seen_again_and_again_stays_a_lost_echo() -> None:
+    mapper, run = _forward_run(_WALL_THEN_SILENCE[:, 0].tolist(), _JUDGE)
+    assert mapper.probability()[mapper.grid.world_to_cell(2.0, 0.0)] > 0.9
+    assert not run.accepted[9:, 0].any()
+    assert (run.stage[9:, 0] == Stage.MAP_VERDICT).all()
+
+
+def test_the_refined_verdict_is_the_same_every_time() -> None:
+    first_map, first = _forward_run(_PASSER_BY, _JUDGE)
+    second_map, second = _forward_run(_PASSER_BY, _JUDGE)
+    assert np.array_equal(first.accepted, second.accepted)
+    assert np.array_equal(first_map.probability(), second_map.probability())

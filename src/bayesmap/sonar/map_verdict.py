@@ -56,7 +56,9 @@ class MapVerdict:
         surface anywhere in its cone is kept.
     remap
         Whether the forward-model sweep (``ElfesMapper.refine``) maps the readings as the
-        verdict judged them; without a sweep the map stays the streaming pass's.
+        verdict judged them (the streaming map then judges; without ``remap`` a mapper with
+        a sweep is judged by its refined map); without a sweep the map stays the streaming
+        pass's.
     """
 
     silence_confidence: float = 0.99

@@ -180,9 +180,10 @@ def map_log(
     map_verdict
         After the pass, judge every ring again by the map it ended with
         (:func:`~bayesmap.sonar.map_verdict.judge_by_map`: silences by the surfaces the map
-        is sure of in their cones, echoes by what stands in front of them). With
-        ``remap``, a mapper that refines the whole log (``forward_sweeps``) maps the
-        readings as the verdict judged them. Needs a mapper with ``geometry``.
+        is sure of in their cones, echoes by what stands in front of them); a mapper that
+        refines the whole log (``forward_sweeps``) is judged by its refined map. With
+        ``remap``, the streaming map judges instead and the refinement maps the readings
+        as the verdict judged them. Needs a mapper with ``geometry``.
     progress
         Optional ``progress(done, total)`` callback, called every 100 rings and at the end.
     """
@@ -258,7 +259,15 @@ def _judge_by_map(
     stage: IntArray,
     repeat: BoolArray,
 ) -> None:
-    """Replace (in place) the verdicts of a mapped log by the map's (see :func:`map_log`)."""
+    """Replace (in place) the verdicts of a mapped log by the map's (see :func:`map_log`).
+
+    The judging map is the one the pipeline ends with: a mapper that refines the whole log
+    (``forward_sweeps``) refines first, unless ``remap`` is to feed the verdict to that
+    refinement, in which case the streaming map judges.
+    """
+    refine: Callable[[], None] | None = getattr(mapper, "refine", None)
+    if not verdict.remap and refine is not None:
+        refine()
     fresh = ~repeat
     accepted[fresh], stage[fresh] = judge_by_map(
         mapper.probability(),
@@ -400,7 +409,13 @@ _DEFAULT = Pipeline(
 
 PIPELINES: dict[str, Pipeline] = {
     "default": _DEFAULT,
-    "forward": replace(_DEFAULT, forward_sweeps=1, forward_free_stop=True, forward_no_echo=3.0),
+    "forward": replace(
+        _DEFAULT,
+        forward_sweeps=1,
+        forward_free_stop=True,
+        forward_no_echo=3.0,
+        map_verdict=MapVerdict(silence_confidence=0.999, silence_width=0.5, open_confidence=0.999),
+    ),
     "paper": Pipeline(acceptability=True, agreeability=True, trait_verification=True),
     "acceptability": Pipeline(acceptability=True),
     "agreeability": Pipeline(agreeability=True),
@@ -426,7 +441,9 @@ reading judged again by the map it ended with (``map_verdict``, the learnt
 filter's). ``forward``: the
 default's filter and streaming map, then one sweep of the forward-model refinement over the
 whole log (``ElfesMapper.refine``: echo arcs shared by the whole log's map, free space
-stopped at the first surface it holds, accepted silences clearing 3 m); a fifth to three
+stopped at the first surface it holds, accepted silences clearing 3 m), and the verdict
+asked of that refined map, with its own learnt thresholds (sure at 0.999 over half the
+cone for a lost echo, nothing above 0.999 in the cone for open space); a fifth to three
 fifths slower than ``default`` (docs/sonar.md). ``paper``: all three stages
 with the eq. 1 cone model as first built (no-echo clears the cone, ±10 clamp); the single
 stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
