@@ -7,13 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from bayesmap._typing import FloatArray
 from bayesmap.geometry import to_robot
-from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.safety import (
-    ContactStore,
-    Safety,
     back_off_on_track,
     drive_command,
     footprint_safety,
@@ -26,7 +22,7 @@ from bayesmap.rover.safety import (
     segment_distance,
     square_distance,
 )
-from bayesmap.sensing.ir import ranger_poses, raw_from_range
+from bayesmap.sensing.ir import ranger_poses
 from bayesmap.sim import rover as sim_rover
 
 PARAMS = RoverParams(n_headings=36)
@@ -315,78 +311,3 @@ def test_the_distinct_points_known_from_the_templates_give_back_every_sample() -
         np.testing.assert_array_equal(points[inverse], centres)
         assert (inverse[:, 0] == 0).all()
         assert len(points) < centres.shape[0] * centres.shape[1] / 2
-
-
-def test_a_remembered_contact_blocks_a_sweep_over_a_cell_mapped_free() -> None:
-    """A corner clipping a cell the beams mostly crossed free: the map holds no hazard, the
-    contact read there long ago does, and readings that end before it do not forget it."""
-    grid = OccupancyGrid(10.0, 10.0, 0.5, prior=PARAMS.prior)
-    grid.probability[:] = 0.02  # certainly free everywhere, the corner's cell included
-    assert not hazard_cells(grid.probability, PARAMS).any()
-    store = ContactStore(grid, PARAMS)
-    store.remember([[5.6, 5.25]])  # the corner, read from (4.0, 5.25) looking along +x
-    assert store.size == 1
-    near = raw_from_range(0.5)  # later: a surface 0.5 m ahead of the ranger, nearer than it
-    for _ in range(200):
-        store.forget_passed(np.array([[4.0, 5.25, 0.0]]), [near])
-    hits = store.near(5.0, 5.0, 2.0)
-    np.testing.assert_allclose(hits, [[5.6, 5.25]])
-
-    def check(points: FloatArray) -> Safety:
-        return footprint_safety(
-            (5.0, 5.0, 0.0), THETA, np.zeros((0, 2)), 0.5, points, grid.extent, PARAMS
-        )
-
-    # straight on passes 0.25 m from it: 0.05 m of clearance, inside the 0.3 m margin
-    assert check(np.zeros((0, 2))).safe[0]
-    with_contact = check(hits)
-    assert not with_contact.safe[0] and with_contact.clearance[0] < PARAMS.safety_margin
-    assert with_contact.safe[18]  # turning away stays clear
-
-
-def test_a_contact_passed_through_by_several_readings_is_forgotten() -> None:
-    grid = OccupancyGrid(10.0, 10.0, 0.5, prior=PARAMS.prior)
-    store = ContactStore(grid, PARAMS)
-    store.remember([[5.6, 5.0]])
-    sensor = np.array([[4.85, 5.0, 0.0]])  # its axis runs through the point, 0.75 m ahead
-    ends_there = raw_from_range(0.75)
-    store.forget_passed(sensor, [ends_there])  # a reading that ends on it passes nothing
-    beyond = raw_from_range(1.5)
-    for _ in range(PARAMS.contact_passes - 1):
-        store.forget_passed(sensor, [beyond])
-        assert store.size == 1  # one reading (or two) past it may be noise
-    store.forget_passed(sensor, [beyond])
-    assert store.size == 0 and not store.cells_
-    # a point beside the axis, or behind the ranger, is never passed through
-    store.remember([[5.6, 5.2], [4.5, 5.0]])
-    for _ in range(10):
-        store.forget_passed(sensor, [0.0])  # nothing read at all
-    assert store.size == 2
-
-
-def test_the_store_stays_bounded_while_the_rover_stands_still() -> None:
-    """Readings of a wall from one pose, with noise, cycle after cycle: the store keeps at
-    most ``contact_capacity`` points in each cell it touches, however long the rover stays."""
-    rng = np.random.default_rng(11)
-    grid = OccupancyGrid(10.0, 10.0, 0.5, prior=PARAMS.prior)
-    store = ContactStore(grid, PARAMS)
-    sensors = ranger_poses((5.0, 5.0, 0.0), PARAMS.sensor_angles, PARAMS.sensor_offset)
-    sizes = []
-    for _ in range(1000):
-        ranges = 1.0 + rng.normal(0.0, 0.05, size=3)
-        store.forget_passed(sensors, raw_from_range(ranges))
-        store.remember(reading_points(sensors, ranges, [True] * 3, PARAMS))
-        sizes.append(store.size)
-    assert len(store.cells_) <= 12  # the cells the three readings' points fall in
-    assert max(sizes) <= PARAMS.contact_capacity * 12  # not 15 points a cycle for 1000 cycles
-
-
-def test_only_readings_within_the_informative_range_are_remembered() -> None:
-    """A reading at 1.8 m (range error about 0.2 m) counts for its own cycle only; one at
-    1.0 m is kept."""
-    store = ContactStore(OccupancyGrid(10.0, 10.0, 0.5, prior=PARAMS.prior), PARAMS)
-    sensor = np.array([[2.0, 5.0, 0.0]])
-    far = store.update(sensor, raw_from_range([1.8]), [1.8], [True])
-    assert far.shape == (5, 2) and store.size == 0
-    assert store.update(sensor, raw_from_range([1.0]), [1.0], [True]).shape == (0, 2)
-    assert store.size == 5

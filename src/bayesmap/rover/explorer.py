@@ -23,7 +23,6 @@ from bayesmap.rover.network import CycleInputs, DecisionNetwork, Evaluator
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.planning import LocalPlan, local_plan
 from bayesmap.rover.safety import (
-    ContactStore,
     Safety,
     drive_command,
     footprint_safety,
@@ -110,12 +109,9 @@ class Explorer:
         The IR mapper holding the maps.
     network_
         The decision network queried every cycle.
-    contacts_
-        The points where ranger readings within the informative range ended on a surface
-        [m], kept until later readings pass through them
-        (:class:`~bayesmap.rover.safety.ContactStore`): the footprint keeps its margin from
-        them, and from this cycle's farther readings, as from the map, without the map's
-        cell quantisation.
+    recent_hits_
+        The points read by the rangers in the last ``hit_memory`` cycles [m]: the footprint
+        keeps its margin from them as from the map, without the map's cell quantisation.
     commands_
         The commands of the last ``track_cycles`` cycles, oldest first: the rover's recent
         track, which a back-off may reverse into (:func:`~bayesmap.rover.safety.recent_track`).
@@ -138,7 +134,6 @@ class Explorer:
         self.target_rule = target_rule
         self.mapper_ = IRMapper(grid, params)
         self.network_ = DecisionNetwork(params, evaluator)
-        self.contacts_ = ContactStore(grid, params)
         self.recent_hits_: deque[FloatArray] = deque(maxlen=params.hit_memory)
         self.commands_: deque[tuple[float, float]] = deque(maxlen=params.track_cycles)
         self._theta = np.asarray(params.headings)
@@ -174,7 +169,7 @@ class Explorer:
         plan = self._plan = local_plan(self.grid, x, y, p, avoid=self.hemmed_, previous=self._plan)
         target, waypoint = self._target(plan, (x, y, psi))
         theta_t = psi if waypoint is None else math.atan2(waypoint[1] - y, waypoint[0] - x)
-        safety = self._safety((x, y, psi), raw)
+        safety = self._safety((x, y, psi))
         if safety.retreat:
             self._remember_hemmed(x, y, target)
         self._was_hemmed = safety.retreat
@@ -280,9 +275,8 @@ class Explorer:
             self.target_rule.reject(target)
         return target, None
 
-    def _safety(self, pose: tuple[float, float, float], raw: npt.ArrayLike) -> Safety:
-        """The footprint check of every heading against the map and the remembered contacts,
-        after folding this cycle's readings ``raw`` into the contacts."""
+    def _safety(self, pose: tuple[float, float, float]) -> Safety:
+        """The footprint check of every heading against the map and the current readings."""
         p = self.params
         grid = self.grid
         reach = p.lookahead + p.footprint_radius + p.safety_margin + grid.resolution
@@ -290,15 +284,10 @@ class Explorer:
         likely = hazard_cells(prob, p)
         unknown = prob == grid.prior
         sensors = ranger_poses(pose, p.sensor_angles, p.sensor_offset)
-        farther = self.contacts_.update(
-            sensors, raw, self.mapper_.last_ranges_, self.mapper_.last_above_noise_
-        )
         self.recent_hits_.append(
             reading_points(sensors, self.mapper_.last_ranges_, self.mapper_.last_above_noise_, p)
         )
-        hits = np.concatenate(
-            [self.contacts_.near(pose[0], pose[1], reach), farther, *self.recent_hits_]
-        )
+        hits = np.concatenate(list(self.recent_hits_))
         hits = hits[np.hypot(hits[:, 0] - pose[0], hits[:, 1] - pose[1]) <= reach]
         cells = np.stack([xc[likely], yc[likely]], axis=1)
         unseen = np.stack([xc[unknown], yc[unknown]], axis=1)

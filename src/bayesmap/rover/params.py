@@ -75,12 +75,9 @@ class RoverParams:
     lookahead
         Distance [m] along the path each candidate heading would drive that the footprint
         check covers (the next cycle's arc, turning included, and on along the new heading).
-    contact_capacity
-        Contacts (points where a reading ended on a surface) remembered per map cell for the
-        footprint check (:class:`bayesmap.rover.safety.ContactStore`).
-    contact_passes
-        Later readings that must pass clearly through a remembered contact before it is
-        forgotten (one noise reading does not reopen a corner, nor close a passage for good).
+    hit_memory
+        Cycles for which the points the rangers read stay obstacles to the footprint check
+        (about the GPS error's correlation time, so they stay where the map put them).
     track_cycles
         Cycles of the rover's own recent track (dead-reckoned from its commands) that a
         back-off may reverse into (:func:`bayesmap.rover.safety.recent_track`).
@@ -124,8 +121,6 @@ class RoverParams:
     margin_sigmas: float = 3.0
     lookahead: float = 0.6
     hit_memory: int = 50
-    contact_capacity: int = 4
-    contact_passes: int = 3
     track_cycles: int = 15
     track_tolerance: float = 0.02
     target_timeout: int = 60
@@ -159,8 +154,8 @@ class RoverParams:
             )
             > 0,
             "position_sigma, margin_sigmas >= 0": min(self.position_sigma, self.margin_sigmas) >= 0,
-            "target_timeout, contact_capacity, contact_passes, track_cycles >= 1": min(
-                self.target_timeout, self.contact_capacity, self.contact_passes, self.track_cycles
+            "target_timeout, hit_memory, track_cycles >= 1": min(
+                self.target_timeout, self.hit_memory, self.track_cycles
             )
             >= 1,
             "track_tolerance >= 0": self.track_tolerance >= 0,

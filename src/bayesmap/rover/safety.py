@@ -9,10 +9,8 @@ included, against
 - cells of the map that are likely obstacles (``p >= p_block``), each a square of the
   grid's resolution, and their neighbours not yet shown certainly free (a cell the edge of
   an obstacle only clips gets mixed evidence and can look free-ish);
-- the contacts the rangers have read (any reading above ``2 sigma_r``, before eq. 33
-  confirms it, spread over the ranger's angle of view), remembered per cell until later
-  readings pass clearly through them (:class:`ContactStore`): a cell scored from beams
-  that mostly cross its free part is mapped free although an obstacle's corner clips it;
+- the points the rangers read right now (any reading above ``2 sigma_r``, before eq. 33
+  confirms it), spread over the ranger's angle of view;
 - cells never observed (still at the prior): the rangers look ahead only, so a turn can
   sweep the body over ground it has never seen; the body may not overlap such a cell,
   unless it overlaps it already;
@@ -30,7 +28,7 @@ ahead only, so what lies behind is known from the map alone, drawn in GPS frames
 be 0.2 m away from the current one; instead, a back-off may reverse only into ground the
 body itself occupied in the last ``track_cycles`` cycles (:func:`recent_track`, dead-reckoned
 from the rover's own commands, so it does not depend on the GPS) and where no remembered
-contact lies. A turn in place is always allowed: the body is a disc about the point it
+ranger point lies. A turn in place is always allowed: the body is a disc about the point it
 turns on, so turning covers no ground it does not cover already (refusing it where the map
 put a hazard under the body, from an older GPS frame, left the rover standing still for
 thousands of cycles). All of this is an addition to the paper.
@@ -49,10 +47,8 @@ from scipy import ndimage
 
 from bayesmap._typing import BoolArray, FloatArray, IntArray
 from bayesmap.geometry import to_robot, to_world, wrap_angle
-from bayesmap.grid import OccupancyGrid
 from bayesmap.grid.entropy import probability_at_entropy
 from bayesmap.rover.params import RoverParams
-from bayesmap.sensing.ir import informative_range, raw_from_range
 
 _SUBSTEP = 0.2
 """Integration step of the predicted path [s]: 5 cm between footprint checks at 0.25 m/s."""
@@ -247,183 +243,6 @@ def reading_points(
     return np.stack([px.ravel(), py.ravel()], axis=1)
 
 
-_PASS_WIDTH = 0.05
-"""How close [m] to a ranger's axis a remembered contact must lie for a reading of that
-ranger to count as passing through it (the compass's 2° put the axis 0.035 m off at 1 m)."""
-
-_MERGE = 0.1
-"""A new contact this close [m] to a remembered one of the same cell replaces it: the same
-spot read again, in the current GPS frame."""
-
-_ADC_MAX = 255.0
-"""Largest 8-bit ADC reading: a surface closer than about 0.15 m saturates the ranger."""
-
-
-def passes_through(
-    points: npt.ArrayLike, sensors: npt.ArrayLike, raw: npt.ArrayLike, params: RoverParams
-) -> BoolArray:
-    """``(n, s)`` whether ranger ``j``'s current reading clearly passes through point ``i``.
-
-    The point must lie ahead of the ranger, within ``r_max`` and within ``_PASS_WIDTH`` of
-    its axis, and the reading ``raw`` [ADC units] must be more than ``3 sigma_r`` below what
-    a surface at the point would give (§5.1 fit, saturated at 255): the axis met nothing
-    there. A ranger reports the return nearest its axis, so a reading says the axis is free
-    up to the read range even when the cone met something nearer off the axis; a reading
-    below the noise passes every point within ``r_max``.
-    """
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    pose = np.atleast_2d(np.asarray(sensors, dtype=np.float64))
-    readings = np.asarray(raw, dtype=np.float64).ravel()
-    dx = pts[:, 0:1] - pose[None, :, 0]
-    dy = pts[:, 1:2] - pose[None, :, 1]
-    cos, sin = np.cos(pose[:, 2]), np.sin(pose[:, 2])
-    along = dx * cos + dy * sin
-    across = -dx * sin + dy * cos
-    ahead = (along > 0.0) & (along <= params.r_max)
-    expected = np.minimum(
-        raw_from_range(np.where(ahead, along, params.r_max), params.ir_fit), _ADC_MAX
-    )
-    clear = readings[None, :] < expected - 3.0 * params.sigma_r
-    return np.asarray(ahead & (np.abs(across) <= _PASS_WIDTH) & clear)
-
-
-class ContactStore:
-    """Remembered ranger contacts: where readings ended on a surface, kept per map cell.
-
-    Post et al. 2016 check collisions on the map alone (eqs. 41–42), and a cell scored from
-    beams that mostly cross its free part is mapped free when an obstacle's corner only
-    clips it, even though some readings ended on that corner. This store (ours) keeps the
-    points themselves (:func:`reading_points`, in continuous coordinates of the GPS frame
-    they were read in), so the footprint check keeps the same margin from them as from the
-    map's likely cells, and its verdicts reach the decision network's ``Footprint`` node.
-    Only readings within the informative range (eq. 31: ``beta_r >= 1/2``,
-    1.245 m) are kept: farther ones count for their own cycle only, since their range error
-    (0.2 m at 2 m) would leave points standing in free space. A point is forgotten
-    only when ``contact_passes`` later readings have passed clearly through it
-    (:func:`passes_through`): a noise reading does not close a passage for good, and one
-    reading that misses a corner does not reopen it. Each cell holds at most
-    ``contact_capacity`` points (a new one near a held one, or in a full cell, replaces the
-    nearest), so the store grows with the area explored, not with time.
-
-    Parameters
-    ----------
-    grid
-        The map whose cells index the store (its geometry only).
-    params
-        ``contact_capacity``, ``contact_passes``, the rangers' model.
-
-    Attributes
-    ----------
-    cells_
-        Per cell ``(row, col)`` that holds contacts, a ``(k, 4)`` array: ``x``, ``y`` [m],
-        how many readings have passed through the point since it was read, and the number
-        of the :meth:`remember` call that read it.
-    """
-
-    def __init__(self, grid: OccupancyGrid, params: RoverParams) -> None:
-        self.grid = grid
-        self.params = params
-        self.cells_: dict[tuple[int, int], FloatArray] = {}
-        self._informative = informative_range(r_max=params.r_max, beta_b=params.beta_b)
-        self._batch = 0
-
-    @property
-    def size(self) -> int:
-        """Number of contacts held."""
-        return sum(len(held) for held in self.cells_.values())
-
-    def update(
-        self,
-        sensors: npt.ArrayLike,
-        raw: npt.ArrayLike,
-        ranges: npt.ArrayLike,
-        above_noise: npt.ArrayLike,
-    ) -> FloatArray:
-        """Fold one cycle's readings in: forget the contacts they pass through
-        (:meth:`forget_passed`), remember the contacts read within the informative range, and
-        return ``(k, 2)`` the points of the farther readings, which count for this cycle only.
-
-        ``sensors`` ``(s, 3)`` are the rangers' poses, ``raw`` their ADC readings, ``ranges``
-        [m] the ranges read from them and ``above_noise`` whether each exceeds ``2 sigma_r``.
-        """
-        r = np.asarray(ranges, dtype=np.float64).ravel()
-        above = np.asarray(above_noise, dtype=bool).ravel()
-        informative = above & (r <= self._informative)
-        self.forget_passed(sensors, raw)
-        self.remember(reading_points(sensors, r, informative, self.params))
-        return reading_points(sensors, r, above & ~informative, self.params)
-
-    def remember(self, points: npt.ArrayLike) -> None:
-        """Add ``(n, 2)`` contact points [m] read in one cycle; points off the map are not kept.
-
-        A point replaces a held one of its cell that an earlier cycle read within ``_MERGE``
-        of it, or, in a full cell, the nearest one an earlier cycle read (a cell that one
-        cycle's points fill keeps the first of them): the points of one reading never
-        replace each other, so its spread over the ranger's view stays whole.
-        """
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        rows, cols = self.grid.world_to_cell(pts[:, 0], pts[:, 1])
-        inside = self.grid.in_bounds(rows, cols)
-        self._batch += 1
-        for (x, y), row, col in zip(pts[inside], rows[inside], cols[inside], strict=True):
-            key = (int(row), int(col))
-            new = (x, y, 0.0, float(self._batch))
-            held = self.cells_.get(key)
-            if held is None:
-                self.cells_[key] = np.array([new])
-                continue
-            earlier = held[:, 3] < self._batch
-            distance = np.where(earlier, np.hypot(held[:, 0] - x, held[:, 1] - y), np.inf)
-            nearest = int(np.argmin(distance))
-            full = len(held) >= self.params.contact_capacity
-            if distance[nearest] < _MERGE or (full and earlier.any()):
-                held[nearest] = new
-            elif not full:
-                self.cells_[key] = np.vstack([held, [new]])
-
-    def forget_passed(self, sensors: npt.ArrayLike, raw: npt.ArrayLike) -> None:
-        """Count the readings ``raw`` of rangers at ``sensors`` ``(s, 3)`` that pass through
-        held contacts, and forget those passed through ``contact_passes`` times."""
-        pose = np.atleast_2d(np.asarray(sensors, dtype=np.float64))
-        centre = pose[:, :2].mean(axis=0)
-        spread = float(np.hypot(*(pose[:, :2] - centre).T).max())
-        keys, held = self._held(float(centre[0]), float(centre[1]), self.params.r_max + spread)
-        if not keys:
-            return
-        stacked = np.concatenate(held)
-        stacked[:, 2] += passes_through(stacked[:, :2], pose, raw, self.params).sum(axis=1)
-        kept = stacked[:, 2] < self.params.contact_passes
-        ends = np.cumsum([len(h) for h in held])[:-1]
-        for key, points, keep in zip(
-            keys, np.split(stacked, ends), np.split(kept, ends), strict=True
-        ):
-            if keep.any():
-                self.cells_[key] = points[keep]
-            else:
-                del self.cells_[key]
-
-    def near(self, x: float, y: float, radius: float) -> FloatArray:
-        """``(n, 2)`` the contacts held in the cells within ``radius`` [m] of ``(x, y)``."""
-        _, held = self._held(x, y, radius)
-        if not held:
-            return np.zeros((0, 2))
-        return np.asarray(np.concatenate(held)[:, :2])
-
-    def _held(
-        self, x: float, y: float, radius: float
-    ) -> tuple[list[tuple[int, int]], list[FloatArray]]:
-        """The keys and arrays of the cells holding contacts whose area may lie within
-        ``radius`` of ``(x, y)``; the lookups cost the window's cells, not the store's."""
-        window = self.grid.window(x, y, radius + self.grid.resolution)
-        keys = [
-            (row, col)
-            for row in range(window.row0, window.row1)
-            for col in range(window.col0, window.col1)
-            if (row, col) in self.cells_
-        ]
-        return keys, [self.cells_[key] for key in keys]
-
-
 def outside_distance(
     x: npt.ArrayLike, y: npt.ArrayLike, extent: tuple[float, float, float, float]
 ) -> FloatArray:
@@ -455,7 +274,7 @@ class Safety:
     back_clear
         Whether backing off one cycle (straight back at ``speed``) keeps the body on its
         recent track (:func:`back_off_on_track`): ground it occupied itself, where no
-        remembered contact lies.
+        remembered ranger point lies.
     retreat
         Whether the rover stands inside the margin and no heading keeps it, so that
         ``safe`` lists the retreats instead: headings the rover can pivot onto and drive
@@ -495,8 +314,7 @@ def footprint_safety(
     resolution
         Cell side [m].
     reading_hits
-        ``(k, 2)`` contact points the rangers read (:func:`reading_points`), now and
-        remembered (:meth:`ContactStore.near`).
+        ``(k, 2)`` points the rangers read now (:func:`reading_points`).
     extent
         The mapped area ``(xmin, xmax, ymin, ymax)`` [m].
     params
