@@ -18,11 +18,12 @@ with
   value and at ``--gps`` multiples of it. The rover's own model of its GPS stays at the
   nominal value, so the multiples test a GPS worse than the rover believes.
 
-Each run writes ``OUT/<run>.json`` (its metrics and near misses) when it ends, and a rerun
-skips finished runs. For every cycle whose true clearance falls below ``--near`` (0.1 m)
-it records what the rover did and why: the command, whether the footprint check passed
-the heading and the clearance it predicted, the GPS error then, whether the map (in the
-current GPS frame) and the remembered readings knew the obstacle point nearest the body.
+Each run writes ``OUT/<run>.json`` (its metrics, near misses and the 1-minute load average
+it ended at) when it ends, and a rerun skips finished runs; ``--seed N`` runs one seed.
+For every cycle whose true clearance falls below ``--near`` (0.1 m) it records what the
+rover did and why: the command, whether the footprint check passed the heading and the
+clearance it predicted, the GPS error then, whether the map (in the current GPS frame)
+and the remembered readings knew the obstacle point nearest the body.
 The table goes into its own section of docs/benchmarks.md. Run from the repository root::
 
     python benchmarks/rover_safety.py --worlds 6 --seeds 1 --jobs 2
@@ -316,6 +317,7 @@ def one_run(job: Job, args: argparse.Namespace) -> dict[str, Any]:
     summary.update(job._asdict())
     summary["near_cycles"] = int((clearance[1:] < args.near).sum())
     summary["near_misses"] = near
+    summary["load_1min"] = round(os.getloadavg()[0], 2)  # when the run ended
     return summary
 
 
@@ -329,13 +331,23 @@ def _quantiles(values: list[float]) -> str:
     return " / ".join(f"{v:.3f}" for v in q)
 
 
+def _run_loads(runs: list[dict[str, Any]]) -> str:
+    """The 1-minute load averages the runs ended at (runs written before they were kept
+    have none), so a summary made later with ``--report-only`` still states the load."""
+    loads = [r["load_1min"] for r in runs if r.get("load_1min") is not None]
+    if not loads:
+        return ""
+    return f"1-minute load average as the runs ended {min(loads):.1f}–{max(loads):.1f}; "
+
+
 def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -> str:
     load = os.getloadavg()
     lines = [
         "## Rover safety stress (`benchmarks/rover_safety.py`)",
         "",
-        f"`python benchmarks/rover_safety.py --worlds {args.worlds} --seeds {args.seeds} "
-        f"--steps {args.steps} --gps {','.join(f'{g:g}' for g in args.gps)} "
+        f"`python benchmarks/rover_safety.py --worlds {args.worlds} "
+        + (f"--seed {args.seed} " if args.seed is not None else f"--seeds {args.seeds} ")
+        + f"--steps {args.steps} --gps {','.join(f'{g:g}' for g in args.gps)} "
         f"--explorers {','.join(args.explorers)} --inits {','.join(args.inits)} "
         f"--world-seed {args.world_seed} --size {args.size:g} --passage {args.passage:g}"
         + (f" --paper {','.join(args.paper)}" if args.paper else "")
@@ -352,6 +364,7 @@ def summary(runs: list[dict[str, Any]], args: argparse.Namespace, wall: float) -
             else f"load average at the end {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}; "
             f"{wall / 60:.1f} min wall time for the runs this invocation made; "
         )
+        + _run_loads(runs)
         + f"median {np.median([r['cycle_ms'] for r in runs]):.0f} ms of wall time per cycle "
         "(inflated by the shared machine's load).",
         "",
@@ -421,7 +434,8 @@ def main() -> None:
     parser.add_argument("--world-seed", type=int, default=WORLD_SEED)
     parser.add_argument("--size", type=float, default=20.0, help="world side [m]")
     parser.add_argument("--passage", type=float, default=1.2, help="narrowest gap [m]")
-    parser.add_argument("--seeds", type=int, default=1)
+    parser.add_argument("--seeds", type=int, default=1, help="run seeds 0 .. N-1")
+    parser.add_argument("--seed", type=int, default=None, help="run this seed only")
     parser.add_argument(
         "--steps", type=int, default=2000, help="cycles per run; 0: the world's full budget"
     )
@@ -447,11 +461,14 @@ def main() -> None:
         parser.error(f"unknown explorer(s) {sorted(unknown)}; choose from {list(EXPLORERS)}")
     if set(args.paper) - set(PAPER_RUNS):
         parser.error(f"unknown paper run(s) {args.paper}; choose from {PAPER_RUNS}")
+    if args.seed is not None and args.seed < 0:
+        parser.error(f"--seed must be >= 0, got {args.seed}")
+    seeds = range(args.seeds) if args.seed is None else [args.seed]
     args.out.mkdir(parents=True, exist_ok=True)
     jobs = [
         Job(w, e, i, s, g)
         for g, w, e, i, s in itertools.product(
-            args.gps, range(args.worlds), args.explorers, args.inits, range(args.seeds)
+            args.gps, range(args.worlds), args.explorers, args.inits, seeds
         )
     ] + [  # the paper's runs: their own entropy initialisation and seed
         Job(-1 - PAPER_RUNS.index(name), e, "random" if rover.RUNS[name][1] else "flat", 0, g)
