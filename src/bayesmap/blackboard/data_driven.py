@@ -538,11 +538,7 @@ def polish_tables(
     found[:, 2] %= math.pi
     # the wide basin can lead off a table's best place (a table against a wall, whose wall
     # contacts the widened legs also claim): never return worse than the start
-    both = negative(
-        np.vstack([found[:, :3], starts[run, :3]]), np.concatenate([every, every]), model
-    )
-    better = both[: len(run)] <= both[len(run) :]
-    out[run] = np.where(better[:, None], found, starts[run])
+    out[run] = _better_of(negative, found, starts[run], model)
     return out
 
 
@@ -620,11 +616,23 @@ def polish_legs(
 
     found = _climb(negative, starts[run], model, widen, max_evals)
     found[:, 2] %= 0.5 * math.pi
-    every = np.arange(len(run))
-    both = negative(np.vstack([found, starts[run]]), np.concatenate([every, every]), model)
-    better = both[: len(run)] <= both[len(run) :]
-    out[run] = np.where(better[:, None], found, starts[run])
+    out[run] = _better_of(negative, found, starts[run], model)
     return out
+
+
+def _better_of(
+    negative: Callable[[FloatArray, IntArray, SweepModel], FloatArray],
+    found: FloatArray,
+    starts: FloatArray,
+    model: SweepModel,
+) -> FloatArray:
+    """Each polish's result ``found`` (k, ≥ 3) or, where that fits its contacts worse at the
+    model's noise scales (``negative`` on ``x, y, θ``), its start ``starts``; both of every
+    problem in one call."""
+    every = np.arange(len(found))
+    both = negative(np.vstack([found[:, :3], starts[:, :3]]), np.concatenate([every, every]), model)
+    better = both[: len(found)] <= both[len(found) :]
+    return np.where(better[:, None], found, starts)
 
 
 class _ContactSets:
