@@ -9,9 +9,12 @@ from scipy import optimize
 
 from bayesmap.blackboard.data_driven import (
     LegVotes,
+    _supported_corners,
     place_on_legs,
     polish_leg,
+    polish_legs,
     polish_table,
+    polish_tables,
     table_candidates,
 )
 from bayesmap.blackboard.fused import FusedMapper
@@ -291,3 +294,77 @@ def test_candidate_weights_count_the_corners_a_leg_supports() -> None:
                 for cx, cy, _ in table_corners
             )
             assert weight == math.exp(2.0 * (m - 2.0))
+
+
+def test_corner_support_from_nearby_legs_is_the_support_from_every_leg() -> None:
+    """:func:`~bayesmap.blackboard.data_driven._supported_corners`, which tests blocks of
+    tables against the legs near them only, answers exactly what the test against every leg
+    answers, on random corners and legs (many blocks) and on legs placed a hair inside and
+    outside the tolerance of a corner."""
+    rng = np.random.default_rng(23)
+    tol = 0.12
+    for _ in range(5):
+        corners = rng.uniform(0.0, 6.0, (300, 4, 2))
+        legs = rng.uniform(0.0, 6.0, (180, 2))
+        angle = rng.uniform(0.0, 2.0 * math.pi, 40)
+        hair = tol * np.where(np.arange(40) % 2 == 0, 1.0 - 1e-12, 1.0 + 1e-12)
+        legs = np.vstack(
+            [
+                legs,
+                corners[:40, 0] + hair[:, None] * np.column_stack([np.cos(angle), np.sin(angle)]),
+            ]
+        )
+        dx = corners[:, :, None, 0] - legs[:, 0]
+        dy = corners[:, :, None, 1] - legs[:, 1]
+        want = np.sqrt((dx * dx + dy * dy).min(axis=2)) < tol
+        assert np.array_equal(_supported_corners(corners, legs, tol), want)
+        assert want[:40, 0].any() and want.sum() < want.size
+    assert not _supported_corners(corners, np.zeros((0, 2)), tol).any()
+
+
+def test_polishing_many_candidates_in_lockstep_is_polishing_each_alone() -> None:
+    """:func:`polish_tables` and :func:`polish_legs` step all their candidates' Nelder–Mead
+    runs together (one density call per step): each result equals, bit for bit, the polish
+    of that candidate alone, from random starts a few centimetres off the noisy desk and its
+    legs, far from it, and with no contacts at all."""
+    arena, truth, catalogue, model, contacts, floor = _noisy_desk_tour()
+    counts = np.ones(len(contacts))
+    rng = np.random.default_rng(17)
+    starts = truth + np.column_stack(
+        [rng.normal(0.0, 0.04, (8, 2)), rng.normal(0.0, 0.03, 8), np.zeros(8)]
+    )
+    starts[-1, :2] = (0.9, 4.0)  # no whisker line near its legs
+    sets = [contacts] * 7 + [contacts[:0]]
+    order = rng.permutation(8)
+    for widen, evals in (((1.0,), 12), ((4.0, 1.0), 24)):
+        together = polish_tables(
+            starts[order],
+            [sets[i] for i in order],
+            [counts[: len(sets[i])] for i in order],
+            [floor[: len(sets[i])] for i in order],
+            catalogue,
+            model,
+            widen=widen,
+            max_evals=evals,
+        )
+        for got, i in zip(together, order, strict=True):
+            alone = polish_table(
+                starts[i],
+                sets[i],
+                counts[: len(sets[i])],
+                floor[: len(sets[i])],
+                catalogue,
+                model,
+                widen=widen,
+                max_evals=evals,
+            )
+            assert np.array_equal(got, alone)
+    legs = leg_centres(truth, catalogue)[0, rng.integers(4, size=8), :2]
+    legs = np.column_stack([legs + rng.normal(0.0, 0.03, (8, 2)), rng.uniform(0, 1.5, 8)])
+    n = [len(c) for c in sets]
+    together = polish_legs(legs, sets, [counts[:k] for k in n], [floor[:k] for k in n], 0.05, model)
+    for got, leg, k in zip(together, legs, n, strict=True):
+        alone = polish_leg(leg, contacts[:k], counts[:k], floor[:k], 0.05, model)
+        assert np.array_equal(got, alone)
+    assert np.array_equal(together[-1], legs[-1])  # no contacts: the start
+    assert not np.array_equal(together[0], legs[0])

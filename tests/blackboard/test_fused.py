@@ -651,6 +651,42 @@ def test_terms_kept_across_a_pose_are_the_terms_computed_afresh(name: str) -> No
 
 
 @pytest.mark.parametrize("name", ["normal", "noisy"])
+def test_terms_primed_in_one_batch_are_the_terms_table_by_table(
+    name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """:meth:`Context.prime` computes many tables' contacts and free space in batched numpy
+    passes (in blocks, here forced small); each term it keeps equals, bit for bit, the term
+    a fresh context computes for that table alone, on random tables near and far from the
+    true ones, duplicates and tables that reach no evidence included."""
+    monkeypatch.setattr("bayesmap.blackboard.rjmcmc._PAIRS_PER_BLOCK", 2_000)
+    full, truth = _store(seed=5, sensor=condition(name))
+    model = MODEL if name == "normal" else NOISY_MODEL
+    rng = np.random.default_rng(21)
+    near = truth[rng.integers(2, size=40)] + np.column_stack(
+        [rng.normal(0.0, 0.05, (40, 2)), rng.normal(0.0, 0.1, 40), np.zeros(40)]
+    )
+    near[:, 3] = rng.integers(2, size=40)
+    anywhere = np.column_stack(
+        [rng.uniform(0.0, 5.0, 30), rng.uniform(0.0, 4.0, 30), rng.uniform(0, math.pi, 30)]
+    )
+    tables = np.vstack(
+        [near, np.column_stack([anywhere, rng.integers(2, size=30)]), near[:3], [[30, 30, 0, 0]]]
+    )
+    ctx, fresh = _context(full, model), _context(full, model)
+    ctx.refresh(ChainState())
+    fresh.refresh(ChainState())
+    ctx.prime(tables)
+    assert len(ctx._contact_terms) == len(ctx._free_terms) == len(tables) - 3
+    explained = 0
+    for table in tables:
+        got, want = ctx._contact_terms[table.tobytes()], fresh.table_contacts(table)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+        assert ctx._free_terms[table.tobytes()] == fresh.table_free_space(table)
+        explained += len(want[0])
+    assert explained > 0
+
+
+@pytest.mark.parametrize("name", ["normal", "noisy"])
 def test_an_exchange_never_gains_more_than_its_bound(name: str) -> None:
     """The greedy ascent's exchange bound against the joint: on random maps X, removing a
     random subset H and adding random tables A never gains more than the sum of A's gains

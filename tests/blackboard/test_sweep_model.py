@@ -17,7 +17,9 @@ from bayesmap.blackboard.sweep_model import (
     contact_cutoff,
     into_arena,
     leg_contact_density,
+    leg_contact_density_pairs,
     legs_swept,
+    legs_swept_pairs,
     tables_overlap,
 )
 
@@ -192,3 +194,34 @@ def test_free_space_on_pairs_within_reach_is_the_count_pair_by_pair() -> None:
                 want[k, i] = float(gamma <= rel <= abs(turn) - gamma)
         assert np.array_equal(legs_swept(legs, root, start, stop, length, margin), want)
     assert want.any()
+
+
+@pytest.mark.parametrize("model", [MODEL, NOISY_MODEL], ids=["normal", "noisy"])
+def test_pair_densities_are_the_grids_entries_bit_for_bit(model: SweepModel) -> None:
+    """:func:`leg_contact_density_pairs` and :func:`legs_swept_pairs`, one row per (contact,
+    leg) or (leg, sweep) pair, answer exactly (not just closely) what the contact × leg
+    grids of :func:`leg_contact_density` and :func:`legs_swept` hold for those pairs, on
+    random contacts aimed near random legs and random sweeps."""
+    rng = np.random.default_rng(13)
+    for _ in range(40):
+        m, j = int(rng.integers(1, 60)), int(rng.integers(1, 9))
+        legs = np.column_stack([rng.uniform(1.0, 3.0, (j, 2)), rng.uniform(0.03, 0.06, j)])
+        theta = rng.uniform(0.0, math.pi, j)
+        root = rng.uniform(0.5, 3.5, (m, 2))
+        aim = legs[rng.integers(j, size=m), :2] - root
+        bearing = np.arctan2(aim[:, 1], aim[:, 0]) + rng.normal(0.0, 0.03, m)
+        r_hat = np.abs(np.hypot(aim[:, 0], aim[:, 1]) + rng.normal(0.0, model.sigma_r, m))
+        phi_hat = rng.uniform(-math.pi, math.pi, m)
+        grid = leg_contact_density(root, bearing, r_hat, phi_hat, legs, theta, model)
+        i, k = rng.integers(m, size=3 * m), rng.integers(j, size=3 * m)  # pairs, repeats too
+        pairs = leg_contact_density_pairs(
+            root[i], bearing[i], r_hat[i], phi_hat[i], legs[k], theta[k], model
+        )
+        assert np.array_equal(pairs, grid[i, k])
+        start = rng.uniform(-4.0, 4.0, m)
+        stop = start + rng.uniform(-2.0, 2.0, m)
+        length = rng.uniform(0.5, 1.2, m)
+        swept = legs_swept(legs, root, start, stop, length)
+        got = legs_swept_pairs(legs[k], root[i], start[i], stop[i], length[i])
+        assert np.array_equal(got, swept[k, i])
+    assert (grid > 0).any() and swept.any()

@@ -48,15 +48,16 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
-from scipy import ndimage, optimize
+from scipy import ndimage
 
-from bayesmap._typing import BoolArray, FloatArray
+from bayesmap._typing import BoolArray, FloatArray, IntArray
+from bayesmap.blackboard.lockstep import minimise_together
 from bayesmap.blackboard.sweep_model import (
     ObjectType,
     SweepModel,
     into_arena,
     leg_centres,
-    leg_contact_density,
+    leg_contact_density_pairs,
 )
 from bayesmap.geometry import wrap_angle
 
@@ -69,7 +70,9 @@ __all__ = [
     "near_density",
     "place_on_legs",
     "polish_leg",
+    "polish_legs",
     "polish_table",
+    "polish_tables",
     "table_candidates",
 ]
 
@@ -227,12 +230,39 @@ def table_candidates(
     tables = tables[moved <= spacing_tol]
     if not len(tables):
         return np.zeros((0, 4)), np.zeros(0)
-    corners = leg_centres(tables, catalogue)
-    dx = corners[:, :, None, 0] - p[:, 0]
-    dy = corners[:, :, None, 1] - p[:, 1]
-    nearest = np.sqrt((dx * dx + dy * dy).min(axis=2))  # each corner's nearest leg [m]
-    support = (nearest < spacing_tol).sum(axis=1)
-    return tables, np.exp(support_gain * (support - 2.0))
+    support = _supported_corners(leg_centres(tables, catalogue)[..., :2], p, spacing_tol)
+    return tables, np.exp(support_gain * (support.sum(axis=1) - 2.0))
+
+
+_SUPPORT_BLOCK = 64
+"""Tables whose corners :func:`_supported_corners` tests against one set of nearby legs."""
+
+
+def _supported_corners(corners: FloatArray, legs: FloatArray, tol: float) -> BoolArray:
+    """``(c, 4)`` whether each corner of ``corners`` (c, 4, 2) has a leg of ``legs``
+    (p, 2) closer than ``tol`` [m]: the square root of the least squared distance, < tol.
+
+    Tables in blocks of :data:`_SUPPORT_BLOCK`, ordered by the 1 m cell of their first
+    corner, each block against the legs inside its corners' bounding box grown by 2 tol:
+    a leg outside it is farther than ``tol`` from every corner of the block, so the answer
+    is the one every leg gives, and a block reads a few dozen of the noisy condition's
+    150–200 leg peaks rather than all of them.
+    """
+    out = np.zeros(corners.shape[:2], dtype=bool)
+    cells = np.floor(corners[:, 0, :]).astype(np.int64)
+    order = np.lexsort((cells[:, 1], cells[:, 0]))
+    for start in range(0, len(order), _SUPPORT_BLOCK):
+        block = order[start : start + _SUPPORT_BLOCK]
+        points = corners[block]
+        low = points.reshape(-1, 2).min(axis=0) - 2.0 * tol
+        high = points.reshape(-1, 2).max(axis=0) + 2.0 * tol
+        near = legs[((legs >= low) & (legs <= high)).all(axis=1)]
+        if not len(near):
+            continue
+        dx = points[:, :, None, 0] - near[:, 0]
+        dy = points[:, :, None, 1] - near[:, 1]
+        out[block] = np.sqrt((dx * dx + dy * dy).min(axis=2)) < tol
+    return out
 
 
 def place_on_legs(
@@ -437,42 +467,79 @@ def polish_table(
     leg gets ρ ≈ 0 (its density falls with the gap across the line at σ_⊥, 1 cm, even
     widened four times) wherever a polish of a decimetre or two can take the table, so its
     term is a constant: the noisy condition's contacts, which lie anywhere within a whisker's
-    reach of the centre, are mostly of that kind.
+    reach of the centre, are mostly of that kind. Many tables at once:
+    :func:`polish_tables`.
     """
-    start: FloatArray = into_arena(np.asarray(table, dtype=np.float64), catalogue, model.arena)[0][
-        0
+    polished = polish_tables(
+        np.asarray(table, dtype=np.float64)[None],
+        [contacts],
+        [counts],
+        [floor],
+        catalogue,
+        model,
+        widen=widen,
+        max_evals=max_evals,
+        line_gap=line_gap,
+    )
+    return np.asarray(polished[0])
+
+
+def polish_tables(
+    tables: FloatArray,
+    contacts: list[FloatArray],
+    counts: list[FloatArray],
+    floor: list[FloatArray],
+    catalogue: tuple[ObjectType, ...],
+    model: SweepModel,
+    *,
+    widen: tuple[float, ...] = (4.0, 1.0),
+    max_evals: int = 24,
+    line_gap: float = 0.5,
+) -> FloatArray:
+    """:func:`polish_table` of each of ``tables`` (k, 4) against its own ``contacts``,
+    ``counts`` and ``floor`` (lists of k arrays), all in lockstep
+    (:func:`~bayesmap.blackboard.lockstep.minimise_together`): one density call per
+    Nelder–Mead step for all tables, each table's result the one it gets alone."""
+    starts = into_arena(
+        np.asarray(tables, dtype=np.float64).reshape(-1, 4), catalogue, model.arena
+    )[0]
+    out = starts.copy()
+    run = np.array([t for t in range(len(starts)) if len(contacts[t])], dtype=np.int64)
+    if not len(run):
+        return out
+    kinds = starts[run, 3]
+    legs = leg_centres(starts[run], catalogue)[:, :, :2]
+    near = [
+        _lines_near(contacts[t], legs[i], line_gap, model.reach) for i, t in enumerate(run.tolist())
     ]
-    if not len(contacts):
-        return start
-    k = start[3]
-    near = _lines_near(contacts, leg_centres(start, catalogue)[0, :, :2], line_gap, model.reach)
-    contacts, counts, floor = contacts[near], counts[near], floor[near]
+    batch = _ContactSets(
+        [contacts[t][n] for t, n in zip(run.tolist(), near, strict=True)],
+        [counts[t][n] for t, n in zip(run.tolist(), near, strict=True)],
+        [floor[t][n] for t, n in zip(run.tolist(), near, strict=True)],
+    )
 
-    def placed(v: FloatArray) -> FloatArray:
-        """The table at ``v`` = (x, y, θ), moved inside the arena."""
-        inside: FloatArray = into_arena(np.array([v[0], v[1], v[2], k]), catalogue, model.arena)[0]
-        return np.asarray(inside[0], dtype=np.float64)
+    def placed(v: FloatArray, problems: IntArray) -> FloatArray:
+        """The tables at ``v`` (a, 3) = (x, y, θ), moved inside the arena."""
+        inside: FloatArray = into_arena(
+            np.column_stack([v, kinds[problems]]), catalogue, model.arena
+        )[0]
+        return inside
 
-    def negative(v: FloatArray, scaled: SweepModel) -> float:
-        table = placed(v)
-        legs = leg_centres(table, catalogue)[0]
-        rho = leg_contact_density(
-            contacts[:, :2],
-            contacts[:, 2],
-            contacts[:, 3],
-            contacts[:, 4],
-            legs,
-            np.full(4, table[2]),
-            scaled,
-        ).max(axis=1)
-        return -float((counts * np.log(floor + rho)).sum())
+    def negative(v: FloatArray, problems: IntArray, scaled: SweepModel) -> FloatArray:
+        table = placed(v, problems)
+        theta = np.repeat(table[:, 2:3], 4, axis=1)
+        return batch.negative(problems, leg_centres(table, catalogue), theta, scaled)
 
-    out = placed(_climb(negative, start[:3], model, widen, max_evals, lambda v: placed(v)[:3]))
-    out[2] %= math.pi
+    every = np.arange(len(run))
+    climbed = _climb(
+        negative, starts[run, :3], model, widen, max_evals, lambda v: placed(v, every)[:, :3]
+    )
+    found = placed(climbed, every)
+    found[:, 2] %= math.pi
     # the wide basin can lead off a table's best place (a table against a wall, whose wall
     # contacts the widened legs also claim): never return worse than the start
-    better = negative(out[:3], model) <= negative(start[:3], model)
-    return np.asarray(out if better else start, dtype=np.float64)
+    out[run] = _better_of(negative, found, starts[run], model)
+    return out
 
 
 def polish_leg(
@@ -497,44 +564,135 @@ def polish_leg(
     :func:`polish_table` (only whisker lines passing within ``line_gap`` [m] of the start
     enter), ``half_side`` the leg's half side [m]. Returns the fitted ``x, y`` [m] and θ
     [rad] in [0, π/2) (a square leg's symmetry), or the start if that fits better at the
-    model's noise scales.
+    model's noise scales. Many legs at once: :func:`polish_legs`.
     """
-    start = np.asarray(leg, dtype=np.float64).copy()
-    near = _lines_near(contacts, start[None, :2], line_gap, model.reach)
-    if not near.any():
-        return start
-    contacts, counts, floor = contacts[near], counts[near], floor[near]
+    polished = polish_legs(
+        np.asarray(leg, dtype=np.float64)[None],
+        [contacts],
+        [counts],
+        [floor],
+        half_side,
+        model,
+        widen=widen,
+        max_evals=max_evals,
+        line_gap=line_gap,
+    )
+    return np.asarray(polished[0])
 
-    def negative(v: FloatArray, scaled: SweepModel) -> float:
-        rho = leg_contact_density(
-            contacts[:, :2],
-            contacts[:, 2],
-            contacts[:, 3],
-            contacts[:, 4],
-            np.array([[v[0], v[1], half_side]]),
-            v[2:3],
-            scaled,
-        )[:, 0]
-        return -float((counts * np.log(floor + rho)).sum())
 
-    out = _climb(negative, start, model, widen, max_evals)
-    out[2] %= 0.5 * math.pi
-    better = negative(out, model) <= negative(start, model)
-    return np.asarray(out if better else start, dtype=np.float64)
+def polish_legs(
+    legs: FloatArray,
+    contacts: list[FloatArray],
+    counts: list[FloatArray],
+    floor: list[FloatArray],
+    half_side: float,
+    model: SweepModel,
+    *,
+    widen: tuple[float, ...] = (4.0, 1.0),
+    max_evals: int = 24,
+    line_gap: float = 0.15,
+) -> FloatArray:
+    """:func:`polish_leg` of each of ``legs`` (k, 3) against its own ``contacts``,
+    ``counts`` and ``floor`` (lists of k arrays), all in lockstep, as
+    :func:`polish_tables` polishes tables."""
+    starts = np.asarray(legs, dtype=np.float64).reshape(-1, 3)
+    out = starts.copy()
+    near = [
+        _lines_near(c, start[None, :2], line_gap, model.reach)
+        for c, start in zip(contacts, starts, strict=True)
+    ]
+    run = np.array([t for t, n in enumerate(near) if n.any()], dtype=np.int64)
+    if not len(run):
+        return out
+    batch = _ContactSets(
+        [contacts[t][near[t]] for t in run.tolist()],
+        [counts[t][near[t]] for t in run.tolist()],
+        [floor[t][near[t]] for t in run.tolist()],
+    )
+
+    def negative(v: FloatArray, problems: IntArray, scaled: SweepModel) -> FloatArray:
+        legs = np.column_stack([v[:, :2], np.full(len(v), half_side)])[:, None, :]
+        return batch.negative(problems, legs, v[:, 2:3], scaled)
+
+    found = _climb(negative, starts[run], model, widen, max_evals)
+    found[:, 2] %= 0.5 * math.pi
+    out[run] = _better_of(negative, found, starts[run], model)
+    return out
+
+
+def _better_of(
+    negative: Callable[[FloatArray, IntArray, SweepModel], FloatArray],
+    found: FloatArray,
+    starts: FloatArray,
+    model: SweepModel,
+) -> FloatArray:
+    """Each polish's result ``found`` (k, ≥ 3) or, where that fits its contacts worse at the
+    model's noise scales (``negative`` on ``x, y, θ``), its start ``starts``; both of every
+    problem in one call."""
+    every = np.arange(len(found))
+    both = negative(np.vstack([found[:, :3], starts[:, :3]]), np.concatenate([every, every]), model)
+    better = both[: len(found)] <= both[len(found) :]
+    return np.where(better[:, None], found, starts)
+
+
+class _ContactSets:
+    """The contacts of several polish problems, concatenated once, and their objective."""
+
+    def __init__(
+        self, contacts: list[FloatArray], counts: list[FloatArray], floor: list[FloatArray]
+    ) -> None:
+        self.sizes = np.array([len(c) for c in contacts], dtype=np.int64)
+        self.starts = np.concatenate([[0], np.cumsum(self.sizes)[:-1]])
+        self.contacts = np.concatenate(contacts).reshape(-1, 5)
+        self.counts = np.concatenate(counts)
+        self.floor = np.concatenate(floor)
+
+    def negative(
+        self, problems: IntArray, legs: FloatArray, theta: FloatArray, model: SweepModel
+    ) -> FloatArray:
+        """``(a,)`` −Σ n_i log(floor_i + max over the legs of ρ_leg(i)) of each of
+        ``problems`` (a,) over its own contacts, its legs ``legs`` (a, L, 3) at angles
+        ``theta`` (a, L) [rad]: each problem's terms summed on their own, as one problem's
+        polish sums them."""
+        sizes = self.sizes[problems]
+        ends = np.cumsum(sizes)
+        owner = np.repeat(np.arange(len(problems)), sizes)
+        # each problem's rows, in order: its first row plus the position within its block
+        rows = self.starts[problems][owner] + np.arange(len(owner)) - (ends - sizes)[owner]
+        per_leg = legs.shape[1]
+        pair = np.repeat(self.contacts[rows], per_leg, axis=0)
+        rho = (
+            leg_contact_density_pairs(
+                pair[:, :2],
+                pair[:, 2],
+                pair[:, 3],
+                pair[:, 4],
+                legs[owner].reshape(-1, 3),
+                theta[owner].reshape(-1),
+                model,
+            )
+            .reshape(-1, per_leg)
+            .max(axis=1)
+        )
+        terms = self.counts[rows] * np.log(self.floor[rows] + rho)
+        return np.array(
+            [-float(terms[end - size : end].sum()) for end, size in zip(ends, sizes, strict=True)]
+        )
 
 
 def _climb(
-    negative: Callable[[FloatArray, SweepModel], float],
-    start: FloatArray,
+    negative: Callable[[FloatArray, IntArray, SweepModel], FloatArray],
+    starts: FloatArray,
     model: SweepModel,
     widen: tuple[float, ...],
     max_evals: int,
     project: Callable[[FloatArray], FloatArray] = lambda v: v,
 ) -> FloatArray:
-    """Nelder–Mead on ``negative`` over ``x, y, θ`` from ``start`` (3,), once per factor of
-    ``widen`` (the noise scales σ_r, σ_⊥, σ_φ and the simplex's size multiplied by it),
-    each round's result mapped by ``project`` (e.g. into the arena) before the next."""
-    out = np.asarray(start, dtype=np.float64).copy()
+    """Nelder–Mead on ``negative`` over ``x, y, θ`` from each of ``starts`` (k, 3), all in
+    lockstep, once per factor of ``widen`` (the noise scales σ_r, σ_⊥, σ_φ and the
+    simplex's size multiplied by it), each round's results mapped by ``project`` (e.g. into
+    the arena) before the next."""
+    out = np.asarray(starts, dtype=np.float64).copy()
     for factor in widen:
         scaled = model._replace(
             sigma_r=model.sigma_r * factor,
@@ -542,15 +700,19 @@ def _climb(
             sigma_phi=model.sigma_phi * factor,
         )
         scale = np.array([0.02, 0.02, 0.03]) * factor
-        simplex = out + np.vstack([np.zeros(3), np.diag(scale)])
-        found = optimize.minimize(
-            negative,
-            out,
-            args=(scaled,),
-            method="Nelder-Mead",
-            options={"initial_simplex": simplex, "maxfev": max_evals, "xatol": 1e-3, "fatol": 1e-2},
+        simplices = out[:, None, :] + np.vstack([np.zeros(3), np.diag(scale)])[None]
+
+        def at_scale(v: FloatArray, problems: IntArray, m: SweepModel = scaled) -> FloatArray:
+            return negative(v, problems, m)
+
+        found = minimise_together(
+            at_scale,
+            simplices,
+            max_evals=max_evals,
+            xatol=1e-3,
+            fatol=1e-2,
         )
-        out = np.asarray(project(found.x), dtype=np.float64)
+        out = np.asarray(project(found), dtype=np.float64)
     return out
 
 

@@ -44,8 +44,8 @@ from bayesmap.blackboard.data_driven import (
     BirthProposal,
     LegVotes,
     place_on_legs,
-    polish_leg,
-    polish_table,
+    polish_legs,
+    polish_tables,
     table_candidates,
 )
 from bayesmap.blackboard.evidence import EvidenceStore, check_sweeps
@@ -379,7 +379,7 @@ class FusedMapper:
         4. *Polish of the leaders.* The candidate of largest gain within the map's whole
            tolerance of each place — the ones that compete for the map — gets one short
            Nelder–Mead round against its contacts
-           (:func:`~bayesmap.blackboard.data_driven.polish_table` at the model's noise
+           (:func:`~bayesmap.blackboard.data_driven.polish_tables` at the model's noise
            scales, 12 evaluations from the placed start, contacts whose whisker line passes
            within 15 cm of a leg): the centimetre and the hundredth of a radian that legs
            fitted one by one leave, worth several nats on a well-seen table. The others
@@ -398,6 +398,7 @@ class FusedMapper:
         tables, summed = _merge_coincident(
             into_arena(placed, self.catalogue, self.arena)[0], summed
         )
+        ctx.prime(tables)
         gains = np.array([ctx.gain_alone(table) for table in tables])
         pays = gains > 0
         tables, summed, gains = tables[pays], summed[pays], gains[pays]
@@ -410,21 +411,21 @@ class FusedMapper:
             tables, np.zeros(len(tables)), gains, p.match_xy, p.match_theta, periods
         )
         out = tables.copy()
-        for row in leaders:
-            table = tables[row]
-            ids = store.contacts_near(table[0], table[1], ctx.contact_radius + 0.1)
-            rows = store.rows_[ids]
-            out[row] = polish_table(
-                table,
-                rows[:, [0, 1, 3, 5, 6]],
-                store.counts_[ids],
-                ctx.floor[ids],
-                self.catalogue,
-                self.model,
-                widen=(1.0,),
-                max_evals=12,
-                line_gap=0.15,
-            )
+        ids = [
+            store.contacts_near(tables[row, 0], tables[row, 1], ctx.contact_radius + 0.1)
+            for row in leaders
+        ]
+        out[leaders] = polish_tables(
+            tables[leaders],
+            [store.rows_[found][:, [0, 1, 3, 5, 6]] for found in ids],
+            [store.counts_[found] for found in ids],
+            [ctx.floor[found] for found in ids],
+            self.catalogue,
+            self.model,
+            widen=(1.0,),
+            max_evals=12,
+            line_gap=0.15,
+        )
         return _merge_coincident(out, summed)
 
     def _fitted_legs(self, legs: FloatArray) -> FloatArray:
@@ -445,21 +446,26 @@ class FusedMapper:
         half = 0.5 * min(t.leg for t in self.catalogue)
         radius = contact_cutoff(half, self.model) + 0.1
         out = legs.copy()
-        for row, (x, y, _) in enumerate(legs):
-            ids = store.contacts_near(x, y, radius)
-            if not len(ids):
-                continue
-            rows = store.rows_[ids]
-            turn = np.exp(4j * rows[:, 6]) @ store.counts_[ids]
-            start = np.array([x, y, 0.25 * float(np.angle(turn))])
-            out[row, :2] = polish_leg(
-                start,
-                rows[:, [0, 1, 3, 5, 6]],
-                store.counts_[ids],
-                ctx.floor[ids],
+        ids = [store.contacts_near(x, y, radius) for x, y, _ in legs]
+        seen = [row for row, found in enumerate(ids) if len(found)]
+        starts = [
+            (
+                legs[row, 0],
+                legs[row, 1],
+                0.25
+                * float(np.angle(np.exp(4j * store.rows_[ids[row], 6]) @ store.counts_[ids[row]])),
+            )
+            for row in seen
+        ]
+        if seen:
+            out[seen, :2] = polish_legs(
+                np.array(starts),
+                [store.rows_[ids[row]][:, [0, 1, 3, 5, 6]] for row in seen],
+                [store.counts_[ids[row]] for row in seen],
+                [ctx.floor[ids[row]] for row in seen],
                 half,
                 self.model,
-            )[:2]
+            )[:, :2]
         keys = np.round(out[:, :2] / 0.01).astype(np.int64)
         _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
         votes = np.bincount(inverse.reshape(-1), weights=out[:, 2])

@@ -62,7 +62,9 @@ from bayesmap.blackboard.sweep_model import (
     contact_cutoff,
     leg_centres,
     leg_contact_density,
+    leg_contact_density_pairs,
     legs_swept,
+    legs_swept_pairs,
     log_posterior,
     overlap_pairs,
     tables_overlap,
@@ -182,32 +184,90 @@ class Context:
         found = self._contact_terms.get(key)
         if found is None:
             ids = np.sort(self.store.contacts_near(table[0], table[1], self.contact_radius))
-            density = self.tables_density(table[None], ids)[:, 0]
+            density = self._own_density(table, ids)
             explains = density > 0
             found = (ids[explains], density[explains])
             self._contact_terms[key] = found
         return found
 
-    def tables_density(self, tables: FloatArray, ids: IntArray) -> FloatArray:
-        """``(len(ids), n)``: for each of ``tables`` (n, 4), max over its legs of ρ_leg."""
-        out = np.zeros((len(ids), len(tables)))
-        if not len(ids) or not len(tables):
-            return out
-        points = self.store.points_[ids]
-        d2 = (points[:, None, 0] - tables[None, :, 0]) ** 2 + (
-            points[:, None, 1] - tables[None, :, 1]
-        ) ** 2
-        near = np.flatnonzero((d2 <= self.contact_radius**2).any(axis=1))
-        if not len(near):
-            return out
-        rows = self.store.rows_[ids[near]]
-        legs = leg_centres(tables, self.catalogue).reshape(-1, 3)
-        theta = np.repeat(tables[:, 2], 4)
-        density = leg_contact_density(
-            rows[:, :2], rows[:, 3], rows[:, 5], rows[:, 6], legs, theta, self.model
+    def prime(self, tables: FloatArray) -> None:
+        """Compute the kept terms of many tables at once: for each of ``tables`` (n, 4) not
+        yet kept, its contacts (:meth:`table_contacts`) and its free space
+        (:meth:`table_free_space`).
+
+        One call of :func:`~bayesmap.blackboard.sweep_model.leg_contact_density_pairs` and
+        one of :func:`~bayesmap.blackboard.sweep_model.legs_swept_pairs` per block of
+        tables, on the (contact, leg) and (leg, sweep) pairs the one-table calls would
+        form, where those calls, one per table, cost mostly numpy's per-call overhead (the
+        final pass scores a few thousand candidates). The terms are the ones the one-table
+        path computes: each pair gets the same arithmetic, a maximum over legs is exact, and
+        a free-space count sums whole numbers (sweeps' multiplicities), exact in any order.
+        """
+        self._fresh_terms()
+        contacts = [t for t in tables if t.tobytes() not in self._contact_terms]
+        for block in _blocks(
+            contacts,
+            [np.sort(self.store.contacts_near(t[0], t[1], self.contact_radius)) for t in contacts],
+        ):
+            self._prime_contacts(*block)
+        free = [t for t in tables if t.tobytes() not in self._free_terms]
+        radius = self.reach + self.half_diagonal + 0.05
+        for block in _blocks(free, [self.store.near(t[0], t[1], radius) for t in free]):
+            self._prime_free_space(*block)
+
+    def _prime_contacts(self, tables: FloatArray, ids: list[IntArray]) -> None:
+        """:meth:`table_contacts` of ``tables`` (n, 4), each over its candidate contacts."""
+        sizes = [len(found) for found in ids]
+        rows = self.store.rows_[np.repeat(np.concatenate(ids), 4)]
+        legs = leg_centres(tables, self.catalogue)[np.repeat(np.arange(len(tables)), sizes)]
+        theta = np.repeat(tables[:, 2], 4 * np.asarray(sizes, dtype=np.int64))
+        density = (
+            leg_contact_density_pairs(
+                rows[:, :2],
+                rows[:, 3],
+                rows[:, 5],
+                rows[:, 6],
+                legs.reshape(-1, 3),
+                theta,
+                self.model,
+            )
+            .reshape(-1, 4)
+            .max(axis=1)
         )
-        out[near] = density.reshape(len(near), len(tables), 4).max(axis=2)
-        return out
+        at = 0
+        for table, found, size in zip(tables, ids, sizes, strict=True):
+            own = density[at : at + size]
+            at += size
+            explains = own > 0
+            self._contact_terms[table.tobytes()] = (found[explains], own[explains])
+
+    def _prime_free_space(self, tables: FloatArray, ids: list[IntArray]) -> None:
+        """:meth:`table_free_space` of ``tables`` (n, 4), each over its sweeps within reach."""
+        sizes = np.array([len(found) for found in ids], dtype=np.int64)
+        sweeps = np.tile(np.concatenate(ids).reshape(-1, 1), 4).reshape(-1)
+        rows = self.store.rows_[sweeps]
+        legs = leg_centres(tables, self.catalogue)[np.repeat(np.arange(len(tables)), sizes)]
+        swept = legs_swept_pairs(
+            legs.reshape(-1, 3), rows[:, :2], rows[:, 2], rows[:, 3], rows[:, 4]
+        )
+        owner = np.repeat(np.arange(len(tables)), 4 * sizes)
+        missed = np.bincount(
+            owner, weights=swept * self.store.counts_[sweeps], minlength=len(tables)
+        )
+        for table, size, count in zip(tables, sizes.tolist(), missed.tolist(), strict=True):
+            self._free_terms[table.tobytes()] = count * self.log_p_miss if size else 0.0
+
+    def _own_density(self, table: FloatArray, ids: IntArray) -> FloatArray:
+        """``(len(ids),)``: max over the legs of ``table`` (4,) of ρ_leg, for the stored
+        contacts ``ids`` (those within :attr:`contact_radius` of its centre)."""
+        if not len(ids):
+            return np.zeros(0)
+        rows = self.store.rows_[ids]
+        legs = leg_centres(table, self.catalogue)[0]
+        density = leg_contact_density(
+            rows[:, :2], rows[:, 3], rows[:, 5], rows[:, 6], legs, np.full(4, table[2]), self.model
+        )
+        return np.asarray(density.max(axis=1))
 
     def gain_alone(self, table: FloatArray) -> float:
         """Δlog π of adding ``table`` to an empty room: prior, its contacts against walls and
@@ -317,6 +377,26 @@ class Context:
         for i, table in enumerate(state.tables):
             if math.hypot(table[0] - x, table[1] - y) <= radius:
                 state.free_space[i] = self.table_free_space(table)
+
+
+_PAIRS_PER_BLOCK = 100_000
+"""(Row, leg) pairs :meth:`Context.prime` evaluates in one numpy pass (bounds its memory)."""
+
+
+def _blocks(
+    tables: list[FloatArray], ids: list[IntArray]
+) -> list[tuple[FloatArray, list[IntArray]]]:
+    """``tables`` and their evidence rows ``ids`` in consecutive blocks of about
+    :data:`_PAIRS_PER_BLOCK` (row, leg) pairs; tables without rows are left out of the
+    pairs but kept in their block."""
+    out: list[tuple[FloatArray, list[IntArray]]] = []
+    start, pairs = 0, 0
+    for end, found in enumerate(ids, 1):
+        pairs += 4 * len(found)
+        if pairs >= _PAIRS_PER_BLOCK or end == len(ids):
+            out.append((np.array(tables[start:end]).reshape(-1, 4), ids[start:end]))
+            start, pairs = end, 0
+    return out
 
 
 class Move:
@@ -823,6 +903,7 @@ def greedy_ascent(
     """
     info = {"greedy_tried": 0, "greedy_kept": 0, "greedy_ruled_out": 0}
     reach = ctx.half_diagonal
+    ctx.prime(candidates)
     alone = np.array([ctx.gain_alone(c) for c in candidates])
     refill_gain = np.maximum(alone, 0.0)
     own = np.array([ctx.log_intensity + ctx.table_free_space(c) for c in candidates])

@@ -63,7 +63,9 @@ __all__ = [
     "into_arena",
     "leg_centres",
     "leg_contact_density",
+    "leg_contact_density_pairs",
     "legs_swept",
+    "legs_swept_pairs",
     "log_posterior",
     "overlap_pairs",
     "reachable_point",
@@ -261,29 +263,102 @@ def leg_contact_density(
     cos_b, sin_b = np.cos(bearing), np.sin(bearing)
     dx = root[:, None, 0] - legs[None, :, 0]
     dy = root[:, None, 1] - legs[None, :, 1]
-    r_near = np.minimum(r_hat, model.reach)
-    px, py = dx + (r_near * cos_b)[:, None], dy + (r_near * sin_b)[:, None]
-    cut = contact_cutoff(0.0, model) + math.sqrt(2.0) * legs[:, 2]  # contact_cutoff, per leg
-    across_cut = ACROSS_CUT * model.sigma_perp
-    # the square lies within √2 h of its centre: a line farther than that plus the cut from
-    # the centre is farther than the cut from the square
-    near = (px * px + py * py <= cut * cut) & (
-        np.abs(dx * sin_b[:, None] - dy * cos_b[:, None])
-        <= across_cut + math.sqrt(2.0) * legs[None, :, 2]
-    )
+    r_near = np.minimum(r_hat, model.reach)[:, None]
+    near = _near_leg(dx, dy, cos_b[:, None], sin_b[:, None], r_near, legs[None, :, 2], model)
     i, j = np.nonzero(near)
-    if not len(i):
+    if len(i):
+        out[i, j] = _screened_density(
+            dx[i, j],
+            dy[i, j],
+            cos_b[i],
+            sin_b[i],
+            r_hat[i],
+            phi_hat[i],
+            legs[j, 2],
+            theta[j],
+            model,
+        )
+    return out
+
+
+def leg_contact_density_pairs(
+    root: FloatArray,
+    bearing: FloatArray,
+    r_hat: FloatArray,
+    phi_hat: FloatArray,
+    legs: FloatArray,
+    theta: FloatArray,
+    model: SweepModel,
+) -> FloatArray:
+    """``(p,)`` density ρ_leg of contact ``k`` under leg ``k``, for ``p`` (contact, leg) pairs.
+
+    The arguments as for :func:`leg_contact_density`, but one row per pair (``root``
+    (p, 2), ``legs`` (p, 3), the rest (p,)): entry ``k`` is what ``leg_contact_density``
+    answers for row ``k``'s contact and leg, with the same cuts and the same arithmetic,
+    so the same number. Many tables' contacts in one call, where one call per table would
+    cost mostly numpy's per-call overhead.
+    """
+    out = np.zeros(len(root))
+    if not len(root):
         return out
-    dx, dy, cos_b, sin_b = dx[i, j], dy[i, j], cos_b[i], sin_b[i]
-    c, s = np.cos(theta)[j], np.sin(theta)[j]
+    cos_b, sin_b = np.cos(bearing), np.sin(bearing)
+    dx = root[:, 0] - legs[:, 0]
+    dy = root[:, 1] - legs[:, 1]
+    near = _near_leg(dx, dy, cos_b, sin_b, np.minimum(r_hat, model.reach), legs[:, 2], model)
+    k = np.flatnonzero(near)
+    if len(k):
+        out[k] = _screened_density(
+            dx[k], dy[k], cos_b[k], sin_b[k], r_hat[k], phi_hat[k], legs[k, 2], theta[k], model
+        )
+    return out
+
+
+def _near_leg(
+    dx: FloatArray,
+    dy: FloatArray,
+    cos_b: FloatArray,
+    sin_b: FloatArray,
+    r_near: FloatArray,
+    half: FloatArray,
+    model: SweepModel,
+) -> BoolArray:
+    """The two cheap cuts of ρ_leg on broadcastable arrays: the root's offset ``dx, dy``
+    from the leg's centre [m], the whisker's direction, the range clipped to the reach and
+    the leg's half side ``half`` [m]. The square lies within √2 h of its centre: a contact
+    point or a line farther than that plus the cut from the centre is farther than the cut
+    from the square."""
+    px, py = dx + r_near * cos_b, dy + r_near * sin_b
+    cut = contact_cutoff(0.0, model) + math.sqrt(2.0) * half  # contact_cutoff, per leg
+    return np.asarray(
+        (px * px + py * py <= cut * cut)
+        & (np.abs(dx * sin_b - dy * cos_b) <= ACROSS_CUT * model.sigma_perp + math.sqrt(2.0) * half)
+    )
+
+
+def _screened_density(
+    dx: FloatArray,
+    dy: FloatArray,
+    cos_b: FloatArray,
+    sin_b: FloatArray,
+    r_hat: FloatArray,
+    phi_hat: FloatArray,
+    h: FloatArray,
+    theta: FloatArray,
+    model: SweepModel,
+) -> FloatArray:
+    """ρ_leg of (contact, leg) pairs that passed :func:`_near_leg`, elementwise: the root's
+    offset from the leg's centre, the whisker's direction, range and normal, the leg's half
+    side ``h`` and angle ``theta``."""
+    across_cut = ACROSS_CUT * model.sigma_perp
+    c, s = np.cos(theta), np.sin(theta)
     ox, oy = c * dx + s * dy, c * dy - s * dx
     ux, uy = c * cos_b + s * sin_b, c * sin_b - s * cos_b
     ux = np.where(np.abs(ux) < 1e-12, 1e-12, ux)
     uy = np.where(np.abs(uy) < 1e-12, 1e-12, uy)
-    h = legs[j, 2]
     ax, ay = np.abs(ux), np.abs(uy)
-    tx_near, ty_near = (-h - ox * np.sign(ux)) / ax, (-h - oy * np.sign(uy)) / ay
-    tx_far, ty_far = (h - ox * np.sign(ux)) / ax, (h - oy * np.sign(uy)) / ay
+    ox_in, oy_in = ox * np.sign(ux), oy * np.sign(uy)  # the root's offset along the line
+    tx_near, ty_near = (-h - ox_in) / ax, (-h - oy_in) / ay
+    tx_far, ty_far = (h - ox_in) / ax, (h - oy_in) / ay
     t_near = np.maximum(tx_near, ty_near)
     hit = (t_near <= np.minimum(tx_far, ty_far)) & (t_near >= 0.0)
     gap = np.maximum(np.abs(ux * oy - uy * ox) - h * (ax + ay), 0.0)
@@ -296,15 +371,13 @@ def leg_contact_density(
     # resting on a corner reports either face.
     face_x = np.where(ux > 0, np.pi, 0.0)
     face_y = np.where(uy > 0, -0.5 * np.pi, 0.5 * np.pi)
-    rel_phi = phi_hat[i] - theta[j]
+    rel_phi = phi_hat - theta
     d_phi = np.minimum(np.abs(wrap_angle(rel_phi - face_x)), np.abs(wrap_angle(rel_phi - face_y)))
     sr = model.sigma_r
     exponent = (e_perp / model.sigma_perp) ** 2 + (d_phi / model.sigma_phi) ** 2
-    r_hat = r_hat[i]
     fold = np.exp(-0.5 * ((r_hat - along) / sr) ** 2) + np.exp(-0.5 * ((r_hat + along) / sr) ** 2)
     scale = 1.0 / ((2.0 * math.pi) ** 1.5 * sr * model.sigma_perp * model.sigma_phi)
-    out[i, j] = np.where(kept, scale * fold * np.exp(-0.5 * exponent), 0.0)
-    return out
+    return np.asarray(np.where(kept, scale * fold * np.exp(-0.5 * exponent), 0.0))
 
 
 def wall_contact_density(
@@ -362,16 +435,50 @@ def legs_swept(
     radius = legs[:, None, 2] * math.sqrt(2.0) + margin
     out = np.zeros(d.shape)
     j, i = np.nonzero((d > radius) & (d - legs[:, None, 2] < length[None] - margin))
-    if not len(j):
-        return out
-    d, radius, start = d[j, i], radius[j, 0], start[i]
-    turn = wrap_angle(stop[i] - start)
+    if len(j):
+        out[j, i] = _in_free_sector(dx[j, i], dy[j, i], d[j, i], radius[j, 0], start[i], stop[i])
+    return out
+
+
+def legs_swept_pairs(
+    legs: FloatArray,
+    root: FloatArray,
+    start: FloatArray,
+    stop: FloatArray,
+    length: FloatArray,
+    margin: float = 0.01,
+) -> FloatArray:
+    """``(p,)`` whether sweep ``k``'s free sector wholly contains leg ``k``, for ``p`` (leg,
+    sweep) pairs: one row per pair (``legs`` (p, 3), ``root`` (p, 2), the rest (p,)), each
+    answered as :func:`legs_swept` answers it, with the same arithmetic."""
+    dx = legs[:, 0] - root[:, 0]
+    dy = legs[:, 1] - root[:, 1]
+    d = np.hypot(dx, dy)
+    radius = legs[:, 2] * math.sqrt(2.0) + margin
+    out = np.zeros(len(d))
+    k = np.flatnonzero((d > radius) & (d - legs[:, 2] < length - margin))
+    if len(k):
+        out[k] = _in_free_sector(dx[k], dy[k], d[k], radius[k], start[k], stop[k])
+    return out
+
+
+def _in_free_sector(
+    dx: FloatArray,
+    dy: FloatArray,
+    d: FloatArray,
+    radius: FloatArray,
+    start: FloatArray,
+    stop: FloatArray,
+) -> BoolArray:
+    """Whether a leg at offset ``dx, dy`` (distance ``d``) [m] from a sweep's root, within
+    reach, lies with its grown circle of ``radius`` [m] inside the sector swept from
+    ``start`` to ``stop`` [rad] (elementwise, for :func:`legs_swept`)."""
+    turn = wrap_angle(stop - start)
     direction = np.where(turn >= 0, 1.0, -1.0)
     extent = np.abs(turn)
-    rel = wrap_angle(np.arctan2(dy[j, i], dx[j, i]) - start) * direction
+    rel = wrap_angle(np.arctan2(dy, dx) - start) * direction
     gamma = np.arcsin(np.clip(radius / np.maximum(d, 1e-9), 0.0, 1.0))
-    out[j, i] = (rel >= gamma) & (rel <= extent - gamma)
-    return out
+    return np.asarray((rel >= gamma) & (rel <= extent - gamma))
 
 
 def _extents(
