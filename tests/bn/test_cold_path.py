@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 from dataclasses import replace
 
 import numpy as np
@@ -392,6 +393,29 @@ def test_the_network_order_restricted_to_a_plan_contracts_exactly(seed: int, alw
             joined.append(all(joined[k] for k in step))
         steps = joined[len(scopes) : -1]  # the last step multiplies what is left
         assert steps == sorted(steps, reverse=True)  # evidence-free steps first
+
+
+def test_a_cached_program_leaves_nothing_for_the_cyclic_collector_to_rescan() -> None:
+    """A cold question's compiled program keeps only its steps, made of tuples of arrays,
+    ints and ``None`` that the collector stops tracking; its building state is gone (each
+    tracked container a plan keeps makes every later full collection longer)."""
+    net = BayesNet("chain", tuning=replace(Tuning(), one_step=0))  # ordered, never one call
+    net.add_variable("X0", ["0", "1"], cpt=[0.3, 0.7])
+    for k in range(1, 6):
+        net.add_variable(f"X{k}", ["0", "1"], parents=[f"X{k - 1}"], cpt=[[0.9, 0.2], [0.1, 0.8]])
+    net.posterior("X0", {"X5": "1", "X3": "0"})
+    compiled = net._engine.compiled
+    plan = net._engine.plan(
+        plans.QueryKind.MARGINAL, (0,), frozenset(map(compiled.id, ["X3", "X5"]))
+    )
+    assert plan.cache.single is not None
+    program, _ = plan.cache.single
+    assert isinstance(program, elimination.SumProgram) and program.steps
+    for _ in range(3):  # a tuple is untracked once what it holds is: a pass per nesting level
+        gc.collect()
+    assert not any(gc.is_tracked(step) for step in program.steps)
+    with pytest.raises(AttributeError):
+        program.add((0, 1), ())  # its operands were released by finish()
 
 
 def test_a_costly_network_order_gives_way_to_the_plans_own() -> None:

@@ -233,7 +233,7 @@ class ConstantMemo:
     """
 
     def __init__(self, budget: int = 1 << 22) -> None:
-        self._results: dict[Any, tuple[list[Any], FloatArray]] = {}
+        self._results: dict[Any, tuple[tuple[Any, ...], FloatArray]] = {}
         self._left = budget
 
     def get(self, key: Any) -> FloatArray | None:
@@ -241,12 +241,20 @@ class ConstantMemo:
         entry = self._results.get(key)
         return None if entry is None else entry[1]
 
-    def put(self, key: Any, inputs: list[Any], result: FloatArray) -> None:
+    def put(self, key: Any, inputs: tuple[Any, ...], result: FloatArray) -> None:
         """Store ``result`` (of ``inputs``) if the budget allows."""
         if result.size <= self._left:
             self._left -= result.size
             result.flags.writeable = False  # shared by every program that reuses it
             self._results[key] = (inputs, result)
+
+
+ProgramStep = tuple[tuple[Any, ...], tuple[tuple[int, int], ...], int, bool]
+"""A compiled sum-product step: its ``einsum`` arguments (constant arrays and sub-list
+labels, ``None`` where a register goes), which argument slot takes which register, the
+register of its result, and whether it goes to BLAS. Tuples of arrays, ints and ``None``
+only, which Python's cyclic collector stops tracking after a pass or three (one per level
+of nesting), so the programs a network caches add nothing to later collections."""
 
 
 class SumProgram:
@@ -283,6 +291,21 @@ class SumProgram:
         step goes to BLAS (``blas_above``).
     """
 
+    __slots__ = (
+        "_live",
+        "_memo",
+        "_operands",
+        "_output",
+        "_register",
+        "_size_table",
+        "_steps",
+        "_tuning",
+        "n_inputs",
+        "n_registers",
+        "result",
+        "steps",
+    )
+
     def __init__(
         self,
         scopes: Sequence[Sequence[Hashable]],
@@ -310,10 +333,9 @@ class SumProgram:
         self.n_inputs = n_inputs
         self._operands = (scopes, operands)
         self._size_table: dict[Hashable, int] | None = None
-        # each step: (argument template, [(argument slot, register)], result register, large)
-        self._steps: list[tuple[list[Any], list[tuple[int, int]], int, bool]] = []
+        self._steps: list[ProgramStep] = []
         self._register = n_inputs
-        self.steps: tuple[tuple[list[Any], list[tuple[int, int]], int, bool], ...] = ()
+        self.steps: tuple[ProgramStep, ...] = ()
         self.n_registers = n_inputs
         self.result: tuple[Any, int] = (None, -1)
         if path is None:
@@ -373,12 +395,19 @@ class SumProgram:
             if source < 0:
                 value = value.transpose(axes)
             else:  # the last step writes its einsum output subscripts in the output's order
-                template = self._steps[-1][0]
+                template, fills, out, large = self._steps[-1]
                 written = template[-1]
-                template[-1] = [written[k] for k in axes]
+                self._steps[-1] = (
+                    (*template[:-1], tuple([written[k] for k in axes])),
+                    fills,
+                    out,
+                    large,
+                )
         self.steps = tuple(self._steps)
         self.n_registers = self._register
         self.result = (value, source)
+        # a cached program keeps its steps alone: what only building needed goes
+        del self._live, self._steps, self._operands, self._size_table, self._memo
 
     def _split(
         self,
@@ -436,15 +465,15 @@ class SumProgram:
             if source >= 0:
                 fills.append((len(args), source))
             args.append(value)
-            args.append(list(map(number, scope)))
-        args.append(list(map(number, kept)))
+            args.append(tuple(map(number, scope)))
+        args.append(tuple(map(number, kept)))
         large = len(chosen) == 2 and entries > self._tuning.blas_above
         if not fills:
             result = _call(args, large)
             if memo is not None:
-                memo.put(key, [value for value, _, _ in chosen], result)
+                memo.put(key, tuple([value for value, _, _ in chosen]), result)
             return result, -1, kept
-        self._steps.append((args, fills, self._register, large))
+        self._steps.append((tuple(args), tuple(fills), self._register, large))
         self._register += 1
         return None, self._register - 1, kept
 
@@ -452,7 +481,7 @@ class SumProgram:
         """Contract, given the per-call operands in their order among ``operands``."""
         registers: list[Any] = [*inputs, *([None] * (self.n_registers - len(inputs)))]
         for template, fills, out, large in self.steps:
-            args = template.copy()
+            args = list(template)
             for slot, source in fills:
                 args[slot] = registers[source]
             registers[out] = opt_einsum.contract(*args) if large else einsum(*args)

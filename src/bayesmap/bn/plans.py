@@ -219,7 +219,7 @@ class Plan:
     targets: tuple[int, ...]
     evidence: tuple[int, ...]
     factors: list[Factor]
-    checks: list[Factor]
+    checks: tuple[Factor, ...]
     dropped: tuple[int, ...] = ()
     cache: PlanCache = field(default_factory=PlanCache)
 
@@ -336,7 +336,7 @@ def build(
         targets=tuple(targets),
         evidence=ev,
         factors=factors,
-        checks=checks,
+        checks=tuple(checks),
         dropped=tuple(bits(dropped)),
     )
 
