@@ -215,3 +215,26 @@ def test_a_target_is_not_viewed_through_a_thin_wall() -> None:
     view = view_costs(cost, blocked, 1.0, 0.5)
     assert view[4, 4] == 50.0
     assert view_costs(cost, np.zeros_like(blocked), 1.0, 0.5)[4, 4] == 1.0
+
+
+def test_a_target_beyond_the_patch_is_headed_for_across_its_border() -> None:
+    """Open ground: the waypoint lies 1.5 m along the way toward a target beyond the patch,
+    not at the rover's own cell (over all cells, path cost plus straight line is least
+    where the rover stands, and the rover circled there). A wall between them: the way
+    leads round its end. Shut in: no way out of the patch, no waypoint."""
+    grid = OccupancyGrid(30.0, 30.0, 0.5, prior=0.2)
+    x, y = 10.1, 10.1
+    plan = local_plan(grid, x, y, PARAMS)
+    assert plan.cost_to(25.0, 10.0) != plan.cost_to(25.0, 10.0)  # nan: outside the patch
+    waypoint = plan.waypoint((25.0, 10.0))
+    assert waypoint is not None
+    assert np.hypot(waypoint[0] - x, waypoint[1] - y) > 1.0 and waypoint[0] > x + 1.0
+    grid.probability[10:35, 26] = 0.95  # a wall at x = 13..13.5 from y = 5 to 17.5
+    walled = local_plan(grid, x, y, PARAMS)
+    waypoint = walled.waypoint((25.0, 10.0))
+    assert waypoint is not None and np.hypot(waypoint[0] - x, waypoint[1] - y) > 1.0
+    assert 0 < walled.remaining(x, y, (25.0, 10.0)) < np.inf
+    grid.probability[14:27, 14] = 0.95  # walls round the rover: a room inside the patch
+    grid.probability[14, 14:27] = 0.95
+    grid.probability[26, 14:27] = 0.95
+    assert local_plan(grid, x, y, PARAMS).waypoint((25.0, 10.0)) is None

@@ -311,3 +311,21 @@ def test_the_distinct_points_known_from_the_templates_give_back_every_sample() -
         np.testing.assert_array_equal(points[inverse], centres)
         assert (inverse[:, 0] == 0).all()
         assert len(points) < centres.shape[0] * centres.shape[1] / 2
+
+
+def test_walls_beside_the_rover_are_not_ahead_however_the_nearest_cell_falls() -> None:
+    """In a corridor narrower than body plus two margins, backing off gains no clearance:
+    whether the nearest wall cell's centre lies just ahead or just behind, the rover is not
+    told to back off from it (it did so on the spot, back and forth, for 1600 cycles)."""
+    walls = [(x, y) for x in np.arange(-3.0, 3.01, 0.5) for y in (0.75, -0.75)]
+    for x in (-0.2, -0.05, 0.05, 0.2):
+        pose = (x, 0.0, 0.03)
+        safety = footprint_safety(
+            pose, THETA, np.array(walls), 0.5, np.zeros((0, 2)), FIELD, PARAMS
+        )
+        assert safety.here < PARAMS.safety_margin
+        assert not safety.ahead
+    # a wall across the way is ahead
+    across = np.array([[0.75, y] for y in np.arange(-2.0, 2.01, 0.5)])
+    safety = footprint_safety((0.0, 0.0, 0.0), THETA, across, 0.5, np.zeros((0, 2)), FIELD, PARAMS)
+    assert safety.ahead

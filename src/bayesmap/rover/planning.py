@@ -208,12 +208,17 @@ class LocalPlan:
         """The patch cell the rover heads for on the way to ``target``, or ``None``.
 
         Inside the patch: the cheapest reachable cell within ``view_range`` of the target
-        that sees it (no likely obstacle on the line between them). Outside: the patch cell
-        that minimises path cost plus straight-line distance to it.
+        that sees it (no likely obstacle on the line between them). Outside: the cell on the
+        patch's border that minimises path cost plus straight-line distance to it, since
+        every way there crosses the border. (Over all the patch's cells that sum is never
+        smaller than at the rover's own cell, by the triangle inequality, so the rover was
+        sent to where it stood and circled its own cell; no border cell reachable means no
+        way out of the patch toward the target.)
         """
         index = self._index(*target)
         if index is None:
             remaining = self.cost + np.hypot(self.xc - target[0], self.yc - target[1])
+            remaining[1:-1, 1:-1] = np.inf
         else:
             if not np.isfinite(self.view[index]):
                 return None
@@ -230,7 +235,10 @@ class LocalPlan:
         """The point to steer toward on the way to ``target``, or ``None`` if unreachable.
 
         The cell ``1.5 m`` along the shortest path to the viewpoint (:meth:`_viewpoint`),
-        or, once there, the target itself, so that the rover turns to look at it.
+        measured in metres of path, not in its cost (next to a hazard, where a metre costs
+        five, a cost of 1.5 lay 0.3 m ahead, inside the turning circle, which a forward arc
+        never reaches); or, once there, the target itself, so that the rover turns to look
+        at it.
         """
         index = self._viewpoint(target)
         if index is None:
@@ -238,10 +246,16 @@ class LocalPlan:
         if self._index(*target) is not None and self.cost[index] <= self.resolution:
             return target
         path = self._path(index)
-        lengths = np.array([self.cost[cell] for cell in path])
-        ahead = int(np.searchsorted(lengths, _WAYPOINT_AHEAD))
+        ahead = int(np.searchsorted(self._along(path), _WAYPOINT_AHEAD))
         i, j = path[min(ahead, len(path) - 1)]
         return float(self.xc[i, j]), float(self.yc[i, j])
+
+    def _along(self, path: list[tuple[int, int]]) -> FloatArray:
+        """Distance [m] along ``path`` from its first cell to each of its cells (cells
+        counted at their length, whatever they cost)."""
+        steps = np.diff(np.asarray(path, dtype=np.float64), axis=0)
+        along = np.cumsum(np.hypot(steps[:, 0], steps[:, 1])) * self.resolution
+        return np.concatenate([[0.0], along])
 
     def _beyond(self, index: tuple[int, int], target: tuple[float, float]) -> float:
         """Straight-line distance [m] from viewpoint cell ``index`` to a ``target`` outside the
@@ -257,9 +271,7 @@ class LocalPlan:
         index = self._viewpoint(target)
         if index is None:
             return math.inf
-        beyond = self._beyond(index, target)
-        steps = np.diff(np.asarray(self._path(index), dtype=np.float64), axis=0)
-        return float(np.hypot(steps[:, 0], steps[:, 1]).sum()) * self.resolution + beyond
+        return float(self._along(self._path(index))[-1]) + self._beyond(index, target)
 
     def remaining(self, x: float, y: float, target: tuple[float, float]) -> float:
         """Path cost [m] still to go from the rover's exact position ``(x, y)`` to ``target``.

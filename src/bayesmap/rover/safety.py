@@ -85,6 +85,13 @@ def retreat_command(heading: float, psi: float, params: RoverParams) -> tuple[fl
 _ROUNDING = 1e-9
 """Clearance [m] a retreat may lose to rounding (``sin(pi)`` is not 0 in floating point)."""
 
+_BACK_OFF_GAIN = 0.5
+"""Fraction of a cycle's travel that backing off must add to the clearance to count as moving
+away from the nearest hazard (:attr:`Safety.ahead`): a hazard within about ±60° of the
+heading. A hazard beside the rover, such as a corridor's walls, is not ahead: backing off
+gains nothing there, and a rover that backed off from its walls and then drove on along
+its retreat went back and forth on the spot for hundreds of cycles."""
+
 _TEMPLATE_STEP = math.radians(0.5)
 """Spacing of the precomputed turning errors [rad]: paths are looked up, not integrated."""
 
@@ -269,8 +276,9 @@ class Safety:
     here
         Clearance [m] of the footprint where it stands now.
     ahead
-        Whether the nearest obstacle lies ahead of the rover (within ±90° of its heading),
-        so that backing off moves away from it.
+        Whether the nearest hazard lies ahead of the rover, so that backing off one cycle
+        (straight back at ``speed``) widens the clearance by at least half its travel
+        (``_BACK_OFF_GAIN``).
     back_clear
         Whether backing off one cycle (straight back at ``speed``) keeps the body on its
         recent track (:func:`back_off_on_track`): ground it occupied itself, where no
@@ -349,12 +357,12 @@ def footprint_safety(
         straight = straight_centres(pose, headings, params)
         _, clearance, allowed = check(*shared_start_points(straight))
         safe = (clearance >= here - _ROUNDING) & allowed
-    points = np.concatenate([cells, hits])
-    ahead = False
-    if points.size:
-        dx, dy = points[:, 0] - pose[0], points[:, 1] - pose[1]
-        k = int(np.argmin(np.hypot(dx, dy)))
-        ahead = bool(abs(float(wrap_angle(math.atan2(dy[k], dx[k]) - pose[2]))) < math.pi / 2)
+    step = params.speed * params.dt
+    back = np.array(
+        [pose[:2], (pose[0] - step * math.cos(pose[2]), pose[1] - step * math.sin(pose[2]))]
+    )
+    backed, _, _ = check(back, np.array([[0, 1]]))
+    ahead = bool(backed[0, 1] > here + _BACK_OFF_GAIN * step)
     back_clear = track is not None and back_off_on_track(
         np.asarray(track, dtype=np.float64), to_robot(pose, hits), params
     )
