@@ -136,6 +136,37 @@ def test_wide_cones_on_a_fine_grid_miss_no_cell(half_width: float) -> None:
         assert inside.sum() == (cells.reading == k).sum()
 
 
+@pytest.mark.parametrize("half_width", [math.radians(12.5), 0.8, 1.55])
+def test_cone_cells_are_the_whole_grids_test_value_for_value(half_width: float) -> None:
+    """Each row's run of candidates finds, in reading, row, column order, exactly the cells
+    (and the same ``rho``, ``theta`` bits) as testing every cell of the grid; axes along a
+    grid line put cone edges on rows and columns of cell centres."""
+    grid = OccupancyGrid(8, 6, 0.1, origin=(-4.03, -3.0))
+    rng = np.random.default_rng(11)
+    centres = np.vstack([rng.uniform(-5, 5, (30, 2)), [[0.02, 0.05], [-0.03, 0.0]]])
+    axis = np.r_[rng.uniform(-4, 4, 30), 0.0, math.pi / 2 - half_width]
+    reach = np.r_[rng.uniform(-1, 5, 30), 3.0, 2.5]
+    cells = cone_cells(grid, centres, axis, reach, half_width)
+    ny, nx = grid.shape
+    rows, cols = (g.ravel() for g in np.mgrid[0:ny, 0:nx])
+    x0, y0 = grid.origin
+    want = []
+    for k in np.flatnonzero(reach > 0):
+        ux, uy = np.cos(axis[k : k + 1]), np.sin(axis[k : k + 1])
+        dx = x0 + (cols + 0.5) * grid.resolution - centres[k, 0]
+        dy = y0 + (rows + 0.5) * grid.resolution - centres[k, 1]
+        along, across = dx * ux + dy * uy, dy * ux - dx * uy
+        inside = (np.abs(across) <= along * math.tan(half_width)) & (
+            along * along + across * across <= reach[k] * reach[k]
+        )
+        a, b = along[inside], across[inside]
+        reading = np.full(len(a), k)
+        want.append((rows[inside], cols[inside], np.hypot(a, b), np.arctan2(b, a), reading))
+    assert len(want) > 20 and len(cells.rows) > 1000
+    for got, expected in zip(cells, zip(*want, strict=True), strict=True):
+        assert np.array_equal(got, np.concatenate(expected))
+
+
 def test_elfes_mapper_marks_the_echo_and_frees_the_cone() -> None:
     geometry = SonarGeometry(angles=(0.0, math.pi), sigma=0.05, max_range=5.0)
     grid = OccupancyGrid(10, 10, 0.1, origin=(-5, -5))

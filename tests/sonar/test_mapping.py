@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import importlib.util
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +17,8 @@ from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.map_verdict import MapVerdict, clearance, first_surface, judge_by_map
 from bayesmap.sonar.mapping import ElfesMapper
 from bayesmap.sonar.pipeline import PIPELINES, MapRun, map_log
+
+DATA = Path(__file__).parent / "data"
 
 FRONT_AND_BACK = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
 
@@ -108,6 +112,25 @@ def test_refinement_is_the_same_however_the_rings_were_batched_and_runs_once() -
     assert np.array_equal(first, mappers[1].sync().probability)
     assert np.array_equal(first, mappers[0].sync().probability)  # a second sync adds nothing
     assert mappers[0].rings_ == 30  # type: ignore[attr-defined]
+
+
+def test_the_sweep_keeps_the_recorded_forward_maps_of_two_logs() -> None:
+    # tests/sonar/data/make_golden_forward_map.py recorded two logs and the forward-model
+    # map made of them before the sweep and the cone cells were rewritten for speed: every
+    # log-odds value, swept cell and verdict must stay the same, bit for bit.
+    spec = importlib.util.spec_from_file_location(
+        "make_golden_forward_map", DATA / "make_golden_forward_map.py"
+    )
+    assert spec is not None and spec.loader is not None
+    maker = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(maker)
+    recorded = np.load(DATA / "golden_forward_map.npz")
+    for world_name, _ in maker.LOGS:
+        poses, ranges = recorded[f"{world_name}/poses"], recorded[f"{world_name}/ranges"]
+        got = maker.mapped("forward", poses, ranges)
+        assert np.count_nonzero(got["log_odds"]) > 5000  # the log maps something
+        for key, value in got.items():
+            assert np.array_equal(value, recorded[f"{world_name}/{key}"]), (world_name, key)
 
 
 @pytest.mark.parametrize(

@@ -17,7 +17,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._typing import FloatArray, Grid
+from bayesmap._typing import FloatArray, Grid, IntArray
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid, Window
 from bayesmap.sensing.sonar import elfes_inverse_model, log_odds
@@ -182,46 +182,53 @@ class _LogOddsMapper(_ConeMapper):
             if limit is not None:
                 beyond = cells.rho > limit[a:b].ravel()[cells.reading]
                 increment = np.where(beyond & (increment < 0.0), 0.0, increment)
-            if self.free_stop and self.reference_ is not None:
-                increment = self._first_hit(cells, r[a:b].ravel(), increment)
+            if self.reference_ is not None:
+                # A sweep's E-step reference stays fixed while the sweep adds its rings, so
+                # the first hits and the arcs' shares are found for the whole batch at once.
+                if self.free_stop:
+                    increment = self._first_hit(cells, r[a:b].ravel(), increment)
+                if self.explain_away > 0.0:
+                    increment = self._explained(cells, increment)
             bounds = np.searchsorted(cells.reading, n * np.arange(b - a + 1))
+            flat = cells.rows * self.grid.shape[1] + cells.cols
             for i in range(b - a):
                 part = slice(bounds[i], bounds[i + 1])
-                piece = ConeCells(
-                    cells.rows[part],
-                    cells.cols[part],
-                    cells.rho[part],
-                    cells.theta[part],
-                    cells.reading[part],
-                )
-                self._add(piece, increment[part])
+                if self.explain_away > 0.0 and self.reference_ is None:
+                    piece = ConeCells(
+                        cells.rows[part],
+                        cells.cols[part],
+                        cells.rho[part],
+                        cells.theta[part],
+                        cells.reading[part],
+                    )
+                    self._add(flat[part], self._explained(piece, increment[part]))
+                else:
+                    self._add(flat[part], increment[part])
                 if footprint is not None:
                     rows, cols, inside = footprint
                     index = (rows[a + i][inside[a + i]], cols[a + i][inside[a + i]])
                     self.log_odds_[index] = -self.clamp
                     self.swept_[index] = True
 
-    def _add(self, cells: ConeCells, increment: FloatArray) -> None:
-        index = (cells.rows, cells.cols)
+    def _add(self, flat: IntArray, increment: FloatArray) -> None:
+        """Add one ring's ``increment`` at the cells ``flat`` (row-major indices)."""
+        log_odds, swept = self.log_odds_.reshape(-1), self.swept_.reshape(-1)
         if self.decay > 0.0:
             # Evidence in view fades towards the prior before the new ring is added, so a
             # passer-by that saturated cells is cleared by the next few free readings.
-            old = self.log_odds_[index]
-            self.log_odds_[index] = self.prior_log_odds + (1.0 - self.decay) * (
-                old - self.prior_log_odds
+            log_odds[flat] = self.prior_log_odds + (1.0 - self.decay) * (
+                log_odds[flat] - self.prior_log_odds
             )
         if self.free_lock > 0.0:
             # A cell many readings have seen free is free space: a later echo there is a
             # passer-by, so its occupied evidence is not written (free evidence still is).
-            locked = self.log_odds_[index] <= self.prior_log_odds - self.free_lock
+            locked = log_odds[flat] <= self.prior_log_odds - self.free_lock
             increment = np.where(locked & (increment > 0.0), 0.0, increment)
-        if self.explain_away > 0.0:
-            increment = self._explained(cells, increment)
-        np.add.at(self.log_odds_, index, increment)
-        updated = np.clip(self.log_odds_[index], -self.clamp, self.clamp)
+        np.add.at(log_odds, flat, increment)
+        updated = np.minimum(np.maximum(log_odds[flat], -self.clamp), self.clamp)
         # Where the robot's body has been, no static obstacle stands: an echo there later
         # came from something passing by (a person), so swept cells stay free.
-        self.log_odds_[index] = np.where(self.swept_[index], -self.clamp, updated)
+        log_odds[flat] = np.where(swept[flat], -self.clamp, updated)
 
     def _explained(self, cells: ConeCells, increment: FloatArray) -> FloatArray:
         """Share each echo's occupied evidence along its arc by what the map already knows.
