@@ -115,9 +115,10 @@ def test_refinement_is_the_same_however_the_rings_were_batched_and_runs_once() -
 
 
 def test_the_sweep_keeps_the_recorded_forward_maps_of_two_logs() -> None:
-    # tests/sonar/data/make_golden_forward_map.py recorded two logs and the forward-model
-    # map made of them before the sweep and the cone cells were rewritten for speed: every
-    # log-odds value, swept cell and verdict must stay the same, bit for bit.
+    # tests/sonar/data/make_golden_forward_map.py recorded two logs and the default
+    # pipeline's map (then called ``forward``) made of them before the sweep and the cone
+    # cells were rewritten for speed: every log-odds value, swept cell and verdict must stay
+    # the same, bit for bit.
     spec = importlib.util.spec_from_file_location(
         "make_golden_forward_map", DATA / "make_golden_forward_map.py"
     )
@@ -127,7 +128,7 @@ def test_the_sweep_keeps_the_recorded_forward_maps_of_two_logs() -> None:
     recorded = np.load(DATA / "golden_forward_map.npz")
     for world_name, _ in maker.LOGS:
         poses, ranges = recorded[f"{world_name}/poses"], recorded[f"{world_name}/ranges"]
-        got = maker.mapped("forward", poses, ranges)
+        got = maker.mapped("default", poses, ranges)
         assert np.count_nonzero(got["log_odds"]) > 5000  # the log maps something
         for key, value in got.items():
             assert np.array_equal(value, recorded[f"{world_name}/{key}"]), (world_name, key)
@@ -293,7 +294,7 @@ class _RejectLastSilences:
 
 
 def _forward_run(front: list[float], verdict: MapVerdict) -> tuple[ElfesMapper, MapRun]:
-    """The creeping log with ``front`` ranges ahead and silence behind, mapped as ``forward``.
+    """The creeping log with ``front`` ranges ahead and silence behind, mapped as ``default``.
 
     The filter keeps every reading but the silences of the last three rings.
     """
