@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
+from tests.sonar.helpers import DATA, recorder
 
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.experiments.sonar import ring_geometry
@@ -21,8 +20,6 @@ from bayesmap.sonar.geometry import SonarGeometry, cone_cells
 from bayesmap.sonar.logs import LogUnits, read_sonar_log
 from bayesmap.sonar.mapping import ElfesMapper, RosRangeLayerMapper, ThrunMapper
 from bayesmap.sonar.pipeline import PIPELINES, build_map, grid_for_poses, map_log, repeats_last
-
-DATA = Path(__file__).parent / "data"
 
 Corridor = tuple[np.ndarray, SonarScan, SonarGeometry]
 
@@ -604,12 +601,7 @@ def test_filter_keeps_the_recorded_rejections_free_space_and_l_of_a_second_world
     # tests/sonar/data/make_golden_rejections.py recorded a log of sonar-office-v2 and the
     # filter's whole outcome on it (see there when): a rewrite for speed must keep every
     # rejection with its reason, every free-space limit and every trait of L, value for value.
-    spec = importlib.util.spec_from_file_location(
-        "make_golden_rejections", DATA / "make_golden_rejections.py"
-    )
-    assert spec is not None and spec.loader is not None
-    maker = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(maker)
+    maker = recorder("make_golden_rejections")
     recorded = np.load(DATA / "golden_rejections.npz")
     ring = SonarRing.pioneer(16)
     for name, options in maker.OPTIONS.items():

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
+from tests.sonar.helpers import DATA, recorder
 
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
@@ -17,8 +16,6 @@ from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.map_verdict import MapVerdict, clearance, first_surface, judge_by_map
 from bayesmap.sonar.mapping import ElfesMapper
 from bayesmap.sonar.pipeline import PIPELINES, MapRun, map_log
-
-DATA = Path(__file__).parent / "data"
 
 FRONT_AND_BACK = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
 
@@ -119,12 +116,7 @@ def test_the_sweep_keeps_the_recorded_forward_maps_of_two_logs() -> None:
     # pipeline's map (then called ``forward``) made of them before the sweep and the cone
     # cells were rewritten for speed: every log-odds value, swept cell and verdict must stay
     # the same, bit for bit.
-    spec = importlib.util.spec_from_file_location(
-        "make_golden_forward_map", DATA / "make_golden_forward_map.py"
-    )
-    assert spec is not None and spec.loader is not None
-    maker = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(maker)
+    maker = recorder("make_golden_forward_map")
     recorded = np.load(DATA / "golden_forward_map.npz")
     for world_name, _ in maker.LOGS:
         poses, ranges = recorded[f"{world_name}/poses"], recorded[f"{world_name}/ranges"]
