@@ -4,7 +4,7 @@
 maps one simulated log per world and seed (``numpy.random.default_rng(seed)``, seeds the
 benchmark of record does not use) with the best unfiltered baseline, the ROS layer (whose
 missed-wall rate is the target's bound) and variants of the
-default pipeline (``nofilt=1`` switches its filter off; ``filter.NAME=VALUE`` sets a
+one-pass ``streaming`` pipeline (``nofilt=1`` switches its filter off; ``filter.NAME=VALUE`` sets a
 :class:`~bayesmap.sonar.filter.SpecularFilter` option; other options are
 :class:`~bayesmap.sonar.pipeline.Pipeline` fields), and prints κ, false obstacles (also
 as cells near and far from solid: thick walls versus traces of people), missed walls, path
@@ -17,26 +17,27 @@ on the beam axis: an echo more than 0.1 m beyond it, or no echo with a surface o
 within range; echoes from people are good), and prints the default filter's rejection
 precision and recall under both, with Wilson 95 % intervals and counts by echo kind.
 ``python benchmarks/sonar_diagnose.py ceiling WORLDS SEEDS`` bounds what any filter can
-give a world: it maps each log with the default pipeline's map and with the best baseline's
+give a world: it maps each log with the streaming pipeline's map and with the best baseline's
 map, fed by an oracle that rejects exactly the readings the simulator labels specular (and,
-in a second pair, the echoes from people too), and prints κ beside the default pipeline's
+in a second pair, the echoes from people too), and prints κ beside the streaming pipeline's
 and the baseline's own.
 
 ``python benchmarks/sonar_diagnose.py verdict WORLDS SEEDS [PIPELINE]`` learns the
 thresholds of the map's verdict (:class:`~bayesmap.sonar.map_verdict.MapVerdict`) of a
-pipeline (default ``default``; ``forward`` judges by its refined map): it maps one log per
+pipeline (default ``streaming``; ``default`` judges by its map after the forward-model
+sweep): it maps one log per
 world and seed with the pipeline's filter and map, then judges the rings again by that map
 under each setting, by coordinate ascent from the shipped settings over a small
 grid (two rounds), maximising the worst log's min(rejection precision, recall) — the target
 holds in every world —, ties broken by the mean over logs; it prints every step.
 
 ``python benchmarks/sonar_diagnose.py wrong WORLDS SEEDS`` maps one log per world and seed
-with the default pipeline (the map's verdict included) and prints the good readings it
+with the streaming pipeline (the map's verdict included) and prints the good readings it
 rejects, by the stage that rejected them and the simulator's kind of reading, and the
 specular readings it keeps, by kind.
 
-``python benchmarks/sonar_diagnose.py speed WORLDS SEED`` times the default and the
-forward pipeline (filter and map, CPU seconds) on one log per world and prints readings per
+``python benchmarks/sonar_diagnose.py speed WORLDS SEED`` times the streaming and the
+default pipeline (filter and map, CPU seconds) on one log per world and prints readings per
 CPU second with the load average (a loaded machine inflates CPU time too).
 
 WORLDS is a comma-separated list of registered world names.
@@ -90,13 +91,13 @@ def _variants(spec: str) -> dict[str, object]:
         # ``verdict=0`` drops the map's verdict; ``verdict.NAME=VALUE`` sets one threshold.
         verdict = {k.removeprefix("verdict."): v for k, v in kw.items() if k.startswith("verdict")}
         kw = {k: v for k, v in kw.items() if not k.startswith("verdict")}
-        base_verdict = PIPELINES["default"].map_verdict
+        base_verdict = PIPELINES["streaming"].map_verdict
         if verdict.pop("verdict", 1) == 0:
             kw["map_verdict"] = None
         elif verdict and base_verdict is not None:
             kw["map_verdict"] = dataclasses.replace(base_verdict, **verdict)  # type: ignore[arg-type]
-        # ``filter.NAME=VALUE`` sets a SpecularFilter option on top of the default's.
-        base = PIPELINES["default"]
+        # ``filter.NAME=VALUE`` sets a SpecularFilter option on top of the streaming pipeline's.
+        base = PIPELINES["streaming"]
         extra = {k.removeprefix("filter."): v for k, v in kw.items() if k.startswith("filter.")}
         if extra:
             kw = {k: v for k, v in kw.items() if not k.startswith("filter.")}
@@ -107,7 +108,7 @@ def _variants(spec: str) -> dict[str, object]:
 
 def variants(worlds: str, seeds: str, spec: str) -> None:
     """Print the baseline's and each variant's scores on one log per world and seed."""
-    extra = _variants(spec or "default:")
+    extra = _variants(spec or "streaming:")
     PIPELINES.update(extra)  # type: ignore[arg-type]
     names = (BASELINE, "ros", *extra)
     config = Config()
@@ -167,7 +168,7 @@ def _mapped(log: Any, ring: Any, config: Config, geometry: Any, pipeline: Any) -
 def labels(worlds: str, seed: str) -> None:
     """Print the default filter's precision/recall under the simulator's and the axis label."""
     config, ring, geometry = _ring_setup()
-    pipeline = dataclasses.replace(PIPELINES["default"], map_verdict=None)  # the filter alone
+    pipeline = dataclasses.replace(PIPELINES["streaming"], map_verdict=None)  # the filter alone
     for name in worlds.split(","):
         w = world(name)
         log = simulate_log(w, ring, config.realism, rng=np.random.default_rng(int(seed)))
@@ -218,22 +219,22 @@ class _Oracle:
 
 
 def ceiling(worlds: str, seeds: str) -> None:
-    """Print κ of the default and baseline maps fed by a truth-label oracle filter."""
+    """Print κ of the streaming and baseline maps fed by a truth-label oracle filter."""
     config, ring, geometry = _ring_setup()
     for name in worlds.split(","):
         w = world(name)
         for seed in (int(s) for s in seeds.split(",")):
             log = simulate_log(w, ring, config.realism, rng=np.random.default_rng(seed))
-            metrics, _, grid, _ = score_world(config, w, log, ("default", BASELINE))
+            metrics, _, grid, _ = score_world(config, w, log, ("streaming", BASELINE))
             truth, wall = truth_layers(w, grid, log.poses, config.max_range)
             driven = path_cells(grid, log.odometry, config.footprint)
             person = log.kind == EchoKind.PERSON
-            line = [f"{p} {metrics[p]['kappa']:.3f}" for p in ("default", BASELINE)]
+            line = [f"{p} {metrics[p]['kappa']:.3f}" for p in ("streaming", BASELINE)]
             for label, reject in (
                 ("specular", log.specular),
                 ("specular+people", log.specular | person),
             ):
-                for p in ("default", BASELINE):
+                for p in ("streaming", BASELINE):
                     pipeline = PIPELINES[p]
                     x0, x1, y0, y1 = grid.extent
                     mapper = pipeline.make_mapper(
@@ -268,7 +269,7 @@ VERDICT_GRID: dict[str, list[float]] = {
 }
 
 
-def verdict(worlds: str, seeds: str, pipeline_name: str = "default") -> None:
+def verdict(worlds: str, seeds: str, pipeline_name: str = "streaming") -> None:
     """Learn a pipeline's map verdict by coordinate ascent on one log per world and seed."""
     config, ring, geometry = _ring_setup()
     pipeline = dataclasses.replace(PIPELINES[pipeline_name], map_verdict=None)
@@ -337,9 +338,9 @@ def _filter_alone(cases: list) -> list[str]:
 
 
 def wrong(worlds: str, seeds: str) -> None:
-    """Print the default pipeline's wrong rejections by stage and kind, and the specular missed."""
+    """Print the streaming pipeline's wrong rejections by stage and kind, and specular kept."""
     config, ring, geometry = _ring_setup()
-    pipeline = PIPELINES["default"]
+    pipeline = PIPELINES["streaming"]
     for name in worlds.split(","):
         for seed in (int(s) for s in seeds.split(",")):
             log = simulate_log(world(name), ring, config.realism, rng=np.random.default_rng(seed))
@@ -372,14 +373,14 @@ def _by_kind(chosen: np.ndarray, kinds: np.ndarray) -> str:
 
 
 def speed(worlds: str, seed: str) -> None:
-    """Print readings per CPU second of the default and the forward pipeline, and the load."""
+    """Print readings per CPU second of the streaming and the default pipeline, and the load."""
     config = Config()
     geometry = ring_geometry(make_ring(config))
     for name in worlds.split(","):
         log = simulate_log(
             world(name), make_ring(config), config.realism, rng=np.random.default_rng(int(seed))
         )
-        for pipeline in ("default", "forward"):
+        for pipeline in ("streaming", "default"):
             started = time.process_time()
             build_map(
                 log.odometry, log.ranges, geometry, config.resolution, pipeline=PIPELINES[pipeline]

@@ -2,16 +2,17 @@
 
 Part 1: a realistic simulated log (Pioneer 16-sonar ring, :func:`simulate_log` laps of
 ``sonar-lcorridor-v2`` with people, stops and drift) goes through the default pipeline
-(filter + eq. 1 map with its tuned options), the paper's filter alone, and, side by side,
-the unfiltered map updates of the eq. 1 model, Thrun's ±0.4 model and the ROS
+(filter, eq. 1 map with its tuned options, the forward-model sweep over the whole log and
+the map's verdict), the one-pass ``streaming`` pipeline, the paper's filter alone, and,
+side by side, the unfiltered map updates of the eq. 1 model, Thrun's ±0.4 model and the ROS
 ``range_sensor_layer`` model. Part 2: a 50 MB plain-text log (mm, decidegrees) is written
 and read by ``read_sonar_log`` in a child process, then mapped for ``MEMORY_RINGS`` rings with
 the default pipeline; the child's peak resident memory is reported. Median of repeats; run
 from the repository root as ``python benchmarks/sonar_filter.py``.
 
 Rates per CPU second still drop when other jobs share the cores, so two load-independent
-numbers go with them: the default pipeline's rate over the ``paper`` pipeline's (filter +
-eq. 1 map, same log, same run), and with ``--baseline TREE`` (a commit of this repository,
+numbers go with them: the default pipeline's rate over the ``paper`` and the ``streaming``
+pipeline's (same log, same run), and with ``--baseline TREE`` (a commit of this repository,
 e.g. ``4ca13aa``, or another checkout's folder) the speed-up of this checkout's default
 pipeline over that one's, each timed in its own child process, taking turns.
 """
@@ -132,7 +133,14 @@ size, origin = (xmax - xmin + 1, ymax - ymin + 1), (xmin - 0.5, ymin - 0.5)
 grid = OccupancyGrid(*size, float(sys.argv[2]), origin=origin)
 mapper, filt = pipeline.make_mapper(grid, geometry), pipeline.make_filter(geometry)
 started = time.process_time()
-map_log(poses, ranges, mapper, filt, merge_repeats=pipeline.merge_repeats)
+map_log(
+    poses,
+    ranges,
+    mapper,
+    filt,
+    merge_repeats=pipeline.merge_repeats,
+    map_verdict=pipeline.map_verdict,
+)
 print(time.process_time() - started)
 """
 
@@ -202,7 +210,14 @@ def _run(baseline_tree: tuple[Path, str] | None) -> None:
         def job() -> None:
             mapper = pipeline.make_mapper(grid(), geometry)
             filt = pipeline.make_filter(geometry)
-            map_log(poses[:n], ranges[:n], mapper, filt, merge_repeats=pipeline.merge_repeats)
+            map_log(
+                poses[:n],
+                ranges[:n],
+                mapper,
+                filt,
+                merge_repeats=pipeline.merge_repeats,
+                map_verdict=pipeline.map_verdict,
+            )
 
         return job
 
@@ -218,9 +233,14 @@ def _run(baseline_tree: tuple[Path, str] | None) -> None:
 
     cases: list[tuple[str, int, Callable[[], None]]] = [
         (
-            "default pipeline: filter + eq. 1 map (bayesmap)",
+            "default pipeline: filter + eq. 1 map + forward-model sweep (bayesmap)",
             RINGS,
             pipeline_job(DEFAULT_PIPELINE, RINGS),
+        ),
+        (
+            "streaming pipeline: filter + one-pass eq. 1 map",
+            RINGS,
+            pipeline_job("streaming", RINGS),
         ),
         ("paper pipeline: paper filter + eq. 1 map", RINGS, pipeline_job("paper", RINGS)),
         ("paper filter only (all three stages)", PEER_RINGS, filter_only(PEER_RINGS)),
@@ -240,8 +260,8 @@ def _run(baseline_tree: tuple[Path, str] | None) -> None:
         rows.append((name, n, seconds, cpu, n * geometry.n / seconds, n * geometry.n / cpu))
         print(f"{name:55s} {n:6d} rings {seconds:7.2f} s wall {cpu:7.2f} s CPU", flush=True)
     load = " / ".join(f"{v:.1f}" for v in os.getloadavg())
-    ratio = rows[0][5] / rows[1][5]
-    print(f"default / paper rate per CPU second: {ratio:.2f}")
+    ratio, sweep = rows[0][5] / rows[2][5], rows[0][5] / rows[1][5]
+    print(f"default / paper rate per CPU second: {ratio:.2f}; default / streaming: {sweep:.2f}")
     versus = ""
     if baseline_tree is not None:
         tree, label = baseline_tree
@@ -272,8 +292,9 @@ def _run(baseline_tree: tuple[Path, str] | None) -> None:
             for name, n, sec, cpu, per_wall, per_cpu in rows
         ),
         "",
-        f"Default over paper pipeline, readings per CPU second: **{ratio:.2f}** (the two "
-        f"share the cores alike, so the ratio does not depend on the load).{versus}",
+        f"Default over paper pipeline, readings per CPU second: **{ratio:.2f}**; default over "
+        f"streaming (the cost of the forward-model sweep): **{sweep:.2f}** (pipelines of one "
+        f"run share the cores alike, so the ratios do not depend on the load).{versus}",
         "",
         "Readings per CPU second is the rate the code reaches when it has a core to itself; "
         "readings per wall second is what this run saw with the cores shared. The "
@@ -285,7 +306,8 @@ def _run(baseline_tree: tuple[Path, str] | None) -> None:
         "traits of L near enough for hygiene and the extended traits the verdicts test), "
         "one distance pass from the robot to the traits of L and V, and one bounding-box "
         "screen of all pairs of traits; split-and-merge, the few pairs the screen leaves and "
-        "the bookkeeping run on plain Python floats. The two pipeline rows run `map_log`; "
+        "the bookkeeping run on plain Python floats. The pipeline rows run `map_log` (the "
+        "default's forward-model sweep and every pipeline's map verdict included); "
         "the other rows feed one ring at a time.",
         "",
         "The ROS layer updates one reading at a time (Bayes with cost quantisation), as the "

@@ -9,8 +9,8 @@ through, odometry drift, the no-echo code), drawn from seeds that neither the tu
   world seeds ``--buildings``, ``--halls``, ``--offices``), each driven once;
 - the five named realistic worlds, one log each from ``--seed``.
 
-Each log is mapped by the default pipeline, the forward-model pipeline and the unfiltered
-baselines, as
+Each log is mapped by the default pipeline (with its forward-model sweep), the one-pass
+``streaming`` pipeline and the unfiltered baselines, as
 ``bayesmap sonar run`` / ``reproduce sonar`` do; the section gets the per-log targets and
 one panel of maps per random world.
 Run from the repository root: ``python benchmarks/sonar_unseen.py [--jobs N]``.
@@ -106,19 +106,20 @@ def main(argv: list[str]) -> None:
             f"{args.seed}) in {minutes:.1f} min on {machine()}; "
             f"load average at the end {load} (a shared machine).",
             "",
-            "One log each; for each of the default and the forward pipeline: κ, κ margin "
+            "One log each; for each of the default pipeline (with its forward-model sweep) and "
+            "the one-pass streaming pipeline: κ, κ margin "
             "(minus the best unfiltered baseline; target ≥ +0.10) and missed wall − ROS "
             "(target ≤ 0); path cells: cells within the robot's radius of its logged path "
             "mapped occupied (target 0); rejection precision / recall of each (the two "
-            "share the filter; `forward`'s verdict asks its refined map).",
+            "share the filter; the default's verdict asks its map after the sweep).",
             "",
             "| log | rings | best baseline (κ) | default: κ / margin / missed − ROS "
-            "| forward: κ / margin / missed − ROS | path cells occupied (default / forward) "
-            "| rej. precision / recall, default | forward |",
+            "| streaming: κ / margin / missed − ROS | path cells occupied (default / streaming) "
+            "| rej. precision / recall, default | streaming |",
             "|---|---:|---|---|---|---|---|---|",
             *rows,
             "",
-            "Panels: truth, then the default and forward pipelines and each baseline on the "
+            "Panels: truth, then the default and streaming pipelines and each baseline on the "
             "same log; true "
             "walls red, logged path dotted blue.",
             "",

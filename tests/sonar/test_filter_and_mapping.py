@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
+from tests.sonar.helpers import DATA, recorder
 
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.experiments.sonar import ring_geometry
@@ -21,8 +20,6 @@ from bayesmap.sonar.geometry import SonarGeometry, cone_cells
 from bayesmap.sonar.logs import LogUnits, read_sonar_log
 from bayesmap.sonar.mapping import ElfesMapper, RosRangeLayerMapper, ThrunMapper
 from bayesmap.sonar.pipeline import PIPELINES, build_map, grid_for_poses, map_log, repeats_last
-
-DATA = Path(__file__).parent / "data"
 
 Corridor = tuple[np.ndarray, SonarScan, SonarGeometry]
 
@@ -134,6 +131,37 @@ def test_wide_cones_on_a_fine_grid_miss_no_cell(half_width: float) -> None:
             along**2 + across**2 <= reach[k] ** 2
         )
         assert inside.sum() == (cells.reading == k).sum()
+
+
+@pytest.mark.parametrize("half_width", [math.radians(12.5), 0.8, 1.55])
+def test_cone_cells_are_the_whole_grids_test_value_for_value(half_width: float) -> None:
+    """Each row's run of candidates finds, in reading, row, column order, exactly the cells
+    (and the same ``rho``, ``theta`` bits) as testing every cell of the grid; axes along a
+    grid line put cone edges on rows and columns of cell centres."""
+    grid = OccupancyGrid(8, 6, 0.1, origin=(-4.03, -3.0))
+    rng = np.random.default_rng(11)
+    centres = np.vstack([rng.uniform(-5, 5, (30, 2)), [[0.02, 0.05], [-0.03, 0.0]]])
+    axis = np.r_[rng.uniform(-4, 4, 30), 0.0, math.pi / 2 - half_width]
+    reach = np.r_[rng.uniform(-1, 5, 30), 3.0, 2.5]
+    cells = cone_cells(grid, centres, axis, reach, half_width)
+    ny, nx = grid.shape
+    rows, cols = (g.ravel() for g in np.mgrid[0:ny, 0:nx])
+    x0, y0 = grid.origin
+    want = []
+    for k in np.flatnonzero(reach > 0):
+        ux, uy = np.cos(axis[k : k + 1]), np.sin(axis[k : k + 1])
+        dx = x0 + (cols + 0.5) * grid.resolution - centres[k, 0]
+        dy = y0 + (rows + 0.5) * grid.resolution - centres[k, 1]
+        along, across = dx * ux + dy * uy, dy * ux - dx * uy
+        inside = (np.abs(across) <= along * math.tan(half_width)) & (
+            along * along + across * across <= reach[k] * reach[k]
+        )
+        a, b = along[inside], across[inside]
+        reading = np.full(len(a), k)
+        want.append((rows[inside], cols[inside], np.hypot(a, b), np.arctan2(b, a), reading))
+    assert len(want) > 20 and len(cells.rows) > 1000
+    for got, expected in zip(cells, zip(*want, strict=True), strict=True):
+        assert np.array_equal(got, np.concatenate(expected))
 
 
 def test_elfes_mapper_marks_the_echo_and_frees_the_cone() -> None:
@@ -487,6 +515,7 @@ def test_map_log_matches_a_ring_by_ring_run_of_the_fixture_log() -> None:
         stages.append(verdict.stage)
     assert np.array_equal(run.stage, np.array(stages))
     assert filt.rejections_ == ref_filter.rejections_
+    ref_mapper.sync()  # the default's forward-model sweep runs when the map is synced
     assert np.array_equal(mapper.probability(), ref_mapper.probability())
 
 
@@ -572,12 +601,7 @@ def test_filter_keeps_the_recorded_rejections_free_space_and_l_of_a_second_world
     # tests/sonar/data/make_golden_rejections.py recorded a log of sonar-office-v2 and the
     # filter's whole outcome on it (see there when): a rewrite for speed must keep every
     # rejection with its reason, every free-space limit and every trait of L, value for value.
-    spec = importlib.util.spec_from_file_location(
-        "make_golden_rejections", DATA / "make_golden_rejections.py"
-    )
-    assert spec is not None and spec.loader is not None
-    maker = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(maker)
+    maker = recorder("make_golden_rejections")
     recorded = np.load(DATA / "golden_rejections.npz")
     ring = SonarRing.pioneer(16)
     for name, options in maker.OPTIONS.items():

@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from tests.sonar.helpers import DATA, recorder
 
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
@@ -108,6 +109,21 @@ def test_refinement_is_the_same_however_the_rings_were_batched_and_runs_once() -
     assert np.array_equal(first, mappers[1].sync().probability)
     assert np.array_equal(first, mappers[0].sync().probability)  # a second sync adds nothing
     assert mappers[0].rings_ == 30  # type: ignore[attr-defined]
+
+
+def test_the_sweep_keeps_the_recorded_forward_maps_of_two_logs() -> None:
+    # tests/sonar/data/make_golden_forward_map.py recorded two logs and the default
+    # pipeline's map (then called ``forward``) made of them before the sweep and the cone
+    # cells were rewritten for speed: every log-odds value, swept cell and verdict must stay
+    # the same, bit for bit.
+    maker = recorder("make_golden_forward_map")
+    recorded = np.load(DATA / "golden_forward_map.npz")
+    for world_name, _ in maker.LOGS:
+        poses, ranges = recorded[f"{world_name}/poses"], recorded[f"{world_name}/ranges"]
+        got = maker.mapped("default", poses, ranges)
+        assert np.count_nonzero(got["log_odds"]) > 5000  # the log maps something
+        for key, value in got.items():
+            assert np.array_equal(value, recorded[f"{world_name}/{key}"]), (world_name, key)
 
 
 @pytest.mark.parametrize(
@@ -270,7 +286,7 @@ class _RejectLastSilences:
 
 
 def _forward_run(front: list[float], verdict: MapVerdict) -> tuple[ElfesMapper, MapRun]:
-    """The creeping log with ``front`` ranges ahead and silence behind, mapped as ``forward``.
+    """The creeping log with ``front`` ranges ahead and silence behind, mapped as ``default``.
 
     The filter keeps every reading but the silences of the last three rings.
     """

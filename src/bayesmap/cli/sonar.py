@@ -190,7 +190,12 @@ def map_command(
     ] = None,
     pipeline: Annotated[
         str,
-        typer.Option("--pipeline", help=f"One of: {', '.join(PIPELINES)}."),
+        typer.Option(
+            "--pipeline",
+            help=f"One of: {', '.join(PIPELINES)}. 'default': the filter and a one-pass map, "
+            "then one forward-model sweep over the whole log; 'streaming': the one-pass map "
+            "alone (less CPU); the rest: single filter stages and unfiltered baselines.",
+        ),
     ] = DEFAULT_PIPELINE,
     no_filter: Annotated[
         bool,

@@ -213,69 +213,73 @@ def cone_cells(
     c1 = np.clip(np.floor((xs.max(axis=1) - x0) / res).astype(np.int64) + 2, 0, nx)
     r0 = np.clip(np.floor((ys.min(axis=1) - y0) / res).astype(np.int64) - 1, 0, ny)
     r1 = np.clip(np.floor((ys.max(axis=1) - y0) / res).astype(np.int64) + 2, 0, ny)
-    # Readings are tested in groups of similar box size, each padded to its own largest box
-    # (most cones of a ring are short, and padding them to the longest would test ~20x the
-    # cells); the cells are then put back in reading order, as one pass would give them.
-    side = np.maximum(r1 - r0, c1 - c0)
-    largest = int(max(side.max(), 0))
-    if largest == 0:
-        return ConeCells(empty_i, empty_i, np.zeros(0), np.zeros(0), empty_i)
-    group = np.searchsorted([largest // 4, largest // 2], side, side="left")
-    found = []
-    for g in range(3):
-        members = np.flatnonzero(group == g)
-        if len(members):
-            found.append(
-                _sector_cells(members, cx, cy, ax, rk, r0, r1, c0, c1, x0, y0, res, half_width)
-            )
-    which = np.concatenate([f[0] for f in found])
-    order = np.argsort(which, kind="stable")
-    rows, cols, a, b = (np.concatenate([f[k] for f in found])[order] for k in range(1, 5))
-    which = which[order]
-    return ConeCells(
-        rows=rows,
-        cols=cols,
-        rho=np.hypot(a, b),
-        theta=np.arctan2(b, a),
-        reading=ks[which],
-    )
-
-
-def _sector_cells(
-    members: IntArray,
-    cx: FloatArray,
-    cy: FloatArray,
-    ax: FloatArray,
-    rk: FloatArray,
-    r0: IntArray,
-    r1: IntArray,
-    c0: IntArray,
-    c1: IntArray,
-    x0: float,
-    y0: float,
-    res: float,
-    half_width: float,
-) -> tuple[IntArray, IntArray, IntArray, FloatArray, FloatArray]:
-    """The cells of the sectors ``members`` (indices into the per-sector arrays) inside their
-    boxes ``[r0, r1) x [c0, c1)``: sector index, row, column, and the cell centre's offset
-    along and across the beam axis [m], in sector, row, column order."""
-    r0, r1, c0, c1 = r0[members], r1[members], c0[members], c1[members]
-    cx, cy, ax, rk = cx[members], cy[members], ax[members], rk[members]
-    height = int(max((r1 - r0).max(), 0))
-    width = int(max((c1 - c0).max(), 0))
-    rows = r0[:, None, None] + np.arange(height)[None, :, None]
-    cols = c0[:, None, None] + np.arange(width)[None, None, :]
-    ux = np.cos(ax)[:, None, None]
-    uy = np.sin(ax)[:, None, None]
-    dx = x0 + (cols + 0.5) * res - cx[:, None, None]
-    dy = y0 + (rows + 0.5) * res - cy[:, None, None]
+    # Each row of a sector's box is one run of candidate cells: the columns whose centres
+    # lie on that row's stretch of the sector (its two edges and its arc, each widened by
+    # _SPAN_MARGIN so that rounding cannot drop a cell the exact test keeps).
+    height = np.maximum(r1 - r0, 0)
+    run_sector = np.repeat(np.arange(len(ks)), height)
+    run_row = r0[run_sector] + _ragged_arange(height)
+    dy = y0 + (run_row + 0.5) * res - cy[run_sector]
+    ux, uy = np.cos(ax), np.sin(ax)
+    lo, hi = _sector_span(dy, ux[run_sector], uy[run_sector], rk[run_sector], half_width)
+    x = cx[run_sector] - x0
+    col_lo = np.clip(np.ceil((x + lo) / res - 0.5), c0[run_sector], c1[run_sector])
+    col_hi = np.clip(np.floor((x + hi) / res - 0.5) + 1.0, c0[run_sector], c1[run_sector])
+    count = np.maximum(col_hi - col_lo, 0.0).astype(np.int64)
+    run = np.repeat(np.arange(len(run_row)), count)
+    sector, rows = run_sector[run], run_row[run]
+    cols = col_lo.astype(np.int64)[run] + _ragged_arange(count)
+    # The exact test, the same arithmetic cell by cell as on a sector's whole box.
+    dx = x0 + (cols + 0.5) * res - cx[sector]
+    dy, ux, uy = dy[run], ux[sector], uy[sector]
     along = dx * ux + dy * uy
     across = dy * ux - dx * uy
-    inside = (
-        (rows < r1[:, None, None])
-        & (cols < c1[:, None, None])
-        & (np.abs(across) <= along * math.tan(half_width))
-        & (along * along + across * across <= (rk * rk)[:, None, None])
+    inside = (np.abs(across) <= along * math.tan(half_width)) & (
+        along * along + across * across <= (rk * rk)[sector]
     )
-    which, i, j = np.nonzero(inside)
-    return members[which], r0[which] + i, c0[which] + j, along[which, i, j], across[which, i, j]
+    along, across = along[inside], across[inside]
+    return ConeCells(
+        rows=rows[inside],
+        cols=cols[inside],
+        rho=np.hypot(along, across),
+        theta=np.arctan2(across, along),
+        reading=ks[sector[inside]],
+    )
+
+
+_SPAN_MARGIN = 1e-6
+"""How far [m] :func:`_sector_span` widens a sector: far above rounding, far below a cell."""
+
+
+def _ragged_arange(counts: IntArray) -> IntArray:
+    """``0, 1, ..., counts[0] - 1, 0, 1, ..., counts[1] - 1, ...`` as one array."""
+    total = int(counts.sum())
+    starts = np.cumsum(counts) - counts
+    return np.arange(total) - np.repeat(starts, counts)
+
+
+def _sector_span(
+    dy: FloatArray, ux: FloatArray, uy: FloatArray, reach: FloatArray, half_width: float
+) -> tuple[FloatArray, FloatArray]:
+    """Where a horizontal line ``dy`` [m] above a sector's apex crosses the sector.
+
+    The sector (axis ``(ux, uy)``, half-width below 90°, radius ``reach``) is convex: the
+    wedge between its two edges cut by its circle. Returns the line's ``dx`` interval
+    [m] from the apex, each bound widened by ``_SPAN_MARGIN``; ``lo > hi`` when it misses.
+    """
+    t = math.tan(half_width)
+    norm = math.sqrt(1.0 + t * t)
+    lo = np.full(len(dy), -np.inf)
+    hi = np.full(len(dy), np.inf)
+    # Each edge is a half-plane a·dx <= b (``across`` within ``t`` times ``along``).
+    for a, b in (
+        (-(uy + t * ux), _SPAN_MARGIN * norm - (ux - t * uy) * dy),
+        (uy - t * ux, _SPAN_MARGIN * norm + (ux + t * uy) * dy),
+    ):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = b / a
+        hi = np.where(a > 0, np.minimum(hi, bound), hi)
+        lo = np.where(a < 0, np.maximum(lo, bound), lo)
+        hi = np.where((a == 0) & (b < 0), -np.inf, hi)
+    half = np.sqrt(np.maximum((reach + _SPAN_MARGIN) ** 2 - dy * dy, 0.0))
+    return np.maximum(lo, -half), np.minimum(hi, half)

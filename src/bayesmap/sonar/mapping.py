@@ -12,12 +12,12 @@ probabilities into the shared grid on :meth:`sync` (which also lowers the entrop
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._typing import FloatArray, Grid
+from bayesmap._typing import FloatArray, Grid, IntArray
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid, Window
 from bayesmap.sensing.sonar import elfes_inverse_model, log_odds
@@ -182,46 +182,53 @@ class _LogOddsMapper(_ConeMapper):
             if limit is not None:
                 beyond = cells.rho > limit[a:b].ravel()[cells.reading]
                 increment = np.where(beyond & (increment < 0.0), 0.0, increment)
-            if self.free_stop and self.reference_ is not None:
-                increment = self._first_hit(cells, r[a:b].ravel(), increment)
+            if self.reference_ is not None:
+                # A sweep's E-step reference stays fixed while the sweep adds its rings, so
+                # the first hits and the arcs' shares are found for the whole batch at once.
+                if self.free_stop:
+                    increment = self._first_hit(cells, r[a:b].ravel(), increment)
+                if self.explain_away > 0.0:
+                    increment = self._explained(cells, increment)
             bounds = np.searchsorted(cells.reading, n * np.arange(b - a + 1))
+            flat = cells.rows * self.grid.shape[1] + cells.cols
             for i in range(b - a):
                 part = slice(bounds[i], bounds[i + 1])
-                piece = ConeCells(
-                    cells.rows[part],
-                    cells.cols[part],
-                    cells.rho[part],
-                    cells.theta[part],
-                    cells.reading[part],
-                )
-                self._add(piece, increment[part])
+                if self.explain_away > 0.0 and self.reference_ is None:
+                    piece = ConeCells(
+                        cells.rows[part],
+                        cells.cols[part],
+                        cells.rho[part],
+                        cells.theta[part],
+                        cells.reading[part],
+                    )
+                    self._add(flat[part], self._explained(piece, increment[part]))
+                else:
+                    self._add(flat[part], increment[part])
                 if footprint is not None:
                     rows, cols, inside = footprint
                     index = (rows[a + i][inside[a + i]], cols[a + i][inside[a + i]])
                     self.log_odds_[index] = -self.clamp
                     self.swept_[index] = True
 
-    def _add(self, cells: ConeCells, increment: FloatArray) -> None:
-        index = (cells.rows, cells.cols)
+    def _add(self, flat: IntArray, increment: FloatArray) -> None:
+        """Add one ring's ``increment`` at the cells ``flat`` (row-major indices)."""
+        log_odds, swept = self.log_odds_.reshape(-1), self.swept_.reshape(-1)
         if self.decay > 0.0:
             # Evidence in view fades towards the prior before the new ring is added, so a
             # passer-by that saturated cells is cleared by the next few free readings.
-            old = self.log_odds_[index]
-            self.log_odds_[index] = self.prior_log_odds + (1.0 - self.decay) * (
-                old - self.prior_log_odds
+            log_odds[flat] = self.prior_log_odds + (1.0 - self.decay) * (
+                log_odds[flat] - self.prior_log_odds
             )
         if self.free_lock > 0.0:
             # A cell many readings have seen free is free space: a later echo there is a
             # passer-by, so its occupied evidence is not written (free evidence still is).
-            locked = self.log_odds_[index] <= self.prior_log_odds - self.free_lock
+            locked = log_odds[flat] <= self.prior_log_odds - self.free_lock
             increment = np.where(locked & (increment > 0.0), 0.0, increment)
-        if self.explain_away > 0.0:
-            increment = self._explained(cells, increment)
-        np.add.at(self.log_odds_, index, increment)
-        updated = np.clip(self.log_odds_[index], -self.clamp, self.clamp)
+        np.add.at(log_odds, flat, increment)
+        updated = np.minimum(np.maximum(log_odds[flat], -self.clamp), self.clamp)
         # Where the robot's body has been, no static obstacle stands: an echo there later
         # came from something passing by (a person), so swept cells stay free.
-        self.log_odds_[index] = np.where(self.swept_[index], -self.clamp, updated)
+        log_odds[flat] = np.where(swept[flat], -self.clamp, updated)
 
     def _explained(self, cells: ConeCells, increment: FloatArray) -> FloatArray:
         """Share each echo's occupied evidence along its arc by what the map already knows.
@@ -320,6 +327,40 @@ class _LogOddsMapper(_ConeMapper):
         return self.grid
 
 
+class _StoredRings(NamedTuple):
+    """A batch of mapped rings kept for the forward-model sweeps, packed: the poses and
+    ranges as given, which readings to map as bits, and only the finite free-space limits
+    (``limit_at``: row-major positions, ``limit``: their values [m]); about 170 bytes a ring
+    of 16 readings instead of 296."""
+
+    poses: FloatArray
+    ranges: FloatArray
+    use: npt.NDArray[np.uint8]
+    limit_at: npt.NDArray[np.int32] | None
+    limit: FloatArray
+
+    @classmethod
+    def pack(
+        cls, poses: FloatArray, ranges: FloatArray, use: np.ndarray, limit: FloatArray | None
+    ) -> _StoredRings:
+        """Pack ``m`` rings: poses ``(m, 3)``, ranges, ``use`` and ``limit`` ``(m, n)``."""
+        bits = np.packbits(use, axis=1)
+        if limit is None:
+            return cls(poses, ranges, bits, None, np.zeros(0))
+        at = np.flatnonzero(np.isfinite(limit)).astype(np.int32)
+        return cls(poses, ranges, bits, at, limit.ravel()[at])
+
+    def unpack(self) -> tuple[FloatArray, FloatArray, np.ndarray, FloatArray | None]:
+        """The rings as :meth:`ElfesMapper.integrate_many` takes them (the values packed)."""
+        n = self.ranges.shape[1]
+        use = np.unpackbits(self.use, axis=1, count=n).astype(bool)
+        if self.limit_at is None:
+            return self.poses, self.ranges, use, None
+        limit = np.full(self.ranges.size, np.inf)
+        limit[self.limit_at] = self.limit
+        return self.poses, self.ranges, use, limit.reshape(self.ranges.shape)
+
+
 class ElfesMapper(_LogOddsMapper):
     """Log-odds mapping with the eq. 1 inverse cone model (ICINCO 2007 eq. 1, Elfes 1989).
 
@@ -359,8 +400,8 @@ class ElfesMapper(_LogOddsMapper):
         models): an echo's occupied evidence is shared along its arc by that map
         (exponent ``forward_gamma`` for arc cells beyond ``forward_beyond`` [m]), and
         with ``forward_free_stop`` a reading's free space ends at the first surface the
-        map holds on its beam. The mapped rings are kept for it (``16 × 8`` bytes per ring
-        of 16 readings, plus the mask and free limits).
+        map holds on its beam. The mapped rings are kept for it, packed: pose and ranges,
+        the mask as bits, the finite free limits only (about 170 bytes a ring of 16).
 
     Attributes
     ----------
@@ -411,7 +452,7 @@ class ElfesMapper(_LogOddsMapper):
                 f"got {forward_no_echo}"
             )
         self.forward_no_echo = float(forward_no_echo)
-        self._mapped: list[tuple[FloatArray, FloatArray, np.ndarray, FloatArray | None]] = []
+        self._mapped: list[_StoredRings] = []
         self._refined = 0
         if no_echo not in ("cone", "clear", "ignore"):
             raise ConfigError(f"no_echo must be 'cone', 'clear' or 'ignore', got {no_echo!r}")
@@ -450,7 +491,9 @@ class ElfesMapper(_LogOddsMapper):
             r = np.asarray(ranges, dtype=np.float64)
             mask = np.ones(r.shape, dtype=bool) if use is None else np.asarray(use, dtype=bool)
             limit = None if free_limit is None else np.asarray(free_limit, dtype=np.float64)
-            self._mapped.append((np.asarray(poses, dtype=np.float64), r, mask, limit))
+            self._mapped.append(
+                _StoredRings.pack(np.asarray(poses, dtype=np.float64), r, mask, limit)
+            )
 
     def remask(self, use: npt.ArrayLike) -> None:
         """Replace which readings of the stored rings the sweeps map (the map's verdict).
@@ -462,13 +505,14 @@ class ElfesMapper(_LogOddsMapper):
         if self.forward_sweeps == 0:
             return
         mask = np.asarray(use, dtype=bool)
-        stored = sum(len(ranges) for _, ranges, _, _ in self._mapped)
+        stored = sum(len(rings.ranges) for rings in self._mapped)
         if mask.shape != (stored, self.geometry.n):
             raise InputError(f"'use' has shape {mask.shape}, the stored rings ({stored}, n)")
         start = 0
-        for k, (poses, ranges, _, limit) in enumerate(self._mapped):
-            self._mapped[k] = (poses, ranges, mask[start : start + len(ranges)], limit)
-            start += len(ranges)
+        for k, rings in enumerate(self._mapped):
+            stop = start + len(rings.ranges)
+            self._mapped[k] = rings._replace(use=np.packbits(mask[start:stop], axis=1))
+            start = stop
         self._refined = 0
 
     def refine(self) -> None:
@@ -491,8 +535,8 @@ class ElfesMapper(_LogOddsMapper):
             self.reference_ = self.probability()
             self.log_odds_ = np.full(self.grid.shape, self.prior_log_odds)
             self.swept_ = np.zeros(self.grid.shape, dtype=bool)
-            for poses, ranges, mask, limit in self._mapped:
-                super().integrate_many(poses, ranges, mask, limit)
+            for rings in self._mapped:
+                super().integrate_many(*rings.unpack())
         self.explain_away, self.explain_beyond, self.free_stop, self.rings_ = streaming
         self.no_echo, self.clear_distance = silence
         self.reference_ = None
