@@ -186,3 +186,15 @@ def test_a_retreat_drives_on_once_the_noisy_heading_is_within_half_a_heading_ste
     assert near == (PARAMS.speed, 0.0)  # 2° of compass noise no longer stops the retreat
     far = explorer._drive(float(PARAMS.headings[18]), math.pi - 0.6 * step, safety, 18)
     assert far[0] == 0.0 and far[1] != 0.0  # farther off: it pivots first
+
+
+def test_near_a_hazard_a_safe_heading_outside_the_rangers_view_is_turned_to_first() -> None:
+    """The check predicted a pivot for a heading 60° off when a hazard was within reach
+    (:attr:`Safety.cautious`): the drive turns in place, where in open ground it arcs."""
+    safe = np.ones(PARAMS.n_headings, dtype=bool)
+    clear = np.full(PARAMS.n_headings, 1.0)
+    heading = float(np.asarray(PARAMS.headings)[6])  # 60° left of a rover facing 0
+    near = Safety(safe, clear, 1.0, False, False, False, cautious=True)
+    open_ground = Safety(safe, clear, 1.0, False, False, False, cautious=False)
+    assert _explorer()._drive(heading, 0.0, near, 6) == (0.0, PARAMS.pivot_rate)
+    assert _explorer()._drive(heading, 0.0, open_ground, 6)[0] == PARAMS.speed

@@ -56,7 +56,7 @@ def test_straight_path_drives_lookahead_and_pivot_stays_in_place() -> None:
 
 
 def test_turning_arc_respects_the_turning_radius() -> None:
-    centres = predicted_centres((0.0, 0.0, 0.0), [math.radians(80)], PARAMS)[0]
+    centres = predicted_centres((0.0, 0.0, 0.0), [math.radians(35)], PARAMS)[0]
     # the first 0.2 s at the full turning rate lie on the circle of radius R about (0, R)
     r = PARAMS.min_turn_radius
     assert np.hypot(centres[1, 0], centres[1, 1] - r) == pytest.approx(r, abs=1e-9)
@@ -102,8 +102,45 @@ def test_square_distance_brute_force() -> None:
 
 def test_drive_command_pivots_beyond_90_degrees() -> None:
     assert drive_command(math.pi, 0.0, PARAMS)[0] == 0.0
+    assert drive_command(math.radians(80), 0.0, PARAMS)[0] == PARAMS.speed
     v, w = drive_command(0.2, 0.0, PARAMS)
     assert v == PARAMS.speed and w == pytest.approx(0.4)
+
+
+def test_near_a_hazard_the_drive_pivots_toward_a_heading_outside_the_rangers_view() -> None:
+    """Near a hazard a forward arc toward a heading outside the rangers' view (±38.6° with
+    the paper's rangers) would sweep the body's inner side over ground nobody is reading:
+    the rover turns in place until the heading is in view, then arcs."""
+    view = PARAMS.view_half_angle
+    assert view == pytest.approx(math.radians(30.0) + PARAMS.w_r / 2)
+    assert drive_command(view + 0.01, 0.0, PARAMS, cautious=True) == (0.0, PARAMS.pivot_rate)
+    assert drive_command(-view - 0.01, 0.0, PARAMS, cautious=True) == (0.0, -PARAMS.pivot_rate)
+    assert drive_command(view - 0.01, 0.0, PARAMS, cautious=True)[0] == PARAMS.speed
+
+
+def test_the_predicted_path_pivots_where_the_drive_law_does() -> None:
+    """The footprint check predicts the drive law's path: near a hazard, toward a heading
+    outside the rangers' view, the centre stays put while the rover turns; within the view,
+    or in open ground, the rover moves from the first step."""
+    view = PARAMS.view_half_angle
+    pose = (0.0, 0.0, 0.0)
+    outside, inside = predicted_centres(pose, [view + 0.05, view - 0.05], PARAMS, cautious=True)
+    np.testing.assert_allclose(outside[1], [0.0, 0.0])
+    assert np.hypot(*inside[1]) > 0.0
+    assert np.hypot(*predicted_centres(pose, [view + 0.05], PARAMS)[0, 1]) > 0.0
+
+
+def test_a_hazard_within_reach_makes_the_check_cautious() -> None:
+    """The wall end of world 2026/00's collision: beside the rover, 61° off its heading,
+    with only the wall's far part on the map. Arcing toward it was allowed; now the check
+    predicts (and the drive takes) a pivot first, so the rangers look where the body goes."""
+    wall = [(1.25, 0.75)]  # the mapped part of the wall, ahead and to the left
+    assert _safety(wall).cautious and not _safety([]).cautious
+    left = int(np.argmin(np.abs(np.angle(np.exp(1j * (THETA - math.radians(60)))))))
+    np.testing.assert_allclose(
+        predicted_centres((0.0, 0.0, 0.0), THETA[left : left + 1], PARAMS, cautious=True)[0, 1],
+        [0.0, 0.0],
+    )
 
 
 def test_the_body_may_not_sweep_unseen_cells_unless_already_on_them() -> None:

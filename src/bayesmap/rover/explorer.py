@@ -308,7 +308,7 @@ class Explorer:
         """
         p = self.params
         if safety.safe[index] and not safety.retreat:
-            return drive_command(heading, psi, p)
+            return drive_command(heading, psi, p, cautious=safety.cautious)
         if safety.here < p.safety_margin and safety.ahead and safety.back_clear:
             return (-p.speed, 0.0)
         error = math.remainder(heading - psi, 2.0 * math.pi)

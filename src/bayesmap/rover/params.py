@@ -173,6 +173,12 @@ class RoverParams:
         return self.margin_sigmas * self.position_sigma
 
     @property
+    def view_half_angle(self) -> float:
+        """Half-angle [rad] of the rangers' joint view: the outermost axis plus half a
+        ranger's angle of view ``w_r`` (30° + 8.6° with the paper's rangers)."""
+        return max(abs(a) for a in self.sensor_angles) + self.w_r / 2.0
+
+    @property
     def headings(self) -> tuple[float, ...]:
         """The ``M`` discrete world headings ``theta_m = 2 pi m / M`` [rad]."""
         return tuple(2.0 * math.pi * m / self.n_headings for m in range(self.n_headings))
