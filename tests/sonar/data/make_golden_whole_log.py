@@ -40,9 +40,7 @@ def digest(array: np.ndarray) -> str:
 
 def log() -> tuple[np.ndarray, np.ndarray]:
     """The recorded log: odometry poses ``(m, 3)`` and ranges ``(m, 16)``."""
-    simulated = simulate_log(
-        world(WORLD), SonarRing.pioneer(16), Realism(laps=LAPS), rng=SEED
-    )
+    simulated = simulate_log(world(WORLD), SonarRing.pioneer(16), Realism(laps=LAPS), rng=SEED)
     return simulated.odometry, simulated.ranges
 
 
