@@ -58,6 +58,28 @@ def test_rejections_are_recorded_with_stage_and_reason_and_beat_chance(corridor:
     recall = rejected[scan.specular].mean()
     assert precision > scan.specular.mean() + 0.2  # rejects specular readings far above chance
     assert recall > 0.5
+
+
+def test_the_rejection_log_holds_one_byte_a_reading_and_builds_the_records(
+    corridor: Corridor,
+) -> None:
+    poses, scan, geometry = corridor
+    filt = SpecularFilter(geometry)
+    half = len(poses) // 2
+    stage = np.vstack(
+        [filt.process_many(poses[:half], scan.ranges[:half]).stage]
+        + [
+            filt.process(p, r).stage[None]
+            for p, r in zip(poses[half:], scan.ranges[half:], strict=True)
+        ]
+    )
+    codes = filt.rejection_codes_
+    assert codes.dtype == np.int8 and codes.shape == scan.ranges.shape
+    assert np.array_equal(codes != 0, stage != Stage.ACCEPTED) and (codes != 0).any()
+    records = filt.rejections_
+    assert [(r.ring, r.sensor) for r in records] == list(zip(*codes.nonzero(), strict=True))
+    assert {r.stage for r in records} <= set(Stage) and all(r.reason for r in records)
+    assert sum(filt.counts_.values()) == len(records)
     assert filt.enough_state  # the corridor path is longer than four perceptual lengths
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 
@@ -11,6 +12,7 @@ from tests.sonar.helpers import DATA, recorder
 
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
+from bayesmap.sonar import map_verdict
 from bayesmap.sonar.filter import RingVerdict, Stage
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.map_verdict import MapVerdict, clearance, first_surface, judge_by_map
@@ -124,6 +126,23 @@ def test_the_sweep_keeps_the_recorded_forward_maps_of_two_logs() -> None:
         assert np.count_nonzero(got["log_odds"]) > 5000  # the log maps something
         for key, value in got.items():
             assert np.array_equal(value, recorded[f"{world_name}/{key}"]), (world_name, key)
+
+
+def test_three_pipelines_keep_the_recorded_outcomes_of_a_log_of_thousands_of_rings(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # tests/sonar/data/make_golden_whole_log.py recorded (at a3c633a, before the outcomes
+    # and the rejection log were kept as compact arrays and the map's verdict judged in
+    # chunks) what default, streaming and paper return for a 3,158-ring log: every value
+    # must stay the same, with the verdict judged here 500 rings at a time.
+    monkeypatch.setattr(map_verdict, "_RINGS_PER_CHUNK", 500)
+    maker = recorder("make_golden_whole_log")
+    recorded = json.loads((DATA / "golden_whole_log.json").read_text())
+    poses, ranges = maker.log()
+    log = {"poses": maker.digest(poses), "ranges": maker.digest(ranges)}
+    assert log == recorded["log"], "the simulator changed: rewrite the record at a3c633a"
+    for name in maker.NAMES:
+        assert maker.outcome(name, poses, ranges) == recorded[name], name
 
 
 @pytest.mark.parametrize(

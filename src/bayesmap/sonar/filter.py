@@ -53,13 +53,24 @@ _STAGE_REASONS = {
     Stage.ACCEPTABILITY: "obstacle reading outside the bounds from both neighbours",
     Stage.AGREEABILITY: "free-space reading and neither neighbour reports free space",
 }
-_STAGES = {int(stage): stage for stage in Stage}
-_STAGE_NAMES = {stage: stage.name.lower() for stage in Stage}
 _TV_REASONS = {
     TVReason.UNSUPPORTED_FLAGGED: "flagged and no equivalent trait in L",
     TVReason.UNSUPPORTED_UNCERTAIN: "certainty below threshold and no equivalent trait in L",
     TVReason.CONTRADICTS_L: "claims free space through a trait of L",
     TVReason.FLAGGED_UNCERTAIN: "coincides with L but flagged and below the certainty threshold",
+}
+_TV_CODE = int(Stage.TRAIT_VERIFICATION) - 1
+"""Rejection code of Trait Verification's reason ``TVReason`` ``v``: ``v + _TV_CODE``."""
+_REJECTIONS: dict[int, tuple[Stage, str]] = {
+    **{int(stage): (stage, reason) for stage, reason in _STAGE_REASONS.items()},
+    **{int(v) + _TV_CODE: (Stage.TRAIT_VERIFICATION, text) for v, text in _TV_REASONS.items()},
+}
+"""What each code of ``SpecularFilter.rejection_codes_`` means: (stage, reason)."""
+_BLOCKS_MERGED = 256
+"""The rejection log's latest blocks (one per call) are merged into one this many at a time."""
+_COUNTED = {
+    name: [code for code, (stage, _) in _REJECTIONS.items() if stage.name.lower() == name]
+    for name in ("acceptability", "agreeability", "trait_verification")
 }
 
 
@@ -168,8 +179,13 @@ class SpecularFilter:
     l_segments_, l_first_, l_seen_, l_passes_
         ``L``: ``(k, 4)`` traits [m], the path positions [m] where each was first and last
         seen, and how many rings' echoes have passed through it.
+    rejection_codes_
+        ``(rings_, n)`` ``int8``: why the filter discarded each reading of each ring so far
+        (0: kept; 1 Acceptability; 2 Agreeability; 3–6 Trait Verification, its
+        ``TVReason`` plus 2). One byte a reading, the compact form of ``rejections_``.
     rejections_
-        Every rejection, in order.
+        Every rejection, in order, as :class:`Rejection` records (built from
+        ``rejection_codes_`` when asked for).
     counts_
         Rejections per stage name.
     """
@@ -276,12 +292,31 @@ class SpecularFilter:
         self.l_first_: FloatArray = np.zeros(0)
         self.l_seen_: FloatArray = np.zeros(0)
         self.l_passes_: IntArray = np.zeros(0, dtype=np.int64)
-        self.rejections_: list[Rejection] = []
-        self.counts_: dict[str, int] = {
-            stage.name.lower(): 0
-            for stage in Stage
-            if stage not in (Stage.ACCEPTED, Stage.MAP_VERDICT)
-        }
+        self._rejection_blocks: list[npt.NDArray[np.int8]] = []  # merged, then the latest
+        self._merged = 0
+        self.counts_: dict[str, int] = dict.fromkeys(_COUNTED, 0)
+
+    @property
+    def rejection_codes_(self) -> npt.NDArray[np.int8]:
+        """``(rings_, n)`` rejection code of every reading so far (see the class)."""
+        if not self._rejection_blocks:
+            return np.zeros((0, self.geometry.n), dtype=np.int8)
+        if len(self._rejection_blocks) > 1:
+            self._rejection_blocks = [np.concatenate(self._rejection_blocks)]
+            self._merged = 1
+        return self._rejection_blocks[0]
+
+    @property
+    def rejections_(self) -> list[Rejection]:
+        """Every rejection so far, in order of ring and transducer."""
+        codes = self.rejection_codes_
+        rings, sensors = codes.nonzero()
+        return [
+            Rejection(ring, sensor, *_REJECTIONS[code])
+            for ring, sensor, code in zip(
+                rings.tolist(), sensors.tolist(), codes[rings, sensors].tolist(), strict=True
+            )
+        ]
 
     @property
     def enough_state(self) -> bool:
@@ -293,7 +328,7 @@ class SpecularFilter:
 
         Returns
         -------
-        :class:`RingVerdict`; the rejections are also appended to ``rejections_``.
+        :class:`RingVerdict`; the rejections are also logged (``rejection_codes_``).
         """
         p, r = self.geometry.one_ring(pose, ranges)
         verdict = self.process_many(p[None], r[None])
@@ -310,8 +345,8 @@ class SpecularFilter:
 
         Returns
         -------
-        :class:`RingVerdict` with ``(m, n)`` arrays; rejections are appended to
-        ``rejections_``.
+        :class:`RingVerdict` with ``(m, n)`` arrays; the rejections are also logged
+        (``rejection_codes_``).
         """
         geometry = self.geometry
         n = geometry.n
@@ -357,6 +392,7 @@ class SpecularFilter:
         # Every reading's echo point (used for the echoes only), for all rings at once.
         points = centres + r[..., None] * np.stack([np.cos(axis), np.sin(axis)], axis=-1)
         free_limit = np.full((m, n), np.inf)
+        codes = np.zeros((m, n), dtype=np.int8)
         for i in range(m):
             self._finish_ring(
                 p[i],
@@ -368,7 +404,17 @@ class SpecularFilter:
                 flagged[i],
                 stage[i],
                 free_limit[i],
+                codes[i],
             )
+        self._rejection_blocks.append(codes)
+        if len(self._rejection_blocks) - self._merged >= _BLOCKS_MERGED:
+            # Ring by ring, a block each would cost more in headers than in codes.
+            latest = np.concatenate(self._rejection_blocks[self._merged :])
+            self._rejection_blocks[self._merged :] = [latest]
+            self._merged += 1
+        tally = np.bincount(codes.ravel(), minlength=len(_REJECTIONS) + 1)
+        for name, which in _COUNTED.items():
+            self.counts_[name] += int(tally[which].sum())
         return RingVerdict(
             accepted=stage == Stage.ACCEPTED, flagged=flagged, stage=stage, free_limit=free_limit
         )
@@ -384,37 +430,28 @@ class SpecularFilter:
         flagged: BoolArray,
         stage: IntArray,
         free_limit: FloatArray,
+        codes: npt.NDArray[np.int8],
     ) -> None:
         """Trait Verification of one ring (``stage``, ``free_limit`` updated in place) and
         the bookkeeping.
 
-        ``points``: the ``(n, 2)`` echo point of every reading [m].
+        ``points``: the ``(n, 2)`` echo point of every reading [m]; ``codes``: the ring's
+        row of the rejection log, written in place (see ``rejection_codes_``).
         """
         if self.last_pose_ is not None:
             self.path_ += float(
                 np.hypot(pose[0] - self.last_pose_[0], pose[1] - self.last_pose_[1])
             )
         self.last_pose_ = pose
-        before = stage.tolist()
+        # A bottom-up rejection is logged with its stage, else Trait Verification's reason.
+        codes[:] = stage
         if self.stages[Stage.TRAIT_VERIFICATION]:
             tv = self._trait_verification(
                 pose, r, echo, centres, axis, points, flagged, stage == Stage.ACCEPTED, free_limit
             )
             stage[tv != TVReason.KEPT] = Stage.TRAIT_VERIFICATION
-            verdicts = tv.tolist()
-        else:
-            verdicts = [TVReason.KEPT] * len(before)
+            codes[:] = np.where((codes == 0) & (tv != TVReason.KEPT), tv + _TV_CODE, codes)
         self._remember(points[echo & (stage == Stage.ACCEPTED)])
-        for sensor, (kind, verdict) in enumerate(zip(before, verdicts, strict=True)):
-            if kind:
-                reason = _STAGE_REASONS[kind]
-            elif verdict:
-                kind, reason = Stage.TRAIT_VERIFICATION, _TV_REASONS[verdict]
-            else:
-                continue
-            stage_ = _STAGES[kind]
-            self.rejections_.append(Rejection(self.rings_, sensor, stage_, reason))
-            self.counts_[_STAGE_NAMES[stage_]] += 1
         self.rings_ += 1
 
     def _trait_verification(

@@ -310,7 +310,8 @@ def read_sonar_log(
         table = _parse(main, 4 + n_ranges, n_ranges, skipped, progress)
         _abort_if_strict(strict, skipped)
         data = table.values
-        times, range_raw = data[:, 0], data[:, 4:]
+        # A copy: a view would keep the whole parsed table alive beside the log.
+        times, range_raw = data[:, 0].copy(), data[:, 4:]
         poses = np.column_stack([data[:, 1:3] * length, data[:, 3] * angle])
     else:
         pose_file = Path(poses_path)

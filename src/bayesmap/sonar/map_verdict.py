@@ -21,6 +21,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 from scipy.ndimage import distance_transform_edt
 
 from bayesmap._typing import BoolArray, FloatArray, Grid, IntArray, Poses, Ranges
@@ -29,7 +30,7 @@ from bayesmap.grid import OccupancyGrid
 from bayesmap.sonar.filter import Stage
 from bayesmap.sonar.geometry import SonarGeometry
 
-__all__ = ["MapVerdict", "clearance", "first_surface", "judge_by_map"]
+__all__ = ["MapJudge", "MapVerdict", "clearance", "first_surface", "judge_by_map"]
 
 
 @dataclass(frozen=True)
@@ -147,6 +148,110 @@ def first_surface(
     return found
 
 
+_RINGS_PER_CHUNK = 5_000
+"""Rings :func:`judge_by_map` judges at once: its arrays stay a few MB however long the log."""
+
+
+class MapJudge:
+    """The map's verdict (:func:`judge_by_map`) for one map, judging rings a chunk at a time.
+
+    What depends only on the map, the distance from each cell to the nearest surface at each
+    of the verdict's confidence levels (:func:`clearance`), is computed once, here; then
+    :meth:`judge` judges the rings of a log :data:`_RINGS_PER_CHUNK` at a time, so memory
+    does not grow with the log, and each reading gets the verdict it gets judged alone.
+
+    Parameters
+    ----------
+    probability
+        ``(ny, nx)`` the map of the whole pass.
+    grid, geometry
+        Its grid and the ring.
+    verdict
+        The thresholds.
+    """
+
+    def __init__(
+        self,
+        probability: Grid,
+        grid: OccupancyGrid,
+        geometry: SonarGeometry,
+        verdict: MapVerdict,
+    ) -> None:
+        self.grid, self.geometry, self.verdict = grid, geometry, verdict
+        levels = {verdict.silence_confidence, verdict.open_confidence, verdict.echo_confidence}
+        self.free_distance = {level: clearance(probability > level, grid) for level in levels}
+
+    def judge(
+        self,
+        poses: FloatArray,
+        ranges: FloatArray,
+        accepted: BoolArray,
+        stage: npt.NDArray[np.integer],
+        rows: IntArray | None = None,
+    ) -> None:
+        """Judge rings ``rows`` (default: all) of a log, in place.
+
+        ``poses`` ``(m, 3)`` and ``ranges`` ``(m, n)`` are the log; ``accepted`` and
+        ``stage`` ``(m, n)`` hold the filter's verdicts and get the map's (see
+        :func:`judge_by_map`).
+        """
+        chosen = np.arange(len(poses)) if rows is None else rows
+        for start in range(0, len(chosen), _RINGS_PER_CHUNK):
+            chunk = chosen[start : start + _RINGS_PER_CHUNK]
+            accepted[chunk], stage[chunk] = self._judge_rings(
+                poses[chunk], ranges[chunk], accepted[chunk], stage[chunk]
+            )
+
+    def _judge_rings(
+        self,
+        poses: FloatArray,
+        ranges: FloatArray,
+        accepted: BoolArray,
+        stage: npt.NDArray[np.integer],
+    ) -> tuple[BoolArray, npt.NDArray[np.integer]]:
+        """The map's verdict on a few rings: new ``(accepted, stage)`` arrays."""
+        geometry, verdict, grid = self.geometry, self.verdict, self.grid
+        centres, axis = geometry.sensors_many(poses)
+        centres, axis, r = centres.reshape(-1, 2), axis.ravel(), ranges.ravel()
+        ok, why = accepted.ravel().copy(), stage.ravel().copy()
+        echo = geometry.echo(r)
+        half = geometry.beam_width / 2.0
+        silent = ~echo & (why != Stage.ACCEPTABILITY) & (why != Stage.AGREEABILITY)
+
+        def surface_met(
+            confidence: float, which: BoolArray, reach: FloatArray, width: float
+        ) -> BoolArray:
+            """Whether a cell above ``confidence`` lies in each chosen cone within ``reach``."""
+            found = first_surface(
+                self.free_distance[confidence], grid, centres[which], axis[which], reach, width
+            )
+            return np.asarray(np.isfinite(found))
+
+        if np.any(silent):
+            within = np.full(int(silent.sum()), geometry.max_range)
+            lost = surface_met(
+                verdict.silence_confidence,
+                silent,
+                np.maximum(within - verdict.silence_margin, 0.0),
+                verdict.silence_width * half,
+            )
+            open_space = ~surface_met(verdict.open_confidence, silent, within, half)
+            ok[silent] = np.where(lost, False, np.where(open_space, True, ok[silent]))
+            why[silent] = np.where(
+                lost,
+                int(Stage.MAP_VERDICT),
+                np.where(open_space, int(Stage.ACCEPTED), why[silent]),
+            )
+        if np.any(echo):
+            blocked = surface_met(
+                verdict.echo_confidence, echo, r[echo] - verdict.echo_margin, half
+            )
+            clear = np.flatnonzero(echo)[~blocked]
+            ok[clear] = True
+            why[clear] = int(Stage.ACCEPTED)
+        return ok.reshape(accepted.shape), why.reshape(stage.shape)
+
+
 def judge_by_map(
     probability: Grid,
     grid: OccupancyGrid,
@@ -184,40 +289,11 @@ def judge_by_map(
 
     Returns
     -------
-    ``(accepted, stage)``, new ``(m, n)`` arrays.
+    ``(accepted, stage)``, new ``(m, n)`` arrays (judged :data:`_RINGS_PER_CHUNK` rings at a
+    time by one :class:`MapJudge`).
     """
-    r = np.asarray(ranges, dtype=np.float64)
-    centres, axis = geometry.sensors_many(np.asarray(poses, dtype=np.float64))
-    centres, axis, r = centres.reshape(-1, 2), axis.ravel(), r.ravel()
-    ok, why = accepted.ravel().copy(), stage.ravel().copy()
-    echo = geometry.echo(r)
-    half = geometry.beam_width / 2.0
-    silent = ~echo & (why != Stage.ACCEPTABILITY) & (why != Stage.AGREEABILITY)
-
-    def surface_met(
-        confidence: float, which: BoolArray, reach: FloatArray, width: float
-    ) -> BoolArray:
-        """Whether a cell above ``confidence`` lies in each chosen cone within ``reach``."""
-        free_distance = clearance(probability > confidence, grid)
-        found = first_surface(free_distance, grid, centres[which], axis[which], reach, width)
-        return np.asarray(np.isfinite(found))
-
-    if np.any(silent):
-        within = np.full(int(silent.sum()), geometry.max_range)
-        lost = surface_met(
-            verdict.silence_confidence,
-            silent,
-            np.maximum(within - verdict.silence_margin, 0.0),
-            verdict.silence_width * half,
-        )
-        open_space = ~surface_met(verdict.open_confidence, silent, within, half)
-        ok[silent] = np.where(lost, False, np.where(open_space, True, ok[silent]))
-        why[silent] = np.where(
-            lost, int(Stage.MAP_VERDICT), np.where(open_space, int(Stage.ACCEPTED), why[silent])
-        )
-    if np.any(echo):
-        blocked = surface_met(verdict.echo_confidence, echo, r[echo] - verdict.echo_margin, half)
-        clear = np.flatnonzero(echo)[~blocked]
-        ok[clear] = True
-        why[clear] = int(Stage.ACCEPTED)
-    return ok.reshape(accepted.shape), why.reshape(stage.shape)
+    ok, why = np.array(accepted), np.array(stage)
+    MapJudge(probability, grid, geometry, verdict).judge(
+        np.asarray(poses, dtype=np.float64), np.asarray(ranges, dtype=np.float64), ok, why
+    )
+    return ok, why

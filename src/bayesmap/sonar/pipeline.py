@@ -23,7 +23,7 @@ from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
 from bayesmap.sonar.filter import SpecularFilter
 from bayesmap.sonar.geometry import SonarGeometry
-from bayesmap.sonar.map_verdict import MapVerdict, judge_by_map
+from bayesmap.sonar.map_verdict import MapJudge, MapVerdict
 from bayesmap.sonar.mapping import ElfesMapper, NoEcho, RosRangeLayerMapper, ThrunMapper
 
 __all__ = [
@@ -193,9 +193,9 @@ def map_log(
         raise InputError(
             f"need (n, 3) poses and (n, k) ranges of equal n, got {p.shape} and {r.shape}"
         )
+    # One byte a reading for the outcomes while the log runs (stage codes fit in int8).
     accepted = np.ones(r.shape, dtype=bool)
-    stage = np.zeros(r.shape, dtype=np.int64)
-    free_limit = np.full(r.shape, np.inf)
+    stage = np.zeros(r.shape, dtype=np.int8)
     repeat = np.zeros(len(p), dtype=bool)
     geometry: SonarGeometry | None = getattr(mapper, "geometry", None)
     integrate_many: Callable[..., None] | None = getattr(mapper, "integrate_many", None)
@@ -219,22 +219,23 @@ def map_log(
                 last = i
                 fresh.append(i)
         if fresh:
+            free_limit = np.full((len(fresh), r.shape[1]), np.inf)
             if filt is not None:
                 verdict = filt.process_many(p[fresh], r[fresh])
                 accepted[fresh] = verdict.accepted
                 stage[fresh] = verdict.stage
-                free_limit[fresh] = verdict.free_limit
+                free_limit = verdict.free_limit
             # Only a filter that stops free space (keep_supported_echoes) sets a limit.
-            limited = bool(np.isfinite(free_limit[fresh]).any())
+            limited = bool(np.isfinite(free_limit).any())
             if integrate_many is not None:
                 if limited:
-                    integrate_many(p[fresh], r[fresh], accepted[fresh], free_limit[fresh])
+                    integrate_many(p[fresh], r[fresh], accepted[fresh], free_limit)
                 else:
                     integrate_many(p[fresh], r[fresh], accepted[fresh])
             else:
-                for i in fresh:
+                for i, limit in zip(fresh, free_limit, strict=True):
                     if limited:
-                        mapper.integrate(p[i], r[i], accepted[i], free_limit[i])
+                        mapper.integrate(p[i], r[i], accepted[i], limit)
                     else:
                         mapper.integrate(p[i], r[i], accepted[i])
         for i in range(start, stop):
@@ -246,7 +247,7 @@ def map_log(
     if map_verdict is not None and geometry is not None:
         _judge_by_map(p, r, mapper, geometry, map_verdict, accepted, stage, repeat)
     mapper.sync()
-    return MapRun(accepted=accepted, stage=stage, repeat=repeat)
+    return MapRun(accepted=accepted, stage=stage.astype(np.int64), repeat=repeat)
 
 
 def _judge_by_map(
@@ -256,29 +257,22 @@ def _judge_by_map(
     geometry: SonarGeometry,
     verdict: MapVerdict,
     accepted: BoolArray,
-    stage: IntArray,
+    stage: npt.NDArray[np.int8],
     repeat: BoolArray,
 ) -> None:
     """Replace (in place) the verdicts of a mapped log by the map's (see :func:`map_log`).
 
     The judging map is the one the pipeline ends with: a mapper that refines the whole log
     (``forward_sweeps``) refines first, unless ``remap`` is to feed the verdict to that
-    refinement, in which case the streaming map judges.
+    refinement, in which case the streaming map judges. The rings are judged a chunk at a
+    time (:class:`~bayesmap.sonar.map_verdict.MapJudge`), so memory does not grow with the log.
     """
     refine: Callable[[], None] | None = getattr(mapper, "refine", None)
     if not verdict.remap and refine is not None:
         refine()
     fresh = ~repeat
-    accepted[fresh], stage[fresh] = judge_by_map(
-        mapper.probability(),
-        mapper.grid,
-        geometry,
-        poses[fresh],
-        ranges[fresh],
-        accepted[fresh],
-        stage[fresh],
-        verdict,
-    )
+    judge = MapJudge(mapper.probability(), mapper.grid, geometry, verdict)
+    judge.judge(poses, ranges, accepted, stage, rows=np.flatnonzero(fresh))
     # A repeat takes the verdict of the last ring mapped before it.
     last = np.maximum.accumulate(np.where(fresh, np.arange(len(fresh)), 0))
     accepted[:], stage[:] = accepted[last], stage[last]
