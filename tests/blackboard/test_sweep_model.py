@@ -139,6 +139,22 @@ def _leg_density_one(
     return fold * _gauss(e_perp, model.sigma_perp) * _gauss(d_phi, model.sigma_phi)
 
 
+def _contacts_near_legs(
+    rng: np.random.Generator, model: SweepModel
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """1–8 random legs (rows ``x, y, half side``) and their angles, and 1–59 contacts
+    (whisker roots, bearings, ranges, face normals) aimed near random legs among them."""
+    m, j = int(rng.integers(1, 60)), int(rng.integers(1, 9))
+    legs = np.column_stack([rng.uniform(1.0, 3.0, (j, 2)), rng.uniform(0.03, 0.06, j)])
+    theta = rng.uniform(0.0, math.pi, j)
+    root = rng.uniform(0.5, 3.5, (m, 2))
+    aim = legs[rng.integers(j, size=m), :2] - root
+    bearing = np.arctan2(aim[:, 1], aim[:, 0]) + rng.normal(0.0, 0.03, m)
+    r_hat = np.abs(np.hypot(aim[:, 0], aim[:, 1]) + rng.normal(0.0, model.sigma_r, m))
+    phi_hat = rng.uniform(-math.pi, math.pi, m)
+    return legs, theta, root, bearing, r_hat, phi_hat
+
+
 @pytest.mark.parametrize("model", [MODEL, NOISY_MODEL], ids=["normal", "noisy"])
 def test_leg_density_on_near_pairs_is_the_density_pair_by_pair(model: SweepModel) -> None:
     """The vectorised ρ_leg, which evaluates only the (contact, leg) pairs that pass the cheap
@@ -146,14 +162,8 @@ def test_leg_density_on_near_pairs_is_the_density_pair_by_pair(model: SweepModel
     random contacts aimed near random legs."""
     rng = np.random.default_rng(11)
     for _ in range(40):
-        m, j = int(rng.integers(1, 60)), int(rng.integers(1, 9))
-        legs = np.column_stack([rng.uniform(1.0, 3.0, (j, 2)), rng.uniform(0.03, 0.06, j)])
-        theta = rng.uniform(0.0, math.pi, j)
-        root = rng.uniform(0.5, 3.5, (m, 2))
-        aim = legs[rng.integers(j, size=m), :2] - root
-        bearing = np.arctan2(aim[:, 1], aim[:, 0]) + rng.normal(0.0, 0.03, m)
-        r_hat = np.abs(np.hypot(aim[:, 0], aim[:, 1]) + rng.normal(0.0, model.sigma_r, m))
-        phi_hat = rng.uniform(-math.pi, math.pi, m)
+        legs, theta, root, bearing, r_hat, phi_hat = _contacts_near_legs(rng, model)
+        j = len(legs)
         got = leg_contact_density(root, bearing, r_hat, phi_hat, legs, theta, model)
         want = np.array(
             [
@@ -204,14 +214,8 @@ def test_pair_densities_are_the_grids_entries_bit_for_bit(model: SweepModel) -> 
     random contacts aimed near random legs and random sweeps."""
     rng = np.random.default_rng(13)
     for _ in range(40):
-        m, j = int(rng.integers(1, 60)), int(rng.integers(1, 9))
-        legs = np.column_stack([rng.uniform(1.0, 3.0, (j, 2)), rng.uniform(0.03, 0.06, j)])
-        theta = rng.uniform(0.0, math.pi, j)
-        root = rng.uniform(0.5, 3.5, (m, 2))
-        aim = legs[rng.integers(j, size=m), :2] - root
-        bearing = np.arctan2(aim[:, 1], aim[:, 0]) + rng.normal(0.0, 0.03, m)
-        r_hat = np.abs(np.hypot(aim[:, 0], aim[:, 1]) + rng.normal(0.0, model.sigma_r, m))
-        phi_hat = rng.uniform(-math.pi, math.pi, m)
+        legs, theta, root, bearing, r_hat, phi_hat = _contacts_near_legs(rng, model)
+        m, j = len(root), len(legs)
         grid = leg_contact_density(root, bearing, r_hat, phi_hat, legs, theta, model)
         i, k = rng.integers(m, size=3 * m), rng.integers(j, size=3 * m)  # pairs, repeats too
         pairs = leg_contact_density_pairs(
