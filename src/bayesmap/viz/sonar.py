@@ -49,6 +49,11 @@ def _draw(
     return image
 
 
+_KEY_HEIGHT = 3.0
+"""Smallest figure height [in] of :func:`maps_side_by_side`: its key's label, two lines of
+7 pt text about 2.1 in long, was cut off beside a single row of long corridors."""
+
+
 def maps_side_by_side(
     panels: Sequence[tuple[str, Grid]],
     extent: tuple[float, float, float, float],
@@ -84,9 +89,9 @@ def maps_side_by_side(
     width = extent[1] - extent[0]
     height = extent[3] - extent[2]
     panel_height = panel_width * height / max(width, 1e-9) + 0.35
-    fig = Figure(
-        figsize=(panel_width * cols + 1.0, panel_height * rows + 0.6), layout="constrained"
-    )
+    # At least _KEY_HEIGHT tall, so that the colour key's label fits beside one row of wide maps.
+    fig_height = max(panel_height * rows + 0.6, _KEY_HEIGHT)
+    fig = Figure(figsize=(panel_width * cols + 1.0, fig_height), layout="constrained")
     axes = fig.subplots(rows, cols, squeeze=False)
     image = None
     for ax, (name, probability) in zip(axes.ravel(), panels, strict=False):
@@ -96,7 +101,7 @@ def maps_side_by_side(
         ax.axis("off")
     if image is not None:
         key = fig.colorbar(image, ax=axes, shrink=0.8, ticks=[0.0, 0.25, 0.5, 0.75, 1.0])
-        key.set_label("P(occupied): white free, grey unknown, black occupied", fontsize=7)
+        key.set_label("P(occupied)\nwhite free, grey unknown, black occupied", fontsize=7)
         key.ax.tick_params(labelsize=6)
     if title:
         fig.suptitle(title, fontsize=9)
