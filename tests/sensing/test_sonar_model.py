@@ -47,6 +47,23 @@ def test_elfes_cone_free_before_occupied_at_unknown_after_and_outside() -> None:
     assert np.all(off == 0.5)
 
 
+def test_a_one_sided_arc_frees_the_cells_in_front_of_the_echo_and_keeps_the_back() -> None:
+    rho = np.array([1.5, 1.85, 1.9, 1.95, 2.0, 2.1, 2.2])
+    kw = {"sigma": 0.1, "beam_width": BEAM, "max_range": 5.0}
+    both = elfes_inverse_model(2.0, rho, 0.0, **kw)
+    front = elfes_inverse_model(2.0, rho, 0.0, sigma_front=0.03, front_flat=0.05, **kw)
+    # The symmetric arc marks the cell 0.1 m in front of the echo occupied; the echo is the
+    # first return, so the one-sided arc frees it and keeps the peak over half a cell.
+    assert both[2] > 0.5 > front[2] and front[1] < both[1]
+    assert front[3] == pytest.approx(0.7) and front[4] == pytest.approx(0.7)
+    assert np.array_equal(front[4:], both[4:]) and front[0] == pytest.approx(both[0], abs=1e-4)
+    # Without sigma_front, front_flat is unused: eq. 1's Gaussian on both sides, bit for bit.
+    assert np.array_equal(elfes_inverse_model(2.0, rho, 0.0, front_flat=0.05, **kw), both)
+    for bad in ({"sigma_front": 0.0}, {"sigma_front": 0.03, "front_flat": -0.01}):
+        with pytest.raises(ConfigError, match="sigma_front"):
+            elfes_inverse_model(2.0, rho, 0.0, **bad, **kw)  # type: ignore[arg-type]
+
+
 def test_elfes_no_echo_clears_up_to_max_range_without_an_arc() -> None:
     rho = np.linspace(0.1, 6.0, 60)
     p = elfes_inverse_model(5.0, rho, 0.0, sigma=0.05, beam_width=BEAM, max_range=5.0)

@@ -453,6 +453,21 @@ def test_a_pipelines_free_probability_reaches_its_mapper() -> None:
     assert cleared[0.35] == pytest.approx(0.35, abs=0.01) and cleared[0.45] > cleared[0.35]
 
 
+def test_a_pipelines_one_sided_arc_reaches_its_mapper_and_frees_the_cell_in_front() -> None:
+    geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
+    marked = {}
+    for sigma_front in (None, 0.03):
+        grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
+        pipeline = replace(PIPELINES["elfes"], sigma_front=sigma_front)
+        mapper = pipeline.make_mapper(grid, geometry)
+        mapper.integrate([0.0, 0.0, 0.0], [3.05, 6.0])
+        p = mapper.probability()
+        marked[sigma_front] = (p[grid.world_to_cell(2.95, 0.0)], p[grid.world_to_cell(3.05, 0.0)])
+    assert marked[None][0] > 0.5 > marked[0.03][0]  # the cell 0.1 m in front of the echo
+    assert marked[None][1] > 0.5 and marked[0.03][1] > 0.5  # the echo's own cell
+    assert PIPELINES["default"].sigma_front == PIPELINES["streaming"].sigma_front == 0.03
+
+
 @pytest.fixture(scope="module")
 def realistic_log() -> tuple[np.ndarray, np.ndarray, SonarGeometry]:
     """A Pioneer 16-ring log with stops, people and drift (the ring has true offsets)."""

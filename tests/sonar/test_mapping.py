@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from tests.sonar.helpers import DATA, recorder
+from tests.sonar.helpers import DATA, pipelines_as_recorded, recorder
 
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
@@ -113,11 +113,14 @@ def test_refinement_is_the_same_however_the_rings_were_batched_and_runs_once() -
     assert mappers[0].rings_ == 30  # type: ignore[attr-defined]
 
 
-def test_the_sweep_keeps_the_recorded_forward_maps_of_two_logs() -> None:
+def test_the_sweep_keeps_the_recorded_forward_maps_of_two_logs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     # tests/sonar/data/make_golden_forward_map.py recorded two logs and the default
     # pipeline's map (then called ``forward``) made of them before the sweep and the cone
     # cells were rewritten for speed: every log-odds value, swept cell and verdict must stay
-    # the same, bit for bit.
+    # the same, bit for bit (with the symmetric arc the pipeline had then).
+    pipelines_as_recorded(monkeypatch)
     maker = recorder("make_golden_forward_map")
     recorded = np.load(DATA / "golden_forward_map.npz")
     for world_name, _ in maker.LOGS:
@@ -136,6 +139,7 @@ def test_three_pipelines_keep_the_recorded_outcomes_of_a_log_of_thousands_of_rin
     # chunks) what default, streaming and paper return for a 3,158-ring log: every value
     # must stay the same, with the verdict judged here 500 rings at a time.
     monkeypatch.setattr(map_verdict, "_RINGS_PER_CHUNK", 500)
+    pipelines_as_recorded(monkeypatch)
     maker = recorder("make_golden_whole_log")
     recorded = json.loads((DATA / "golden_whole_log.json").read_text())
     poses, ranges = maker.log()

@@ -16,7 +16,10 @@ reading ``r``, gets
   Gaussian scaled to peak 1 (the occupied arc at the echo);
 - free evidence ``f = A · (1 - g)`` for ``rho < r`` (free before the echo);
 - ``p = 1/2 + (p_occ - 1/2) · o - (1/2 - p_free) · f``, and 1/2 (no information) beyond
-  ``r + 3 sigma``.
+  ``r + 3 sigma``;
+- optionally a one-sided arc: in front of ``r`` the Gaussian keeps its peak for
+  ``front_flat`` and then falls with its own width ``sigma_front`` (the echo is the first
+  return, so the surface that made it is not in front of ``r``).
 
 A reading at or above the maximum range (no echo) is free up to the maximum range and has no
 occupied arc.
@@ -84,6 +87,8 @@ def elfes_inverse_model(
     max_range: float,
     p_occ: float = 0.7,
     p_free: float = 0.35,
+    sigma_front: float | None = None,
+    front_flat: float = 0.0,
 ) -> FloatArray:
     """Occupancy probability of cells in a sonar cone, from eq. 1's Gaussian (ours, see module).
 
@@ -103,6 +108,14 @@ def elfes_inverse_model(
         Maximum range [m].
     p_occ, p_free
         Probability at the peak of the occupied arc and deep in the free region.
+    sigma_front, front_flat
+        The occupied arc's near side (``rho < r``): it stays at its peak for ``front_flat``
+        [m] in front of ``r``, then falls as a Gaussian of width ``sigma_front`` [m];
+        ``None`` (default): eq. 1's Gaussian of width ``sigma`` on both sides. An echo is
+        the *first* return, from the nearest surface in the cone, so a cell in front of
+        the echo can hold that surface only if its centre lies within its own half-width
+        (``front_flat``) and the range and pose error (``sigma_front``) of ``r``; behind
+        the echo the arc keeps ``sigma`` (docs/sonar.md, *The first echo's near side*).
 
     Returns
     -------
@@ -114,17 +127,32 @@ def elfes_inverse_model(
     ...                         beam_width=0.44, max_range=5.0)
     >>> [round(float(v), 2) for v in p]
     [0.35, 0.7, 0.5]
+    >>> p = elfes_inverse_model(2.0, [1.9, 1.95, 2.1], 0.0, sigma=0.1, sigma_front=0.03,
+    ...                         front_flat=0.05, beam_width=0.44, max_range=5.0)
+    >>> [round(float(v), 2) for v in p]
+    [0.44, 0.7, 0.62]
     """
     if not (0.0 < p_free < 0.5 < p_occ < 1.0):
         raise ConfigError(f"need 0 < p_free < 0.5 < p_occ < 1, got p_free={p_free}, p_occ={p_occ}")
     if not sigma > 0:
         raise ConfigError(f"sonar sigma must be a positive number of metres, got {sigma!r}")
+    front = sigma if sigma_front is None else sigma_front
+    flat = 0.0 if sigma_front is None else front_flat
+    if not (front > 0 and flat >= 0):
+        raise ConfigError(
+            f"need sigma_front > 0 and front_flat >= 0 metres, got {front!r}, {front_flat!r}"
+        )
     reading = np.asarray(r, dtype=np.float64)
     distance = np.asarray(rho, dtype=np.float64)
     echo = reading < max_range
     weight = angular_weight(theta, beam_width)
-    g = np.where(echo, np.exp(-0.5 * ((distance - reading) / sigma) ** 2), 0.0)
     before = distance < np.where(echo, reading, max_range)
+    # How far the cell lies from where the echo may have come from, in widths of the
+    # side it lies on (the near side flat for ``flat``).
+    gap = np.where(
+        before, np.maximum(reading - distance - flat, 0.0) / front, (distance - reading) / sigma
+    )
+    g = np.where(echo, np.exp(-0.5 * gap**2), 0.0)
     occupied = weight * g
     free = weight * (1.0 - g) * before
     p = 0.5 + (p_occ - 0.5) * occupied - (0.5 - p_free) * free

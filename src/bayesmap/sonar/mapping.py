@@ -372,6 +372,11 @@ class ElfesMapper(_LogOddsMapper):
         The ring.
     p_occ, p_free
         Peak and free probabilities of :func:`~bayesmap.sensing.sonar.elfes_inverse_model`.
+    sigma_front
+        The occupied arc's near side: flat for half a cell in front of the echo (the
+        cell that holds the echo point), then a Gaussian of this width [m]; ``None``: the
+        arc's width ``max(σ, cell size)`` on both sides (docs/sonar.md, *The first echo's
+        near side*).
     no_echo
         What a no-echo reading (at or above the max range) does: ``"cone"`` clears its whole
         cone to the max range (Elfes' reading of "nothing there"), ``"clear"`` clears it up
@@ -420,6 +425,7 @@ class ElfesMapper(_LogOddsMapper):
         *,
         p_occ: float = 0.7,
         p_free: float = 0.35,
+        sigma_front: float | None = None,
         no_echo: NoEcho = "cone",
         clear_distance: float = 2.0,
         clamp: float = 10.0,
@@ -466,7 +472,9 @@ class ElfesMapper(_LogOddsMapper):
         self.p_occ = p_occ
         self.p_free = p_free
         self.sigma_map = max(geometry.sigma, grid.resolution)
-        # Check p_occ and p_free here, not at the first ring: the model raises ConfigError.
+        self.sigma_front = sigma_front
+        # Check p_occ, p_free and sigma_front here, not at the first ring: the model
+        # raises ConfigError.
         elfes_inverse_model(
             1.0,
             1.0,
@@ -476,6 +484,8 @@ class ElfesMapper(_LogOddsMapper):
             max_range=geometry.max_range,
             p_occ=p_occ,
             p_free=p_free,
+            sigma_front=sigma_front,
+            front_flat=grid.resolution / 2.0,
         )
 
     def integrate_many(
@@ -562,6 +572,8 @@ class ElfesMapper(_LogOddsMapper):
             max_range=self.geometry.max_range,
             p_occ=self.p_occ,
             p_free=self.p_free,
+            sigma_front=self.sigma_front,
+            front_flat=self.grid.resolution / 2.0,
         )
         return log_odds(p)
 

@@ -299,6 +299,9 @@ class Pipeline:
         (saturation and decay also of Thrun's).
     p_free
         Probability deep in the free part of an eq. 1 cone (its occupied peak stays 0.7).
+    sigma_front
+        Width [m] of an eq. 1 echo's occupied arc in front of its range (``None``: the
+        arc's width on both sides; see ``ElfesMapper``).
     explain_away, explain_beyond
         Share of an echo's occupied evidence along its arc by what the map already knows
         (exponent, 0: off), for arc cells beyond ``explain_beyond`` [m] (see
@@ -325,6 +328,7 @@ class Pipeline:
     decay: float = 0.0
     footprint: float = 0.0
     p_free: float = 0.35
+    sigma_front: float | None = None
     free_lock: float = 0.0
     explain_away: float = 0.0
     explain_beyond: float = 0.0
@@ -370,6 +374,7 @@ class Pipeline:
             decay=self.decay,
             footprint=self.footprint,
             p_free=self.p_free,
+            sigma_front=self.sigma_front,
             free_lock=self.free_lock,
             explain_away=self.explain_away,
             explain_beyond=self.explain_beyond,
@@ -388,6 +393,7 @@ _STREAMING = Pipeline(
     no_echo="clear",
     clear_distance=1.0,
     footprint=0.2,
+    sigma_front=0.03,
     explain_away=1.0,
     explain_beyond=2.0,
     merge_repeats=True,
@@ -428,7 +434,9 @@ readings tested across their cone (axis and both edges) against ``L``, certainty
 trait in front, whose free space it then stops short of (``keep_supported_echoes``,
 ``static_span``); ``L`` judges silent readings and stops free space from the start
 (``l_in_case_a``); no-echo readings clear 1 m; the robot's footprint (0.2 m) cleared and
-kept free; Elfes' free strength ``p_free`` 0.35; an echo's occupied evidence beyond 2 m
+kept free; Elfes' free strength ``p_free`` 0.35; an echo's occupied arc one-sided (its
+peak over half a cell in front of the echo, then a Gaussian of 0.03 m: ``sigma_front``,
+the echo being the first return); an echo's occupied evidence beyond 2 m
 shared along its arc by the current map (``explain_away``); identical stationary rings
 merged; after the pass, every reading judged again by the map it ended with
 (``map_verdict``, the learnt :class:`~bayesmap.sonar.map_verdict.MapVerdict`; it labels the
