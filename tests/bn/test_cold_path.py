@@ -439,3 +439,26 @@ def test_a_costly_network_order_gives_way_to_the_plans_own() -> None:
     expected = plans._eliminate(walker, labels, (0,), compiled.card.__getitem__)
     assert expected is not None
     assert restricted == (expected[0], expected[1], expected[3])
+
+
+@FAST
+@given(seed=SEEDS, k=st.integers(0, 4))
+def test_a_plans_factors_carry_the_shape_and_spec_of_their_slice(seed: int, k: int) -> None:
+    """Each factor's ``shape`` is its sliced table's and its ``spec`` (what a compiled
+    contraction is given) that shape where it depends on the evidence, else the array."""
+    net = random_net(seed, n_vars=7, max_card=3)
+    rng = np.random.default_rng(seed)
+    evidence = sample_evidence(net, rng, k)
+    target = next(v for v in net.variables if v not in evidence)
+    net.posterior(target, evidence)
+    engine = net._engine
+    compiled = engine.compiled
+    ev = engine.evidence_ids(evidence)
+    plan = engine.plan(plans.QueryKind.MARGINAL, (compiled.id(target),), frozenset(ev))
+    ev_idx = [ev[v] for v in plan.evidence]
+    for factor in (*plan.factors, *plan.checks):
+        assert factor.shape == tuple(compiled.card[v] for v in factor.free)
+        assert factor.array is not None
+        sliced = factor.array[factor.pick(ev_idx)] if factor.pick is not None else factor.array
+        assert sliced.shape == factor.shape
+        assert factor.spec is (factor.shape if factor.observed else factor.array)

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from itertools import chain
+from itertools import chain, compress
+from operator import attrgetter, not_
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -29,6 +30,9 @@ if TYPE_CHECKING:
 
 CASE = -1
 """Label of the case axis in batched contractions (variable ids are >= 0)."""
+
+_OBSERVED, _FREE, _SPEC = attrgetter("observed"), attrgetter("free"), attrgetter("spec")
+"""Getters of a plan's factors, mapped over them in C (:func:`single_program`)."""
 
 
 def contract(
@@ -102,11 +106,10 @@ def fixed_path(engine: Engine, plan: Plan) -> elimination.Path:
     """
     path = plan.cache.fixed_path
     if path is None:
-        card = engine.compiled.card
         path = plan.cache.fixed_path = elimination.find_path(
             [f.term for f in plan.factors],
             plan.output,
-            [tuple(card[v] for v in f.free) for f in plan.factors],
+            [f.shape for f in plan.factors],
             tuning=engine.tuning,
         )
     return path
@@ -152,10 +155,12 @@ def single_program(plan: Plan, compiled: Compiled, tuning: Tuning) -> tuple[Any,
     """The compiled contraction of one case, or the constant result if nothing is observed."""
     if not plan.factors:
         return np.ones(()), []
-    observed = [f for f in plan.factors if f.observed]
-    scopes = [f.free for f in plan.factors]
+    factors = plan.factors
+    flags = list(map(_OBSERVED, factors))
+    observed = list(compress(factors, flags))
+    scopes = list(map(_FREE, factors))
+    specs = list(map(_SPEC, factors))
     size = compiled.card.__getitem__
-    specs: list[Any] = [tuple(map(size, f.free)) if f.observed else f.array for f in plan.factors]
     memo = compiled.constants
     labels = dict.fromkeys(chain.from_iterable(scopes))
     entries = math.prod(map(size, labels))
@@ -180,7 +185,7 @@ def single_program(plan: Plan, compiled: Compiled, tuning: Tuning) -> tuple[Any,
             scopes,
             plan.targets,
             emit=program.add,
-            network=[not f.observed for f in plan.factors],
+            network=list(map(not_, flags)),
             tuning=tuning,
         )
         program.finish()

@@ -75,6 +75,8 @@ class Factor:
         Position in the plan's evidence tuple of each observed axis.
     free
         Ids of the free variables, in axis order after the observed ones.
+    shape
+        Number of states of each free variable: the shape of the sliced factor.
     """
 
     var: int
@@ -82,14 +84,19 @@ class Factor:
     perm: tuple[int, ...]
     ev_pos: tuple[int, ...]
     free: tuple[int, ...]
+    shape: tuple[int, ...]
     pick: Any = None
     observed: bool = False
     """Whether the factor depends on evidence values (observed axes or a data node)."""
+    spec: Any = None
+    """What a compiled contraction is given for it: its shape if it depends on the evidence
+    (an operand supplied per call), else its array (a constant)."""
 
     def __post_init__(self) -> None:
         if self.ev_pos:
             self.pick = itemgetter(*self.ev_pos)
         self.observed = bool(self.ev_pos) or self.array is None
+        self.spec = self.shape if self.observed else self.array
 
     @property
     def term(self) -> str:
@@ -307,7 +314,8 @@ def build(
             assert prior is not None
             factor = shared.get(-1 - v)
             if factor is None:
-                factor = Factor(var=v, array=prior(v), perm=(0,), ev_pos=(), free=(v,))
+                table = prior(v)
+                factor = Factor(v, table, perm=(0,), ev_pos=(), free=(v,), shape=table.shape)
                 shared[-1 - v] = factor
             factors.append(factor)
             continue
@@ -318,7 +326,8 @@ def build(
                 variables = (v, *parents[v])
                 array = None if v in compiled.sources else compiled.cpts[v]
                 perm = tuple(range(len(variables)))
-                factor = Factor(var=v, array=array, perm=perm, ev_pos=(), free=variables)
+                shape = tuple(map(compiled.card.__getitem__, variables))
+                factor = Factor(v, array, perm, ev_pos=(), free=variables, shape=shape)
                 shared[v] = factor
             factors.append(factor)
             continue
@@ -330,7 +339,8 @@ def build(
         ev_pos = tuple([ev_index[u] for u in seen])
         factor = made.get(ev_pos)
         if factor is None:
-            factor = made[ev_pos] = Factor(var=v, array=array, perm=perm, ev_pos=ev_pos, free=free)
+            shape = tuple(map(compiled.card.__getitem__, free))
+            factor = made[ev_pos] = Factor(v, array, perm, ev_pos, free, shape)
         (factors if free else checks).append(factor)
     return Plan(
         targets=tuple(targets),
