@@ -10,6 +10,7 @@ import pytest
 from bayesmap.grid import OccupancyGrid
 from bayesmap.rover import explorer as explorer_module
 from bayesmap.rover import planning
+from bayesmap.rover.decisions import collision_probability, navigation_goal
 from bayesmap.rover.explorer import Explorer
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.safety import Safety, drive_command, retreat_command
@@ -198,3 +199,33 @@ def test_near_a_hazard_a_safe_heading_outside_the_rangers_view_is_turned_to_firs
     open_ground = Safety(safe, clear, 1.0, False, False, False, cautious=False)
     assert _explorer()._drive(heading, 0.0, near, 6) == (0.0, PARAMS.pivot_rate)
     assert _explorer()._drive(heading, 0.0, open_ground, 6)[0] == PARAMS.speed
+
+
+def test_eq_42_looks_along_each_heading_as_far_as_the_waypoint() -> None:
+    """From the look-ahead out to d_max: a far waypoint sets the corridor's length, a near
+    one the footprint check's look-ahead, none the paper's local area."""
+    here = (2.0, 3.0)
+    assert explorer_module.corridor_length(here, (5.0, 7.0), PARAMS) == pytest.approx(5.0)
+    assert explorer_module.corridor_length(here, (2.1, 3.0), PARAMS) == PARAMS.lookahead
+    assert explorer_module.corridor_length(here, (20.0, 3.0), PARAMS) == PARAMS.d_max
+    assert explorer_module.corridor_length(here, None, PARAMS) == PARAMS.d_max
+
+
+def test_a_wall_beyond_the_waypoint_does_not_turn_the_rover_off_its_way() -> None:
+    """Open ground to a waypoint 1.5 m straight ahead and a likely wall 4 m ahead: cut at
+    the waypoint, eq. 42 leaves the goal to decide (straight on); over d_max the wall
+    draws the rover off the waypoint's bearing by more than the rangers' view."""
+    centres = np.arange(-9.75, 10.0, 0.5)
+    xc, yc = np.meshgrid(centres, centres)
+    probability = np.where((xc > 4.0) & (xc < 5.0), 0.99, 0.02)
+    theta = np.asarray(PARAMS.headings)
+    p_t = navigation_goal(theta, 0.0)
+    chosen = {}
+    for name, waypoint in (("to the waypoint", (1.5, 0.0)), ("over d_max", None)):
+        length = explorer_module.corridor_length((0.0, 0.0), waypoint, PARAMS)
+        p_o = collision_probability(
+            probability, xc, yc, (0.0, 0.0), theta, d_max=length, clearance=PARAMS.clearance
+        )
+        chosen[name] = abs(math.remainder(theta[int(np.argmax(p_t + 1.0 - p_o))], 2 * math.pi))
+    assert chosen["to the waypoint"] == 0.0
+    assert chosen["over d_max"] > PARAMS.view_half_angle

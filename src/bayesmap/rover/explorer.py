@@ -81,15 +81,35 @@ class Decision:
     target_cost: float
 
 
+def corridor_length(
+    position: tuple[float, float], waypoint: tuple[float, float] | None, params: RoverParams
+) -> float:
+    """How far [m] eq. 42 looks along each heading: to the waypoint the rover steers at.
+
+    Post et al. 2016 sum eq. 42 out to ``d_max``, the local area. The rover drives to
+    the waypoint along its plan and decides again every cycle, and the way beyond it turns
+    with the plan, so cells farther along a straight heading are not where it is going;
+    read out to 8 m they outweighed eq. 40's goal term within ±40° of the waypoint and
+    flipped the chosen heading from cycle to cycle (docs/rover.md). The distance from
+    ``position`` to ``waypoint`` (both ``(x, y)`` [m]), between the footprint check's
+    ``lookahead`` and ``d_max`` (also without a waypoint).
+    """
+    if waypoint is None:
+        return params.d_max
+    distance = math.hypot(waypoint[0] - position[0], waypoint[1] - position[1])
+    return min(max(distance, params.lookahead), params.d_max)
+
+
 class Explorer:
     """The rover's brain for mapping an area (Post et al. 2016 §4, made safe and complete).
 
     Each cycle: fold the readings into the maps (eqs. 31–37); plan path costs over the local
     area (:mod:`bayesmap.rover.planning`); let the target rule pick or keep a target;
-    steer toward a waypoint on the path to it (eq. 40); read eq. 42 off the map; check the
-    footprint along every heading (:mod:`bayesmap.rover.safety`); ask the decision network;
-    drive. When no heading is safe the rover stops and turns in place, or backs off when
-    its footprint is already within the margin of an obstacle ahead.
+    steer toward a waypoint on the path to it (eq. 40); read eq. 42 off the map as far as
+    the waypoint (:func:`corridor_length`); check the footprint along every heading
+    (:mod:`bayesmap.rover.safety`); ask the decision network; drive. When no heading is
+    safe the rover stops and turns in place, or backs off when its footprint is already
+    within the margin of an obstacle ahead.
 
     Parameters
     ----------
@@ -183,7 +203,7 @@ class Explorer:
             yc,
             (x, y),
             self._theta,
-            d_max=p.d_max,
+            d_max=corridor_length((x, y), waypoint, p),
             clearance=p.clearance,
             distance_weighted=p.distance_weighted,
         )
