@@ -473,6 +473,7 @@ class ElfesMapper(_LogOddsMapper):
         self.p_free = p_free
         self.sigma_map = max(geometry.sigma, grid.resolution)
         self.sigma_front = sigma_front
+        self.front_flat = grid.resolution / 2.0
         # Check p_occ, p_free and sigma_front here, not at the first ring: the model
         # raises ConfigError.
         elfes_inverse_model(
@@ -485,7 +486,7 @@ class ElfesMapper(_LogOddsMapper):
             p_occ=p_occ,
             p_free=p_free,
             sigma_front=sigma_front,
-            front_flat=grid.resolution / 2.0,
+            front_flat=self.front_flat,
         )
 
     def integrate_many(
@@ -573,7 +574,7 @@ class ElfesMapper(_LogOddsMapper):
             p_occ=self.p_occ,
             p_free=self.p_free,
             sigma_front=self.sigma_front,
-            front_flat=self.grid.resolution / 2.0,
+            front_flat=self.front_flat,
         )
         return log_odds(p)
 
