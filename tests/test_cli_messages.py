@@ -106,18 +106,28 @@ def test_hostile_inputs_end_in_one_line_not_a_traceback(tmp_path: Path, monkeypa
 @pytest.mark.slow
 def test_sigterm_during_reproduce_leaves_no_partial_results(tmp_path: Path) -> None:
     out = tmp_path / "results"
-    child = subprocess.Popen(
-        [*BAYESMAP, "reproduce", "sonar", "--out", str(out)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    # stderr goes to a file, so the child can never block on a full pipe; on a hang the
+    # test sends SIGABRT, and PYTHONFAULTHANDLER makes the child print where it was.
+    err_path = tmp_path / "stderr.txt"
+    with err_path.open("w") as err:
+        child = subprocess.Popen(
+            [*BAYESMAP, "reproduce", "sonar", "--out", str(out)],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+            env={**os.environ, "PYTHONFAULTHANDLER": "1"},
+        )
     deadline = time.monotonic() + 120
     while not (out.exists() and any(out.iterdir())) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert out.exists(), "the experiment never started"
     time.sleep(1.0)
     child.send_signal(signal.SIGTERM)
-    child.wait(60)
-    assert child.returncode != 0
-    assert list(out.iterdir()) == []
+    try:
+        child.wait(60)
+    except subprocess.TimeoutExpired:
+        child.send_signal(signal.SIGABRT)
+        child.wait(30)
+        pytest.fail(f"no exit 60 s after SIGTERM; its stderr:\n{err_path.read_text()[-6000:]}")
+    assert child.returncode != 0, err_path.read_text()[-6000:]
+    assert list(out.iterdir()) == [], err_path.read_text()[-6000:]

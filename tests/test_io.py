@@ -233,6 +233,33 @@ def test_an_interrupted_run_leaves_the_previous_run_and_no_temporaries(tmp_path,
     assert _leftovers(tmp_path) == []
 
 
+# A clean-up that never ends: the SIGTERM watchdog must end the process anyway.
+_STUCK = """
+import time
+from bayesmap._io import terminate_as_exit
+with terminate_as_exit(grace=1.0):
+    try:
+        print("ready", flush=True)
+        time.sleep(60)
+    finally:
+        time.sleep(60)
+"""
+
+
+def test_a_clean_up_that_hangs_after_sigterm_ends_with_the_stacks_printed():
+    child = subprocess.Popen(
+        [sys.executable, "-c", _STUCK],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert child.stdout is not None and child.stdout.readline().strip() == "ready"
+    child.send_signal(signal.SIGTERM)
+    _, err = child.communicate(timeout=30)
+    assert child.returncode == 1
+    assert "Timeout (0:00:01)!" in err and "in <module>" in err
+
+
 def test_read_input_refuses_what_is_not_a_regular_file(tmp_path):
     with pytest.raises(FormatError, match="regular file"):
         read_input(tmp_path, max_bytes=10)

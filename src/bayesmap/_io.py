@@ -22,12 +22,16 @@ Writing a run
 Interruption
     Python runs ``finally`` blocks on SIGINT (``KeyboardInterrupt``) but not on SIGTERM;
     :func:`terminate_as_exit` turns SIGTERM into ``SystemExit`` so the same clean-up runs.
-    Only the process's owner (the CLI) should install it.
+    Should that clean-up hang (a library stuck on a lock, say), the process prints every
+    thread's stack to stderr and ends :data:`TERMINATE_GRACE` seconds after the signal,
+    so a service manager's SIGTERM always ends it; what it left behind is swept as
+    abandoned by the next write. Only the process's owner (the CLI) should install it.
 """
 
 from __future__ import annotations
 
 import contextlib
+import faulthandler
 import hashlib
 import json
 import math
@@ -36,6 +40,7 @@ import secrets
 import shutil
 import signal
 import stat
+import sys
 import tempfile
 import threading
 import time
@@ -60,6 +65,8 @@ MANIFEST = "manifest.json"
 """File name of a run folder's manifest."""
 MANIFEST_FORMAT = "bayesmap-run/1"
 """Value of the manifest's ``format`` field."""
+TERMINATE_GRACE = 30.0
+"""Seconds a process has, after SIGTERM, to clean up before it ends without doing so [s]."""
 STALE_AFTER = 10.0
 """Seconds after which an unlocked temporary file or folder counts as abandoned [s]."""
 _CHUNK = 1 << 20
@@ -479,16 +486,22 @@ def _version() -> str:
 
 # ---------------------------------------------------------------------------- interruption
 @contextlib.contextmanager
-def terminate_as_exit() -> Iterator[None]:
+def terminate_as_exit(grace: float = TERMINATE_GRACE) -> Iterator[None]:
     """Within the block, SIGTERM raises ``SystemExit(143)`` so clean-up code runs.
 
-    Does nothing outside the main thread (where signal handlers cannot be set).
+    The signal also arms :mod:`faulthandler`'s watchdog (a C thread, which runs even when
+    the main thread is stuck holding the interpreter lock): if the process is still alive
+    ``grace`` seconds later, it writes every thread's stack to stderr and exits with
+    code 1. Does nothing outside the main thread (where signal handlers cannot
+    be set).
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def _exit(signum: int, frame: FrameType | None) -> None:
+        if sys.__stderr__ is not None:
+            faulthandler.dump_traceback_later(grace, exit=True, file=sys.__stderr__)
         raise SystemExit(128 + signum)
 
     previous = signal.signal(signal.SIGTERM, _exit)
