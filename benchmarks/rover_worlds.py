@@ -198,8 +198,10 @@ def main() -> None:
     wall = time.perf_counter() - started
     text = summary(runs, args, wall, failed)
     print(text)
-    fresh = args.world_seed != WORLD_SEED  # validation on fresh worlds: a section of its own
-    update_section("rover_worlds_fresh" if fresh else "rover_worlds", text)
+    # fresh worlds (validation) and a fixed side (a part of the grid): sections of their own
+    fresh = "_fresh" if args.world_seed != WORLD_SEED else ""
+    side = "" if args.size is None else f"_{args.size:g}m"
+    update_section(f"rover_worlds{fresh}{side}", text)
 
 
 def _rows(runs: list[dict[str, Any]]) -> list[str]:
@@ -279,7 +281,8 @@ def summary(
     return "\n".join(
         [
             "## rover_worlds: the rover on generated stress worlds"
-            + ("" if args.world_seed == WORLD_SEED else " never tuned on (fresh seed)"),
+            + ("" if args.world_seed == WORLD_SEED else " never tuned on (fresh seed)")
+            + ("" if args.size is None else f", {args.size:g} m sides"),
             "",
             f"`{command}`. Machine: {machine()}, load average at the end "
             f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} (shared; ms per cycle is wall "
