@@ -91,8 +91,8 @@ def corridor_length(
     with the plan, so cells farther along a straight heading are not where it is going;
     read out to 8 m they outweighed eq. 40's goal term within ±40° of the waypoint and
     flipped the chosen heading from cycle to cycle (docs/rover.md). The distance from
-    ``position`` to ``waypoint`` (both ``(x, y)`` [m]), between the footprint check's
-    ``lookahead`` and ``d_max`` (also without a waypoint).
+    ``position`` to ``waypoint`` (both ``(x, y)`` [m]), kept between the footprint check's
+    ``lookahead`` and ``d_max``; ``d_max`` when there is no waypoint.
     """
     if waypoint is None:
         return params.d_max
