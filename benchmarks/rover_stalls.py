@@ -228,11 +228,27 @@ def category(row: dict[str, Any], resolution: float) -> str:
     return "driving"
 
 
+def _side(text: str) -> float | None:
+    """``--size``: a side in metres, or ``any`` (``None``: the generator draws it)."""
+    if text == "any":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected metres or 'any', got {text!r}") from None
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--world", type=int, default=0, help="world index (default 0)")
     parser.add_argument("--world-seed", type=int, default=WORLD_SEED)
-    parser.add_argument("--size", type=float, default=20.0, help="side [m] (default 20)")
+    parser.add_argument(
+        "--size",
+        type=_side,
+        default=20.0,
+        help="side [m] (default 20), or 'any': the side the generator draws, 20-60 m, as in "
+        "rover_worlds.py's full-size grid",
+    )
     parser.add_argument("--explorer", choices=tuple(EXPLORER_RULES), default="paper")
     parser.add_argument("--init", choices=("flat", "random"), default="flat")
     parser.add_argument("--seed", type=int, default=0)
@@ -330,11 +346,12 @@ def main() -> None:
         "## rover_stalls: where the stalled cycles of one generated-world run go",
         "",
         f"`python benchmarks/rover_stalls.py --world {args.world} --explorer {args.explorer} "
-        f"--init {args.init} --seed {args.seed}"
+        + ("--size any " if args.size is None else f"--size {args.size:g} ")
+        + f"--init {args.init} --seed {args.seed}"
         + (f" --world-seed {args.world_seed}" if fresh else "")
         + (f" --max-steps {args.max_steps}" if args.max_steps else "")
         + f"`. Machine: {machine()}, load average {load[0]:.1f}. World {spec.world.name} "
-        f"({args.size:g} m), {metrics['steps']} of {steps} cycles, path "
+        f"({spec.world.width:g} m), {metrics['steps']} of {steps} cycles, path "
         f"{metrics['path_length_m']:.1f} m, coverage {metrics['coverage']:.3f} ("
         + (
             "90 % not reached"
