@@ -154,6 +154,19 @@ def test_forgotten_position_unit_is_refused_before_allocating(tmp_path: Path) ->
     assert "cells" in text and "Traceback" not in text and "position unit" in text
 
 
+def test_a_cell_side_in_cm_is_refused(tmp_path: Path) -> None:
+    args = [
+        "sonar", "map", str(DATA / "example_log.txt"), "--angles-deg", ANGLES,
+        "--range-unit", "mm", "--position-unit", "mm", "--heading-unit", "deg",
+        "--resolution", "10", "--out", str(tmp_path / "o"),
+    ]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 1
+    text = _text(result)
+    assert "--resolution is 10 m" in text and "cm or mm" in text and "Traceback" not in text
+    assert not (tmp_path / "o").exists()
+
+
 def test_max_range_in_the_wrong_unit_warns(tmp_path: Path) -> None:
     args = [
         "sonar", "map", str(DATA / "example_log.txt"), "--angles-deg", ANGLES,

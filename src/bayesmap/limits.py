@@ -11,6 +11,10 @@ repository and maps of tens of millions of cells; raise them for larger inputs::
     from bayesmap.limits import ReadLimits
     net = bn.read("huge.bif", limits=ReadLimits(max_table_entries=2**28))
 
+The coarsest map cell a user may ask for (:data:`MAX_CELL_SIDE`, :func:`cell_side_problem`)
+is kept here too: a world file's ``resolution`` or a ``--resolution`` in the wrong unit is
+refused before a grid is made.
+
 Why a table limit: a variable with ``L`` parents of ``N_l`` states each stores
 ``N x prod(N_l)`` probabilities (Post et al. 2016 eq. 28), which a short file — a BIF
 ``default`` row, or 63 binary parents — can make astronomically large. Why a parents limit:
@@ -19,11 +23,19 @@ a table is an array of ``1 + L`` dimensions and numpy allows at most 64.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from bayesmap.errors import ConfigError, FormatError
 
-__all__ = ["DEFAULT_LIMITS", "NUMPY_MAX_PARENTS", "ReadLimits", "check_size"]
+__all__ = [
+    "DEFAULT_LIMITS",
+    "MAX_CELL_SIDE",
+    "NUMPY_MAX_PARENTS",
+    "ReadLimits",
+    "cell_side_problem",
+    "check_size",
+]
 
 NUMPY_MAX_PARENTS = 62
 """Most parents a table can have: numpy arrays have at most 64 dimensions, the child takes
@@ -99,3 +111,26 @@ def check_size(
             line=line,
             element=element,
         )
+
+
+MAX_CELL_SIDE = 2.0
+"""Coarsest cell side [m] a sensor map takes from a user (world files, ``--resolution``):
+wider than the rover's informative IR range (≈ 1.25 m) and five times the rover's body, a
+cell could no longer say where an obstacle is; a larger number is most likely a cell side
+written in cm or mm."""
+
+
+def cell_side_problem(resolution: float) -> str | None:
+    """What is wrong with ``resolution`` as a sensor map's cell side [m], or ``None``.
+
+    The callers name the place (a world file's field, a command-line option) and raise their
+    own error with this text.
+    """
+    if not (math.isfinite(resolution) and resolution > 0):
+        return f"must be a positive number of metres, got {resolution!r}"
+    if resolution > MAX_CELL_SIDE:
+        return (
+            f"is {resolution:g} m, coarser than the {MAX_CELL_SIDE:g} m a sensor map can use "
+            "(is it in cm or mm? give metres)"
+        )
+    return None

@@ -77,6 +77,9 @@ def test_map_command_replays_a_log_with_a_fitted_calibration(tmp_path: Path) -> 
     assert grid.probability[box] > 0.5 > 0.1 > grid.probability[before]
     strict = runner.invoke(app, [*args, *units, "--strict"])
     assert strict.exit_code == 1 and "line 11" in strict.output
+    in_cm = runner.invoke(app, [*args, *units, "--resolution", "50"])
+    assert in_cm.exit_code == 1 and "Traceback" not in in_cm.output
+    assert "--resolution is 50 m" in in_cm.output and "cm or mm" in in_cm.output
 
 
 def test_bad_logs_and_calibrations_are_format_errors(tmp_path: Path) -> None:

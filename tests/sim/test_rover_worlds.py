@@ -41,6 +41,7 @@ def test_the_issue_example_loads(tmp_path: Path) -> None:
         ({"start": [14.5, 16.5, 0.0]}, "start"),
         ({"start": [30.0, 1.0, 0.0]}, "outside"),
         ({"colour": "red"}, "colour"),
+        ({"resolution": 50}, r"resolution.*50 m.*cm or mm"),  # a cell side in cm
     ],
 )
 def test_bad_worlds_name_the_field(tmp_path: Path, change: dict, words: str) -> None:  # type: ignore[type-arg]

@@ -57,21 +57,23 @@ def run_command(
     config = rover_world.Config(
         world=world, explorer=explorer, entropy_init=entropy_init, seed=seed, max_steps=max_steps
     )
-    with Progress(
-        TextColumn("{task.description}", markup=False),
-        BarColumn(),
-        MofNCompleteColumn(),
-        console=_console,
-    ) as progress:
-        task = progress.add_task("loading", total=None)
+    try:
+        # transient: the bar is gone when the run ends, so an error is not printed under it
+        with Progress(
+            TextColumn("{task.description}", markup=False),
+            BarColumn(),
+            MofNCompleteColumn(),
+            console=_console,
+            transient=True,
+        ) as progress:
+            task = progress.add_task("loading", total=None)
 
-        def hook(description: str, completed: int, total: int) -> None:
-            progress.update(task, description=description, completed=completed, total=total)
+            def hook(description: str, completed: int, total: int) -> None:
+                progress.update(task, description=description, completed=completed, total=total)
 
-        try:
             result = rover_world.run(config, out, progress=hook)
-        except BayesmapError as error:
-            raise _fail(error) from None
+    except BayesmapError as error:
+        raise _fail(error) from None
     typer.echo(f"{headline_text(result.headline)}; wrote {out}")
 
 

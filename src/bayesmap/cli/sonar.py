@@ -23,6 +23,7 @@ from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn
 from bayesmap._io import RunFolder, run_folder, write_bytes, write_json
 from bayesmap.cli._console import console, headline_text, print_note
 from bayesmap.errors import BayesmapError, InputError
+from bayesmap.limits import cell_side_problem
 from bayesmap.sonar.filter import Stage
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.logs import LENGTH_UNITS, LogUnits, SonarLog, read_sonar_log
@@ -232,8 +233,9 @@ def map_command(
             raise InputError(f"--pipeline {pipeline!r} is not one of: {', '.join(PIPELINES)}")
         if out.exists() and not out.is_dir():
             raise InputError(f"--out {out} is a file; name a folder (it is created if missing)")
-        if not (math.isfinite(resolution) and resolution > 0):
-            raise InputError(f"--resolution must be a positive number of metres, got {resolution}")
+        problem = cell_side_problem(resolution)
+        if problem is not None:
+            raise InputError(f"--resolution {problem}")
         geometry = _geometry(ring, angles_deg, max_range, beam_width_deg, sigma, range_unit)
         units = LogUnits(
             range_unit=range_unit, position_unit=position_unit, heading_unit=heading_unit

@@ -8,7 +8,6 @@ to calibration pairs. The map covers the driven area plus the rangers' reach.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +17,7 @@ from bayesmap._io import write_bytes, write_json
 from bayesmap.errors import InputError
 from bayesmap.grid import OccupancyGrid
 from bayesmap.grid.ros import write_ros_map
+from bayesmap.limits import cell_side_problem
 from bayesmap.rover.logs import read_calibration, read_rover_log
 from bayesmap.rover.mapping import IRMapper
 from bayesmap.rover.params import RoverParams
@@ -39,8 +39,9 @@ def map_log(
     strict: bool = False,
 ) -> dict[str, Any]:
     """Replay ``log`` into maps under ``out``; return the summary written to summary.json."""
-    if not (math.isfinite(resolution) and resolution > 0):
-        raise InputError(f"--resolution must be a positive number of metres, got {resolution}")
+    problem = cell_side_problem(resolution)
+    if problem is not None:
+        raise InputError(f"--resolution {problem}")
     fit = (
         RAW_FIT
         if calibration is None

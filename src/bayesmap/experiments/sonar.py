@@ -37,6 +37,7 @@ from bayesmap.experiments._common import (
     run_in_folder,
 )
 from bayesmap.grid import OccupancyGrid
+from bayesmap.limits import MAX_CELL_SIDE
 from bayesmap.sim import sonar_worlds
 from bayesmap.sim.polygons import REALISTIC_WORLDS, PolygonWorld, world
 from bayesmap.sim.sonar import SonarRing
@@ -87,7 +88,7 @@ class Config(ExperimentConfig):
     runs: int = Field(3, ge=1, description="Seeded runs per world.")
     pipelines: tuple[str, ...] = tuple(PIPELINES)
     ring: int = Field(16, description="Pioneer ring: 16 (front and rear) or 8 (front).")
-    resolution: float = Field(0.1, gt=0, description="Map cell side [m].")
+    resolution: float = Field(0.1, gt=0, le=MAX_CELL_SIDE, description="Map cell side [m].")
     beam_width_deg: float = Field(25.0, gt=0, lt=180)
     sigma: float = Field(0.02, gt=0, description="Range noise [m].")
     max_range: float = Field(5.0, gt=0)

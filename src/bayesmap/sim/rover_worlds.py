@@ -32,6 +32,7 @@ from bayesmap._io import write_json
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError
+from bayesmap.limits import cell_side_problem
 from bayesmap.sim.world2d import BoxWorld, world_distance
 from bayesmap.sim.world_files import check_schema, read_document
 
@@ -53,7 +54,7 @@ WORLD_SCHEMA: dict[str, Any] = {
             "maxItems": 2,
         },
         "resolution": {
-            "description": "Cell side of the map [m].",
+            "description": "Cell side of the map [m], at most 2 (bayesmap.limits.MAX_CELL_SIDE).",
             "type": "number",
             "exclusiveMinimum": 0,
             "default": 0.5,
@@ -175,6 +176,9 @@ def load_world(path: str | Path) -> WorldSpec:
             f"start ({x}, {y}) is within {START_CLEARANCE} m of an obstacle", path=file
         )
     resolution = float(document.get("resolution", 0.5))
+    problem = cell_side_problem(resolution)
+    if problem is not None:
+        raise FormatError(f"the cell side {problem}", path=file, element="resolution")
     return WorldSpec(world, resolution, (x, y, heading))
 
 
