@@ -62,7 +62,7 @@ from scipy import ndimage
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks._report import machine, update_section  # noqa: E402
-from benchmarks.rover_worlds import GENERATOR, WORLD_SEED  # noqa: E402
+from benchmarks.rover_worlds import GENERATOR, WORLD_SEED, side_arg  # noqa: E402
 
 from bayesmap._io import write_bytes, write_json  # noqa: E402
 from bayesmap.experiments import rover  # noqa: E402
@@ -228,23 +228,13 @@ def category(row: dict[str, Any], resolution: float) -> str:
     return "driving"
 
 
-def _side(text: str) -> float | None:
-    """``--size``: a side in metres, or ``any`` (``None``: the generator draws it)."""
-    if text == "any":
-        return None
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected metres or 'any', got {text!r}") from None
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--world", type=int, default=0, help="world index (default 0)")
     parser.add_argument("--world-seed", type=int, default=WORLD_SEED)
     parser.add_argument(
         "--size",
-        type=_side,
+        type=side_arg,
         default=20.0,
         help="side [m] (default 20), or 'any': the side the generator draws, 20-60 m, as in "
         "rover_worlds.py's full-size grid",

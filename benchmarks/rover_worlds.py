@@ -18,7 +18,8 @@ with one BLAS thread. Run from the repository root, e.g.::
     python benchmarks/rover_worlds.py --worlds 12 --seeds 3 --jobs 8   # the issue's grid
     python benchmarks/rover_worlds.py --world-seed 7 --out results/rover_fresh ...  # fresh worlds
 
-(``--size 20`` fixes the side of every world; by default each world draws it from 20–60 m.)
+(``--size 20`` fixes the side of every world; by default, or with ``--size any``, each world
+draws it from 20–60 m.)
 """
 
 from __future__ import annotations
@@ -59,6 +60,16 @@ INITS = ("flat", "random")
 Job = tuple[str, int, int, str, str, float | None, int]
 """(kind, world index, seed, explorer, entropy init, size, world seed): kind is "generated" or
 "paper"."""
+
+
+def side_arg(text: str) -> float | None:
+    """``--size``: a side in metres, or ``any`` (``None``: the generator draws it, 20–60 m)."""
+    if text == "any":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected metres or 'any', got {text!r}") from None
 
 
 def job_name(job: Job) -> str:
@@ -121,7 +132,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--worlds", type=int, default=12, help="generated worlds (default 12)")
     parser.add_argument("--seeds", type=int, default=3, help="seeds per world (default 3)")
-    parser.add_argument("--size", type=float, default=None, help="side [m]; default 20-60")
+    parser.add_argument(
+        "--size",
+        type=side_arg,
+        default=None,
+        help="side [m], or 'any' (the default): each world draws its side from 20-60 m",
+    )
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="processes")
     parser.add_argument("--out", type=Path, default=Path("results/rover_worlds"))
     parser.add_argument(
