@@ -16,7 +16,9 @@ ANGLES = ",".join(str(22.5 * k) for k in range(16))
 runner = CliRunner()
 
 
-def _map(out: Path, *extra: str, log: str = "example_log.txt") -> object:
+def _map(
+    out: Path, *extra: str, log: str = "example_log.txt", resolution: str | None = "0.2"
+) -> object:
     args = [
         "sonar",
         "map",
@@ -31,8 +33,7 @@ def _map(out: Path, *extra: str, log: str = "example_log.txt") -> object:
         "deg",
         "--max-range",
         "5000",
-        "--resolution",
-        "0.2",
+        *(["--resolution", resolution] if resolution is not None else []),
         "--out",
         str(out),
         *extra,
@@ -58,6 +59,12 @@ def test_map_writes_png_ros_map_and_summary(tmp_path: Path) -> None:
     ros = read_ros_map(tmp_path / "map.yaml")
     assert ros.resolution == pytest.approx(0.2)
     assert ros.probability.shape == tuple(summary["map"]["shape"])
+
+
+def test_the_cell_side_defaults_to_the_experiments(tmp_path: Path) -> None:
+    result = _map(tmp_path, resolution=None)
+    assert result.exit_code == 0, result.output
+    assert read_ros_map(tmp_path / "map.yaml").resolution == pytest.approx(0.1)
 
 
 def test_no_filter_rejects_nothing_and_strict_aborts(tmp_path: Path) -> None:

@@ -27,7 +27,13 @@ from bayesmap.limits import cell_side_problem
 from bayesmap.sonar.filter import Stage
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.logs import LENGTH_UNITS, LogUnits, SonarLog, read_sonar_log
-from bayesmap.sonar.pipeline import DEFAULT_PIPELINE, PIPELINES, BuiltMap, build_map
+from bayesmap.sonar.pipeline import (
+    DEFAULT_CELL_SIDE,
+    DEFAULT_PIPELINE,
+    PIPELINES,
+    BuiltMap,
+    build_map,
+)
 from bayesmap.sonar.ring import PRESETS, load_ring
 
 app = typer.Typer(
@@ -151,8 +157,10 @@ def map_command(
     log: Annotated[
         Path, typer.Argument(help="Log: rows 't x y heading r1..rN' (or 't r1..rN' with --poses).")
     ],
-    resolution: Annotated[float, typer.Option("--resolution", help="Map cell side (m).")],
     out: Annotated[Path, typer.Option("--out", help="Output folder (created if missing).")],
+    resolution: Annotated[
+        float, typer.Option("--resolution", help="Map cell side (m).")
+    ] = DEFAULT_CELL_SIDE,
     ring: Annotated[
         str | None,
         typer.Option(

@@ -43,7 +43,7 @@ from bayesmap.sim.polygons import REALISTIC_WORLDS, PolygonWorld, world
 from bayesmap.sim.sonar import SonarRing
 from bayesmap.sim.sonar_log import Realism, SimulatedLog, simulate_log
 from bayesmap.sonar.geometry import SonarGeometry
-from bayesmap.sonar.pipeline import DEFAULT_PIPELINE, PIPELINES, map_log
+from bayesmap.sonar.pipeline import DEFAULT_CELL_SIDE, DEFAULT_PIPELINE, PIPELINES, map_log
 from bayesmap.viz.sonar import maps_side_by_side
 
 __all__ = [
@@ -88,7 +88,9 @@ class Config(ExperimentConfig):
     runs: int = Field(3, ge=1, description="Seeded runs per world.")
     pipelines: tuple[str, ...] = tuple(PIPELINES)
     ring: int = Field(16, description="Pioneer ring: 16 (front and rear) or 8 (front).")
-    resolution: float = Field(0.1, gt=0, le=MAX_CELL_SIDE, description="Map cell side [m].")
+    resolution: float = Field(
+        DEFAULT_CELL_SIDE, gt=0, le=MAX_CELL_SIDE, description="Map cell side [m]."
+    )
     beam_width_deg: float = Field(25.0, gt=0, lt=180)
     sigma: float = Field(0.02, gt=0, description="Range noise [m].")
     max_range: float = Field(5.0, gt=0)

@@ -454,6 +454,10 @@ clamp); the single stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun
 DEFAULT_PIPELINE = "default"
 """The pipeline ``sonar map`` uses unless told otherwise."""
 
+DEFAULT_CELL_SIDE = 0.1
+"""Map cell side [m] of ``sonar map`` and of the experiment unless told otherwise: a
+fifth of a Pioneer's body and a tenth of a door, below the transducers' spacing."""
+
 
 class BuiltMap(NamedTuple):
     """A map built from a log: the mapper (grid synced), the run and the filter (or ``None``)."""
