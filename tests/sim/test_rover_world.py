@@ -92,6 +92,38 @@ def test_ir_reads_the_box_ahead() -> None:
     assert far.tolist() == [0.0, 0.0, 0.0]  # nothing in reach: the ADC floor
 
 
+FAR_WALL = (5.0, -3.0, 5.2, 3.0)
+"""A wall 5 m ahead of a ranger at the origin looking along +x: beyond its 2 m range."""
+NEAR_BOX = (0.95, 0.15, 1.05, 0.30)
+"""A box 1 m ahead, 0.2 rad off the axis: the 1.6 m located there reaches it."""
+
+
+@pytest.mark.parametrize(
+    ("boxes", "expected"),
+    [
+        ([FAR_WALL, NEAR_BOX], pytest.approx(0.97, abs=0.02)),
+        # 1.5 m away at the fan's edge (0.3 rad): past the 1.21 m located there
+        ([FAR_WALL, (1.40, 0.40, 1.60, 0.60)], pytest.approx(5.0)),
+        # the axis's own hit within range wins over a nearer one off the axis
+        ([(1.5, -3.0, 1.6, 3.0), NEAR_BOX], pytest.approx(1.5)),
+    ],
+)
+def test_a_surface_out_of_range_does_not_mask_one_in_the_fan(
+    boxes: list[tuple[float, ...]], expected: object
+) -> None:
+    rangers = ir.IRRangers(angles=(0.0,), offset=0.0, sigma_r=0.0)
+    assert float(ir.true_ranges(np.array(boxes), [0.0, 0.0, 0.0], rangers)[0]) == expected
+
+
+def test_detection_range_shrinks_off_the_axis() -> None:
+    rangers = ir.IRRangers()
+    reach = ir.detection_range([0.0, rangers.w_r], rangers)
+    assert reach[0] == pytest.approx(rangers.r_max)
+    assert reach[1] == pytest.approx(rangers.r_max * math.exp(-0.5))
+    with pytest.raises(ConfigError, match="r_max"):
+        ir.IRRangers(r_max=0.0)
+
+
 def test_same_seed_same_readings() -> None:
     params = sim_rover.SimulatedRoverParams()
     world = box_world("rover-field-obstacles-v1")
