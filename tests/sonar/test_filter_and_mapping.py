@@ -560,10 +560,10 @@ def test_map_log_reports_progress_every_100_rings_and_at_the_end() -> None:
     geometry = SonarGeometry(angles=(0.0, math.pi), max_range=5.0)
     poses = np.column_stack([np.linspace(0.0, 2.0, 250), np.zeros(250), np.zeros(250)])
     ranges = np.tile([1.0, 6.0], (250, 1))
-    calls: list[tuple[int, int]] = []
+    calls: list[tuple[str, int, int]] = []
     grid = OccupancyGrid(8.0, 2.0, 0.1, origin=(-4.0, -1.0))
-    map_log(poses, ranges, ElfesMapper(grid, geometry), progress=lambda d, t: calls.append((d, t)))
-    assert calls == [(100, 250), (200, 250), (250, 250)]
+    map_log(poses, ranges, ElfesMapper(grid, geometry), progress=lambda *call: calls.append(call))
+    assert calls == [("mapping", 100, 250), ("mapping", 200, 250), ("mapping", 250, 250)]
 
 
 class _RingByRingMapper:

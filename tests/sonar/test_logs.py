@@ -32,6 +32,13 @@ def test_example_log_reports_every_bad_row_with_its_line() -> None:
     assert np.nanmax(log.ranges) == pytest.approx(5.0)
 
 
+def test_reading_reports_the_bytes_read_of_the_file() -> None:
+    calls: list[tuple[str, int, int]] = []
+    read_sonar_log(DATA / "example_log.txt", 16, units=MM, progress=lambda *c: calls.append(c))
+    size = (DATA / "example_log.txt").stat().st_size
+    assert calls[-1] == ("reading example_log.txt", size, size)
+
+
 def test_strict_mode_aborts_at_the_first_bad_row() -> None:
     with pytest.raises(FormatError) as info:
         read_sonar_log(DATA / "example_log.txt", 16, units=MM, strict=True)

@@ -148,7 +148,7 @@ def test_a_sweep_through_a_scheduler_and_two_workers_equals_a_serial_run(
     assert not serial.failed and not remote.failed
     n = worlds * seeds
     assert len(remote.ran) == len(plan.tasks) == n
-    assert calls[-1] == ("0 failed", n, n)
+    assert calls[-1] == ("runs, 0 failed", n, n)
     expected = _without_timings(aggregate.tidy(plan, tmp_path / "serial"))
     got = _without_timings(aggregate.tidy(plan, tmp_path / "remote"))
     pd.testing.assert_frame_equal(got, expected)

@@ -30,7 +30,7 @@ def test_runs_every_task_once_and_resumes(tmp_path):
     calls = []
     outcome = run_sweep(plan, tmp_path, serial=True, progress=lambda *a: calls.append(a))
     assert len(outcome.ran) == len(plan.tasks) == 2 * 3 * 2 and not outcome.failed
-    assert calls[-1] == ("0 failed", len(plan.tasks), len(plan.tasks))
+    assert calls[-1] == ("runs, 0 failed", len(plan.tasks), len(plan.tasks))
     assert all(task_complete(task_folder(tmp_path, key)) for key in plan.tasks)
     assert sorted(p.name for p in (tmp_path / "worlds").iterdir()) == [
         "world-000.json",

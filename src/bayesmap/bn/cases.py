@@ -13,13 +13,13 @@ pandas, pyarrow and the file plumbing are imported on first use, so that
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bayesmap._typing import IntArray
+from bayesmap._typing import IntArray, ProgressHook
 from bayesmap.bn.suggest import unknown
 from bayesmap.errors import FormatError, InputError
 
@@ -27,9 +27,6 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from bayesmap.bn.model import BayesNet
-
-Progress = Callable[[str, int, int], None]
-"""Progress hook ``(description, completed, total)``, as the experiments take."""
 
 CHUNK_ROWS = 1 << 16
 """Cases answered per chunk by default: ~10 MB of evidence and answers for alarm."""
@@ -109,7 +106,7 @@ def run_batch(
     *,
     chunk_rows: int = CHUNK_ROWS,
     total: int | None = None,
-    progress: Progress | None = None,
+    progress: ProgressHook | None = None,
 ) -> Iterator[pd.DataFrame]:
     """Answer cases chunk by chunk: yields one :func:`posterior_frame` per chunk.
 

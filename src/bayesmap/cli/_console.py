@@ -14,13 +14,16 @@ Rich itself loads on the first message, so a command that prints nothing through
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from functools import cache
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from rich.console import Console
     from rich.text import Text
+
+    from bayesmap._typing import ProgressHook
 
 
 def console(*, stderr: bool = False) -> Console:
@@ -52,6 +55,59 @@ def print_note(message: object, *, out: Console | None = None) -> None:
     from rich.text import Text
 
     (out or _stderr()).print(Text(str(message)), soft_wrap=True)
+
+
+@contextmanager
+def progress_bar(
+    out: Console,
+    *,
+    first: str = "starting",
+    percent: bool = False,
+    elapsed: bool = False,
+    remaining: bool = False,
+    transient: bool = True,
+) -> Iterator[ProgressHook]:
+    """A progress bar on ``out`` while the block runs, and the hook that moves it.
+
+    The bar shows the stage the hook last named (literally; ``first`` until then), the bar,
+    how far it is (``done/total``, or a percentage with ``percent``, for bytes), and the
+    time spent and left when asked. The hook takes ``(description, completed, total)``,
+    as every experiment and library loop reports (:data:`bayesmap._typing.ProgressHook`);
+    a negative ``total`` means not known yet. A ``transient`` bar is gone when the block
+    ends, so that an error or the result is printed without a bar above it.
+    """
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        ProgressColumn,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    columns: list[ProgressColumn] = [
+        TextColumn("{task.description}", markup=False),
+        BarColumn(),
+        TaskProgressColumn() if percent else MofNCompleteColumn(),
+    ]
+    if elapsed:
+        columns.append(TimeElapsedColumn())
+    if remaining:
+        columns.append(TimeRemainingColumn())
+    with Progress(*columns, console=out, transient=transient) as bar:
+        task = bar.add_task(first, total=None)
+
+        def hook(description: str, completed: int, total: int) -> None:
+            bar.update(
+                task,
+                description=description,
+                completed=completed,
+                total=total if total >= 0 else None,
+            )
+
+        yield hook
 
 
 def headline_text(headline: Mapping[str, object]) -> str:

@@ -6,10 +6,9 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from bayesmap.cli._console import console as make_console
-from bayesmap.cli._console import headline_text, print_error, print_note
+from bayesmap.cli._console import headline_text, print_error, print_note, progress_bar
 from bayesmap.errors import BayesmapError
 
 app = typer.Typer(
@@ -38,25 +37,12 @@ def run_command(
     from bayesmap.experiments import blackboard_world  # the mapper loads only when it runs
 
     config = blackboard_world.Config(world=world, condition=condition, seed=seed, mode=mode)
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=console,
-    ) as bar:
-        task = bar.add_task(f"{mode} {condition}", total=None)
-
-        def hook(description: str, completed: int, total: int) -> None:
-            bar.update(task, completed=completed, total=total)
-
-        try:
+    try:
+        with progress_bar(console, first=f"{mode} {condition}", elapsed=True) as hook:
             result = blackboard_world.run(config, out, progress=hook)
-        except BayesmapError as error:
-            bar.remove_task(task)  # no empty bar left above the error
-            bar.stop()
-            print_error(" ".join(str(error).split()), out=console)
-            raise typer.Exit(1) from error
+    except BayesmapError as error:
+        print_error(" ".join(str(error).split()), out=console)
+        raise typer.Exit(1) from error
     numbers = headline_text({k: v for k, v in result.headline.items() if k != "note"})
     print_note(f"wrote {out}/metrics.json, map.json, map.png: {numbers}", out=console)
     if "note" in result.headline:

@@ -14,16 +14,17 @@ from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
 
-from bayesmap.cli._console import console, print_error, print_note
+from bayesmap.cli._console import console, print_error, print_note, progress_bar
 from bayesmap.cli.codegen import codegen
 from bayesmap.errors import BayesmapError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterator
+    from collections.abc import Iterator
 
     import pandas as pd
 
     from bayesmap import bn
+    from bayesmap._typing import ProgressHook
 
 # The engine (numpy, opt_einsum, lxml) is imported inside the commands, so that
 # ``bayesmap --help`` and the other command groups start without it.
@@ -278,8 +279,6 @@ def _batch(
 ) -> None:
     """Stream a cases file through the network into an answers file, with a progress bar;
     with ``scheduler``, each chunk is answered across that Dask cluster's workers."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
-
     from bayesmap.bn import cases as batch
 
     chunk_rows = chunk_rows or batch.CHUNK_ROWS
@@ -290,20 +289,7 @@ def _batch(
             batch.check_suffix(path)
         total = batch.count_cases(cases)
         columns = [batch.column_name(t, s) for t in targets for s in net.states(t)]
-        progress = Progress(
-            "cases",
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeRemainingColumn(),
-            console=console(stderr=True),
-            transient=True,
-        )
-        with progress:
-            task = progress.add_task("cases", total=total)
-
-            def hook(_description: str, done: int, _total: int) -> None:
-                progress.update(task, completed=done)
-
+        with progress_bar(console(stderr=True), first="cases", remaining=True) as hook:
             chunks = batch.read_cases(cases, chunk_rows=chunk_rows)
             if scheduler is None:
                 answers = batch.run_batch(
@@ -313,7 +299,7 @@ def _batch(
                 from bayesmap.sweeps.batch import posterior_batches
 
                 answers = _counted(
-                    posterior_batches(net, chunks, targets, scheduler=scheduler), hook
+                    posterior_batches(net, chunks, targets, scheduler=scheduler), hook, total
                 )
             rows = batch.write_posteriors(out, answers, columns)
     except BayesmapError as error:
@@ -322,13 +308,13 @@ def _batch(
 
 
 def _counted(
-    tables: Iterator[pd.DataFrame], hook: Callable[[str, int, int], None]
+    tables: Iterator[pd.DataFrame], hook: ProgressHook, total: int
 ) -> Iterator[pd.DataFrame]:
     """``tables`` passed on, reporting the rows done so far to ``hook``."""
     done = 0
     for table in tables:
         done += len(table)
-        hook("cases", done, done)
+        hook("cases", done, total)
         yield table
 
 

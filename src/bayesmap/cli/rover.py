@@ -11,9 +11,8 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
-from bayesmap.cli._console import console, headline_text, print_error
+from bayesmap.cli._console import console, headline_text, print_error, progress_bar
 from bayesmap.errors import BayesmapError
 
 app = typer.Typer(
@@ -58,19 +57,7 @@ def run_command(
         world=world, explorer=explorer, entropy_init=entropy_init, seed=seed, max_steps=max_steps
     )
     try:
-        # transient: the bar is gone when the run ends, so an error is not printed under it
-        with Progress(
-            TextColumn("{task.description}", markup=False),
-            BarColumn(),
-            MofNCompleteColumn(),
-            console=_console,
-            transient=True,
-        ) as progress:
-            task = progress.add_task("loading", total=None)
-
-            def hook(description: str, completed: int, total: int) -> None:
-                progress.update(task, description=description, completed=completed, total=total)
-
+        with progress_bar(_console, first="loading") as hook:
             result = rover_world.run(config, out, progress=hook)
     except BayesmapError as error:
         raise _fail(error) from None

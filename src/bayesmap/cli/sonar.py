@@ -18,10 +18,9 @@ from typing import Annotated, Literal
 
 import numpy as np
 import typer
-from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn
 
 from bayesmap._io import RunFolder, run_folder, write_bytes, write_json
-from bayesmap.cli._console import console, headline_text, print_note
+from bayesmap.cli._console import console, headline_text, print_note, progress_bar
 from bayesmap.errors import BayesmapError, InputError
 from bayesmap.limits import cell_side_problem
 from bayesmap.sonar.filter import Stage
@@ -56,17 +55,6 @@ class _LiteralHandler(logging.Handler):
 
     def emit(self, record: logging.LogRecord) -> None:
         _say(f"warning: {record.getMessage()}")
-
-
-def _bar() -> Progress:
-    """The sonar commands' progress bar on stderr: what is being done, how far, gone when done."""
-    return Progress(
-        TextColumn("{task.description}", markup=False),
-        BarColumn(),
-        TaskProgressColumn(),
-        console=_err,
-        transient=True,
-    )
 
 
 @contextmanager
@@ -253,8 +241,7 @@ def map_command(
             chosen = replace(
                 chosen, acceptability=False, agreeability=False, trait_verification=False
             )
-        with _bar() as bar:
-            reading = bar.add_task(f"reading {log.name}", total=1)
+        with progress_bar(_err, first=f"reading {log.name}", percent=True) as hook:
             if topics is not None:
                 data = _read_bag(
                     log,
@@ -275,10 +262,9 @@ def map_command(
                     strict=strict,
                     time_tolerance=pose_tolerance,
                     max_pose_gap=max_pose_gap,
-                    progress=lambda done, total: bar.update(reading, completed=done, total=total),
+                    progress=hook,
                 )
             _check_ranges(data, geometry, range_unit)
-            mapping = bar.add_task("mapping", total=len(data.ranges))
             built = build_map(
                 data.poses,
                 data.ranges,
@@ -286,7 +272,7 @@ def map_command(
                 resolution,
                 pipeline=chosen,
                 max_cells=max_cells,
-                progress=lambda done, total: bar.update(mapping, completed=done, total=total),
+                progress=hook,
             )
         settings = {
             "log": str(log),
@@ -330,12 +316,7 @@ def run_command(
         config = experiment.Config.model_validate(
             {"world": world, "runs": runs, "seed": seed, "pipelines": names, "jobs": jobs}
         )
-        with _bar() as bar:
-            task = bar.add_task("loading", total=None)
-
-            def hook(description: str, completed: int, total: int) -> None:
-                bar.update(task, description=description, completed=completed, total=total)
-
+        with progress_bar(_err, first="loading") as hook:
             result = experiment.run(
                 config, out, progress=hook, command=shlex.join(["bayesmap", *sys.argv[1:]])
             )

@@ -7,18 +7,10 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
 from rich.text import Text
 
 from bayesmap.cli._console import console as make_console
-from bayesmap.cli._console import print_error
+from bayesmap.cli._console import print_error, progress_bar
 from bayesmap.errors import BayesmapError
 
 console = make_console(stderr=True)
@@ -132,21 +124,9 @@ def sweep(
             console.print(
                 Text(f"worlds: {len(plan.worlds)} WORLD.json file(s) in {out / 'worlds'}")
             )
-        with Progress(
-            TextColumn("[bold]runs[/bold]"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("{task.description}"),
-            TimeElapsedColumn(),
-            TextColumn("ETA"),
-            TimeRemainingColumn(),
-            console=console,
-        ) as progress:
-            bar = progress.add_task("0 failed", total=len(plan.tasks))
-
-            def hook(description: str, completed: int, total: int) -> None:
-                progress.update(bar, description=description, completed=completed, total=total)
-
+        with progress_bar(
+            console, first="runs, 0 failed", elapsed=True, remaining=True, transient=False
+        ) as hook:
             outcome = run_sweep(
                 plan, out, scheduler=scheduler, workers=workers, serial=serial, progress=hook
             )

@@ -17,8 +17,9 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
+from bayesmap._typing import ProgressHook
 from bayesmap.errors import ConfigError
-from bayesmap.experiments._common import ExperimentResult, ProgressHook, run_in_folder
+from bayesmap.experiments._common import ExperimentResult, run_in_folder
 
 EXPERIMENTS: dict[str, str] = {
     "rover": "bayesmap.experiments.rover",

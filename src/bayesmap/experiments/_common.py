@@ -12,14 +12,6 @@ from pydantic import BaseModel, ValidationError
 from bayesmap._io import RunFolder, run_folder
 from bayesmap.errors import ConfigError
 
-ProgressHook = Callable[[str, int, int], None]
-"""``hook(description, completed, total)``: called as an experiment advances.
-
-``description`` names the current stage (e.g. ``"obstacles-flat"``), ``completed`` and
-``total`` count its units of work (poses, steps, runs). Experiments never print; the CLI
-turns these calls into a progress bar.
-"""
-
 
 class ExperimentConfig(BaseModel):
     """Base of every experiment's ``Config``: a bad setting is a :class:`ConfigError`.

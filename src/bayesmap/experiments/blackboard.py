@@ -40,13 +40,13 @@ import numpy as np
 from pydantic import ConfigDict, Field, field_validator
 
 from bayesmap._io import write_bytes, write_json, write_text
+from bayesmap._typing import ProgressHook
 from bayesmap.blackboard import BlackboardParams, Snapshot, TableMapper
 from bayesmap.blackboard.sweep_model import ObjectType
 from bayesmap.errors import ConfigError
 from bayesmap.experiments._common import (
     ExperimentConfig,
     ExperimentResult,
-    ProgressHook,
     no_progress,
     run_in_folder,
 )

@@ -23,6 +23,7 @@ import numpy as np
 from pydantic import ConfigDict, Field, field_validator
 
 from bayesmap._io import write_bytes, write_json
+from bayesmap._typing import ProgressHook
 from bayesmap.blackboard.fused import FusedMap
 from bayesmap.blackboard.sweep_model import ObjectType
 from bayesmap.errors import ConfigError
@@ -30,7 +31,6 @@ from bayesmap.experiments import blackboard as paper
 from bayesmap.experiments._common import (
     ExperimentConfig,
     ExperimentResult,
-    ProgressHook,
     no_progress,
     run_in_folder,
 )

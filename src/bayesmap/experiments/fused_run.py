@@ -8,10 +8,11 @@ from typing import Any
 
 import numpy as np
 
+from bayesmap._typing import ProgressHook
 from bayesmap.blackboard.fused import FusedMap, FusedMapper, FusedParams
 from bayesmap.blackboard.sweep_model import ObjectType
 from bayesmap.errors import ConfigError
-from bayesmap.experiments._common import ProgressHook, no_progress
+from bayesmap.experiments._common import no_progress
 from bayesmap.experiments.table_metrics import (
     MatchTolerance,
     fused_scores,

@@ -31,12 +31,11 @@ from scipy.stats import rankdata
 from bayesmap import bn
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap._rng import spawn
-from bayesmap._typing import BoolArray, FloatArray
+from bayesmap._typing import BoolArray, FloatArray, ProgressHook
 from bayesmap.errors import ConfigError
 from bayesmap.experiments._common import (
     ExperimentConfig,
     ExperimentResult,
-    ProgressHook,
     no_progress,
     run_in_folder,
 )

@@ -14,11 +14,11 @@ from typing import Literal
 
 from pydantic import ConfigDict, Field
 
+from bayesmap._typing import ProgressHook
 from bayesmap.experiments import rover
 from bayesmap.experiments._common import (
     ExperimentConfig,
     ExperimentResult,
-    ProgressHook,
     no_progress,
     run_in_folder,
 )

@@ -29,10 +29,10 @@ from scipy.spatial import cKDTree
 
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap._rng import spawn
+from bayesmap._typing import ProgressHook
 from bayesmap.experiments._common import (
     ExperimentConfig,
     ExperimentResult,
-    ProgressHook,
     no_progress,
     run_in_folder,
 )

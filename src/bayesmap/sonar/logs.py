@@ -28,7 +28,7 @@ import bisect
 import logging
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, NamedTuple
@@ -38,7 +38,7 @@ import numpy.typing as npt
 
 from bayesmap._io import open_input, write_text
 from bayesmap._numbers import is_decimal
-from bayesmap._typing import FloatArray, Poses, Ranges
+from bayesmap._typing import FloatArray, Poses, ProgressHook, Ranges
 from bayesmap.errors import FormatError, InputError
 from bayesmap.geometry import wrap_angle
 
@@ -127,9 +127,6 @@ _SPLIT = re.compile(r"\s*,\s*|\s+")
 _CHUNK = 20_000
 """Rows parsed into one numpy block: memory stays near the size of the numbers themselves."""
 
-Progress = Callable[[int, int], None]
-"""``progress(done, total)``: bytes read so far of the file's size."""
-
 
 def _report(path: Path, number: int, reason: str, skipped: list[SkippedRow]) -> None:
     skipped.append(SkippedRow(str(path), number, reason))
@@ -160,7 +157,7 @@ def _parse(
     columns: int,
     n_ranges: int,
     skipped: list[SkippedRow],
-    progress: Progress | None = None,
+    progress: ProgressHook | None = None,
 ) -> _Table:
     """Stream ``path`` line by line into numpy blocks; bad rows go to ``skipped``."""
     handle, size = open_input(path)
@@ -198,10 +195,10 @@ def _parse(
             if len(pending) >= _CHUNK:
                 flush()
                 if progress is not None:
-                    progress(done, total)
+                    progress(f"reading {path.name}", done, total)
     flush()
     if progress is not None:
-        progress(total, total)
+        progress(f"reading {path.name}", total, total)
     values = np.vstack(blocks) if blocks else np.zeros((0, columns))
     lines = np.concatenate(line_blocks) if line_blocks else np.zeros(0, dtype=np.int64)
     blocks.clear()  # the blocks are copied: free them before anything else is allocated
@@ -259,7 +256,7 @@ def read_sonar_log(
     strict: bool = False,
     time_tolerance: float = 0.05,
     max_pose_gap: float = 1.0,
-    progress: Progress | None = None,
+    progress: ProgressHook | None = None,
 ) -> SonarLog:
     """Read a sonar log (one file, or ranges and poses in two files joined by timestamp).
 
@@ -282,7 +279,7 @@ def read_sonar_log(
         Poses are interpolated (linear in position, shortest arc in heading) between two
         pose rows at most this many seconds apart.
     progress
-        Optional ``progress(bytes_read, bytes_total)`` while reading.
+        Optional hook, called as ``progress("reading <file>", bytes_read, bytes_total)``.
 
     Returns
     -------

@@ -18,7 +18,7 @@ from typing import Any, Literal, NamedTuple, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._typing import BoolArray, FloatArray, Grid, IntArray, Poses, Ranges
+from bayesmap._typing import BoolArray, FloatArray, Grid, IntArray, Poses, ProgressHook, Ranges
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
 from bayesmap.sonar.filter import SpecularFilter
@@ -160,7 +160,7 @@ def map_log(
     *,
     merge_repeats: bool = False,
     map_verdict: MapVerdict | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    progress: ProgressHook | None = None,
 ) -> MapRun:
     """Feed each ring through ``filt`` (if any) and integrate the accepted readings.
 
@@ -185,7 +185,8 @@ def map_log(
         ``remap``, the streaming map judges instead and the refinement maps the readings
         as the verdict judged them. Needs a mapper with ``geometry``.
     progress
-        Optional ``progress(done, total)`` callback, called every 100 rings and at the end.
+        Optional hook, called as ``progress("mapping", rings_done, rings_total)`` every 100
+        rings and at the end.
     """
     p = np.asarray(poses, dtype=np.float64)
     r = np.asarray(ranges, dtype=np.float64)
@@ -243,7 +244,7 @@ def map_log(
                 # A repeat takes the verdict of the ring before (a repeat or the one repeated).
                 accepted[i], stage[i] = accepted[i - 1], stage[i - 1]
         if progress is not None:
-            progress(stop, len(p))
+            progress("mapping", stop, len(p))
     if map_verdict is not None and geometry is not None:
         _judge_by_map(p, r, mapper, geometry, map_verdict, accepted, stage, repeat)
     mapper.sync()
@@ -475,7 +476,7 @@ def build_map(
     *,
     pipeline: Pipeline | None = None,
     max_cells: int = 25_000_000,
-    progress: Callable[[int, int], None] | None = None,
+    progress: ProgressHook | None = None,
 ) -> BuiltMap:
     """Map a log with ``pipeline`` (default: ``PIPELINES[DEFAULT_PIPELINE]``).
 

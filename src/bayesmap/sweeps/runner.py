@@ -37,8 +37,9 @@ from threadpoolctl import threadpool_limits
 
 from bayesmap import __version__
 from bayesmap._io import write_json, write_text
+from bayesmap._typing import ProgressHook
 from bayesmap.errors import ConfigError
-from bayesmap.experiments import ProgressHook, load
+from bayesmap.experiments import load
 from bayesmap.experiments._common import no_progress
 from bayesmap.sweeps import protocol
 from bayesmap.sweeps.grid import SweepPlan, Task, build_config
@@ -263,7 +264,7 @@ def run_sweep(
     serial
         Run the tasks one after another in this process, without Dask.
     progress
-        Called as ``progress("<failed> failed", done, total)`` after every task.
+        Called as ``progress("runs, <failed> failed", done, total)`` after every task.
     """
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {workers}")
@@ -280,7 +281,7 @@ def run_sweep(
     timings: dict[str, TaskTiming] = {}
     done = len(skipped)
     total = len(plan.tasks)
-    hook("0 failed", done, total)
+    hook("runs, 0 failed", done, total)
 
     def finish(outcome: TaskOutcome) -> None:
         nonlocal done
@@ -291,7 +292,7 @@ def run_sweep(
             _record(out_dir, plan.tasks[outcome.key], outcome)
         else:
             failed[outcome.key] = outcome.error
-        hook(f"{len(failed)} failed", done, total)
+        hook(f"runs, {len(failed)} failed", done, total)
 
     if serial or not pending:
         for task in pending:
