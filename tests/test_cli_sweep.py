@@ -52,6 +52,7 @@ def test_bad_requests_get_one_line_errors_and_write_nothing(tmp_path):
         (["--set", "scale"], "expected KEY=VALUE"),
         (["--set", "scale=[1"], "not valid YAML"),
         (["--condition", "x:scale=[big]"], "condition 'x'"),
+        (["--set", "scale=2", "--set", "scale=3"], "--set scale is given more than once"),
     ]
     for extra, message in cases:
         result = _sweep(tmp_path / "out", *extra)
@@ -65,6 +66,24 @@ def test_bad_requests_get_one_line_errors_and_write_nothing(tmp_path):
     assert result.exit_code == 1 and "cannot take --worlds" in result.output
     result = runner.invoke(app, ["sweep", "nosuch", "--out", str(tmp_path / "out")])
     assert result.exit_code == 1 and "unknown experiment 'nosuch'" in result.output
+
+
+def test_a_negative_root_seed_is_a_usage_error(tmp_path):
+    result = _sweep(tmp_path / "out", "--root-seed", "-1")
+    assert (
+        result.exit_code == 2
+        and "--root-seed': Input should be greater than or equal to 0" in result.output
+    )
+    assert "Traceback" not in result.output and not (tmp_path / "out").exists()
+
+
+def test_a_folder_of_other_files_is_not_swept_into(tmp_path):
+    (tmp_path / "tidy.csv").write_text("mine\n")
+    result = _sweep(tmp_path)
+    assert result.exit_code == 1
+    assert "holds something other than a bayesmap sweep" in result.output
+    assert (tmp_path / "tidy.csv").read_text() == "mine\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tidy.csv"]
 
 
 def test_messages_print_user_text_literally(tmp_path):

@@ -226,8 +226,11 @@ def test_batch_from_a_file_matches_one_case_at_a_time(
     ("text", "needle"),
     [
         ("Wet,Sprinklr\nyes,on\n", "did you mean 'Sprinkler'?"),
-        ("Wet,Sprinkler\nyes,on\nyes,onn\n", "row 1, column 'Sprinkler'"),
-        ("Rain,Sprinkler,Wet\nno,off,no\nno,off,yes\n", "probability zero"),
+        ("Wet,Sprinkler\nyes,on\nyes,onn\n", "cases line 3, column 'Sprinkler'"),
+        ("Rain,Sprinkler,Wet\nno,off,no\nno,off,yes\n", "cases line 3: "),
+        ("Wet,Sprinkler\nyes,on\nno,off,yes\n", "cases line 3 has more values than the header"),
+        ("Wet,Wet\nyes,no\n", "column 'Wet' appears more than once"),
+        ("\n", "no header line"),
     ],
 )
 def test_batch_errors_name_the_row_and_leave_no_output(
@@ -244,6 +247,41 @@ def test_batch_errors_name_the_row_and_leave_no_output(
     assert not path_out.exists()
 
 
+def test_csv_cells_are_read_exactly_and_every_line_is_a_case(lawn: Path, tmp_path: Path) -> None:
+    """A state named like a missing-value marker is a state; a trailing comma is harmless;
+    an empty line is a case with nothing observed, so the answers line up with the lines."""
+    net = bn.BayesNet("markers")
+    net.add_variable("Rain", ["no", "yes"], cpt=[0.8, 0.2])
+    net.add_variable("Sprinkler", ["off", "on"], parents=["Rain"], cpt=[[0.6, 0.99], [0.4, 0.01]])
+    net.add_variable("Wet", ["None", "NA"], parents=["Rain"], cpt=[[0.9, 0.2], [0.1, 0.8]])
+    bif = tmp_path / "markers.bif"
+    bn.write(net, bif)
+    path_in, path_out = tmp_path / "cases.csv", tmp_path / "answers.csv"
+    path_in.write_text("Wet,Sprinkler\nNone,\n\nNA,on,\n")
+    result = runner.invoke(
+        app,
+        ["bn", "query", str(bif), "--cases", str(path_in), "-t", "Rain", "--out", str(path_out)],
+    )
+    assert result.exit_code == 0, result.output
+    answers = pd.read_csv(path_out)["Rain=yes"].tolist()
+    expected = [
+        net.posterior("Rain", evidence)["yes"]
+        for evidence in ({"Wet": "None"}, {}, {"Wet": "NA", "Sprinkler": "on"})
+    ]
+    assert answers == pytest.approx(expected, abs=1e-12)
+    assert len(set(answers)) == 3
+
+
+def test_the_answers_never_overwrite_the_cases(lawn: Path, tmp_path: Path) -> None:
+    path = tmp_path / "cases.csv"
+    path.write_text("Wet\nyes\n")
+    result = runner.invoke(
+        app, ["bn", "query", str(lawn), "--cases", str(path), "-t", "Rain", "--out", str(path)]
+    )
+    assert result.exit_code == 1 and "is the cases file" in result.stderr
+    assert path.read_text() == "Wet\nyes\n"
+
+
 def test_an_empty_cases_file_writes_an_empty_table(lawn: Path, tmp_path: Path) -> None:
     path_in, path_out = tmp_path / "cases.csv", tmp_path / "answers.parquet"
     path_in.write_text("Wet\n")
@@ -253,3 +291,9 @@ def test_an_empty_cases_file_writes_an_empty_table(lawn: Path, tmp_path: Path) -
     )
     assert result.exit_code == 0, result.output
     assert list(pd.read_parquet(path_out).columns) == ["Rain=no", "Rain=yes"]
+    as_csv = tmp_path / "answers.csv"
+    result = runner.invoke(
+        app, ["bn", "query", str(lawn), "--cases", str(path_in), "-t", "Rain", "--out", str(as_csv)]
+    )
+    assert result.exit_code == 0, result.output
+    assert as_csv.read_text().splitlines() == ["Rain=no,Rain=yes"]

@@ -226,3 +226,20 @@ def test_a_variable_with_many_observed_children():
     cases = np.array([[net.states(v).index(s) for v, s in evidence.items()]] * 3)
     batch = net.posterior_batch("Obstacle", cases, columns=list(evidence))
     np.testing.assert_allclose(batch, np.tile(exact, (3, 1)))
+
+
+def test_a_question_too_wide_for_memory_is_refused_before_allocating():
+    """40 binary roots, 40 observed children of 8 random roots each: once the children are
+    observed every root interacts with most others, and exact elimination needs a table of
+    2^30 entries (8 GiB). The engine says so before allocating it."""
+    rng = np.random.default_rng(7)
+    net = BayesNet("wide")
+    roots = [f"R{i}" for i in range(40)]
+    for name in roots:
+        net.add_variable(name, ["a", "b"], cpt=[0.5, 0.5])
+    for i in range(40):
+        parents = [str(p) for p in rng.choice(roots, size=8, replace=False)]
+        cpt = rng.dirichlet([1.0, 1.0], size=2**8).T.reshape((2,) + (2,) * 8)
+        net.add_variable(f"C{i}", ["a", "b"], parents=parents, cpt=cpt)
+    with pytest.raises(ModelError, match="too densely connected"):
+        net.posterior("R0", {f"C{i}": "a" for i in range(40)})

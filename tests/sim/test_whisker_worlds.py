@@ -87,6 +87,16 @@ def test_a_world_without_poses_is_toured_like_the_paper() -> None:
             r"poses\[0\]: a pose must be finite and inside",
         ),
         (lambda w: w.update(walls=[]), r"the document: Additional properties"),
+        (lambda w: w["arena"].update(width=7000.0), r"arena: a side of 7000 m .* in cm or mm"),
+        (lambda w: w["arena"].update(width=math.inf), r"arena: the sides must be finite"),
+        (
+            lambda w: w["tables"][0].update(length=0.5, width=0.9),
+            r"tables\[0\]: width 0.9 is more than length 0.5",
+        ),
+        (
+            lambda w: w.update(catalogue=[{"length": 0.6, "width": 1.0, "leg": 0.05}]),
+            r"catalogue\[0\]: length must be the longer side",
+        ),
     ],
 )
 def test_bad_world_files_name_the_element(change, message) -> None:
@@ -103,6 +113,9 @@ def test_not_json_names_line_and_column(tmp_path) -> None:
         load_world(path)
     with pytest.raises(FormatError, match="cannot read"):
         load_world(tmp_path / "missing.json")
+    path.write_text('{"arena": {"width": 7.0,\n "height": NaN}, "tables": []}')
+    with pytest.raises(FormatError, match=r"broken.json, line 2: NaN is not a number"):
+        load_world(path)
 
 
 @settings(max_examples=40, deadline=None)

@@ -13,6 +13,9 @@ pandas, pyarrow and the file plumbing are imported on first use, so that
 
 from __future__ import annotations
 
+import csv
+import re
+import warnings
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -76,12 +79,22 @@ def case_array(net: BayesNet, frame: pd.DataFrame) -> tuple[IntArray, list[str]]
             wrong = ~blank & (codes < 0)
         if wrong.any():
             i = int(np.flatnonzero(wrong)[0])
+            value = values.iloc[i]
+            value = value.item() if isinstance(value, np.generic) else value
             raise InputError(
-                f"cases row {frame.index[i]!r}, column {name!r}: {values.iloc[i]!r} is not a "
-                f"state of {name!r}; " + unknown("state", values.iloc[i], states)
+                f"{case_label(frame, i)}, column {name!r}: {value!r} is not a "
+                f"state of {name!r}; " + unknown("state", value, states)
             )
         table[:, j] = np.where(blank, -1, codes)
     return table, columns
+
+
+def case_label(frame: pd.DataFrame, i: int) -> str:
+    """How messages name the ``i``-th row of a table of cases: by its label, ``cases line 7``
+    for a CSV file (:func:`read_cases`), ``cases row 3`` for a table without a named index."""
+    label = frame.index[i]
+    label = label.item() if isinstance(label, np.generic) else label
+    return f"cases {frame.index.name or 'row'} {label!r}"
 
 
 def posterior_frame(net: BayesNet, frame: pd.DataFrame, targets: Sequence[str]) -> pd.DataFrame:
@@ -149,8 +162,9 @@ def run_batch(
             answer = posterior_frame(net, chunk, targets)
         except InputError as error:
             message = str(error)
-            if message.startswith("batched evidence case"):
-                message = f"cases from row {done} on: {message}"
+            case = re.match(r"batched evidence case (\d+): ", message)
+            if case is not None:
+                message = f"{case_label(chunk, int(case[1]))}: {message[case.end() :]}"
             raise InputError(message) from None
         done += len(chunk)
         if progress is not None:
@@ -192,8 +206,11 @@ def count_cases(path: str | Path) -> int:
 def read_cases(path: str | Path, *, chunk_rows: int = CHUNK_ROWS) -> Iterator[pd.DataFrame]:
     """Stream a CSV or Parquet file of cases as DataFrames of up to ``chunk_rows`` rows.
 
-    CSV cells are read as text (so ``"01"`` stays a state name); empty cells are blanks.
-    The rows are labelled by their 0-based data row in the file.
+    CSV cells are read as text, exactly: ``"01"`` and ``"None"`` are state names, and only
+    an empty cell (or an empty line, a case with nothing observed) is blank. A row may end
+    in empty cells beyond the header's columns (a trailing comma), but not in values. CSV
+    rows are labelled by their line in the file (the index is named ``"line"``; a cell
+    quoted across lines shifts the count), Parquet rows by their 0-based row.
     """
     import pandas as pd
 
@@ -212,14 +229,61 @@ def read_cases(path: str | Path, *, chunk_rows: int = CHUNK_ROWS) -> Iterator[pd
             start += len(frame)
             yield frame
         return
+    header = _csv_header(path)
+    spare = "\x00beyond the header"
     try:
-        reader = pd.read_csv(path, dtype=str, chunksize=chunk_rows, skipinitialspace=True)
-        yield from reader
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as error:
+        with warnings.catch_warnings():
+            # a row with two or more values past the header: pandas would drop them
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            reader = pd.read_csv(
+                path,
+                dtype=str,
+                chunksize=chunk_rows,
+                skipinitialspace=True,
+                header=None,
+                skiprows=1,
+                names=[*header, spare],
+                index_col=False,
+                keep_default_na=False,
+                skip_blank_lines=False,
+                encoding="utf-8-sig",
+            )
+            line = 2
+            for frame in reader:
+                frame.index = pd.RangeIndex(line, line + len(frame), name="line")
+                line += len(frame)
+                beyond = frame[spare].fillna("").str.strip() != ""
+                if beyond.any():
+                    raise FormatError(
+                        f"{path}: {case_label(frame, int(np.flatnonzero(beyond)[0]))} has "
+                        f"more values than the header's {len(header)} columns"
+                    )
+                yield frame.drop(columns=spare)
+    except pd.errors.ParserWarning:
+        raise FormatError(
+            f"{path}: a row has more values than the header's {len(header)} columns"
+        ) from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as error:
         detail = " ".join(str(error).split())
         raise FormatError(f"{path}: not a readable CSV table ({detail})") from None
+
+
+def _csv_header(path: Path) -> list[str]:
+    """The column names on a CSV file's first line; FormatError if none or repeated."""
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            first = next(csv.reader(handle, skipinitialspace=True), [])
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError, csv.Error) as error:
+        raise FormatError(f"{path}: not a readable CSV table ({error})") from None
+    names = [name.strip() for name in first]
+    if not any(names):
+        raise FormatError(f"{path}: no header line naming the observed variables")
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise FormatError(f"{path}: column {repeated[0]!r} appears more than once")
+    return names
 
 
 def write_posteriors(
@@ -255,9 +319,11 @@ def write_posteriors(
                 writer.close()
         return rows
     with atomic_open(path, "w", newline="") as handle:
+        header = True
         for chunk in chunks:
-            chunk.to_csv(handle, header=rows == 0, index=False, float_format="%.17g")
+            chunk.to_csv(handle, header=header, index=False, float_format="%.17g")
+            header = False
             rows += len(chunk)
-        if rows == 0:
+        if header:
             empty.to_csv(handle, index=False)
     return rows

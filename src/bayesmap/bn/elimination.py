@@ -105,13 +105,18 @@ def find_path(
     path = Path(tuple(terms), output, tuple(tuple(s) for s in ssa))
     widest = _widest_step(path, shapes)
     if widest > MAX_STEP_ENTRIES:
-        raise ModelError(
-            f"exact elimination here needs a table of {widest:.3g} entries "
-            f"({widest * 8 / 2**30:.3g} GiB of float64) at one step, above the limit of "
-            f"{MAX_STEP_ENTRIES:.3g}: the network is too densely connected for this question; "
-            "observe more variables, or ask about fewer (marginal MAP over a subset)"
-        )
+        raise _too_wide(widest)
     return path
+
+
+def _too_wide(entries: int) -> ModelError:
+    """The error for a step whose table would exceed :data:`MAX_STEP_ENTRIES`."""
+    return ModelError(
+        f"exact elimination here needs a table of {entries:.3g} entries "
+        f"({entries * 8 / 2**30:.3g} GiB of float64) at one step, above the limit of "
+        f"{MAX_STEP_ENTRIES:.3g}: the network is too densely connected for this question; "
+        "observe more variables, or ask about fewer (marginal MAP over a subset)"
+    )
 
 
 def _widest_step(path: Path, shapes: Sequence[Sequence[int]]) -> int:
@@ -444,9 +449,16 @@ class SumProgram:
     ) -> tuple[Any, int, Sequence[Hashable]]:
         """Add the step contracting ``chosen`` (``entries`` in their product, ``union`` their
         labels in order of first appearance) into ``kept`` (run now if all are constant).
+        A result table over :data:`MAX_STEP_ENTRIES` entries is a ModelError, before any
+        allocation.
 
         A constant step is looked up in the memo before its arguments are built: most
         constant steps of a new pattern's program were met in an earlier one's."""
+        if entries > MAX_STEP_ENTRIES:  # only then can the table it writes be too large
+            sizes = self._sizes
+            written = math.prod([sizes[label] for label in kept])
+            if written > MAX_STEP_ENTRIES:
+                raise _too_wide(written)
         memo = self._memo
         key = None
         if memo is not None:

@@ -16,7 +16,7 @@ import typer
 
 from bayesmap.cli._console import console, print_error, print_note, progress_bar
 from bayesmap.cli.codegen import codegen
-from bayesmap.errors import BayesmapError
+from bayesmap.errors import BayesmapError, InputError
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -287,6 +287,8 @@ def _batch(
             net.variable(t)
         for path in (cases, out):
             batch.check_suffix(path)
+        if out.resolve() == cases.resolve():
+            raise InputError(f"--out {out} is the cases file; name another file for the answers")
         total = batch.count_cases(cases)
         columns = [batch.column_name(t, s) for t in targets for s in net.states(t)]
         with progress_bar(console(stderr=True), first="cases", remaining=True) as hook:

@@ -11,7 +11,7 @@ from rich.text import Text
 
 from bayesmap.cli._console import console as make_console
 from bayesmap.cli._console import print_error, progress_bar
-from bayesmap.errors import BayesmapError
+from bayesmap.errors import BayesmapError, ConfigError
 
 console = make_console(stderr=True)
 
@@ -76,7 +76,8 @@ def sweep(
         bool, typer.Option("--serial", help="Run every task in this process, without Dask.")
     ] = False,
     root_seed: Annotated[
-        int, typer.Option("--root-seed", help="Seed of the worlds and of every run's seed.")
+        int,
+        typer.Option("--root-seed", min=0, help="Seed of the worlds and of every run's seed."),
     ] = 0,
 ) -> None:
     """Run an experiment over worlds × seeds × conditions; write tables and report.html."""
@@ -90,7 +91,12 @@ def sweep(
         _quiet_dask()
     try:
         module = load(experiment)
-        settings = dict(parse_setting(item) for item in set_ or [])
+        parsed = [parse_setting(item) for item in set_ or []]
+        settings = dict(parsed)
+        if len(settings) < len(parsed):
+            keys = [key for key, _ in parsed]
+            repeated = next(key for key in keys if keys.count(key) > 1)
+            raise ConfigError(f"--set {repeated} is given more than once; give it once")
         conditions: dict[str, dict[str, object]] = {}
         for item in condition or []:
             name, setting = parse_condition(item)

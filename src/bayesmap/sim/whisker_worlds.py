@@ -55,6 +55,11 @@ __all__ = [
 POSE_CLEARANCE = 0.15
 """Grid positions closer than this [m] to a leg's outline (or inside a table) are skipped."""
 
+MAX_ARENA_SIDE = 100.0
+"""Longest arena side [m] a world file may give. A whisker robot maps a room a few metres
+across; the contact-vote grid of a 100 m square at its 2.5 cm cells already holds 16
+million cells, and a longer side is most likely written in cm or mm."""
+
 _NUMBER = {"type": "number"}
 _POSITIVE = {"type": "number", "exclusiveMinimum": 0}
 WORLD_SCHEMA: dict[str, Any] = {
@@ -250,6 +255,15 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
     """
     check_schema(obj, WORLD_SCHEMA, source)
     arena = (float(obj["arena"]["width"]), float(obj["arena"]["height"]))
+    if not all(math.isfinite(side) for side in arena):
+        raise _fail(source, "arena", "the sides must be finite numbers of metres")
+    if max(arena) > MAX_ARENA_SIDE:
+        raise _fail(
+            source,
+            "arena",
+            f"a side of {max(arena):g} m is longer than the {MAX_ARENA_SIDE:g} m a whisker "
+            "map covers (is it in cm or mm? give metres)",
+        )
     rows = [
         [t["x"], t["y"], t["theta"], t["length"], t["width"], t["leg"], t.get("texture", 0.3)]
         for t in obj["tables"]
@@ -258,6 +272,13 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
     if not np.isfinite(tables).all():
         raise _fail(source, "tables", "every number must be finite")
     for i, row in enumerate(tables):
+        if row[4] > row[3]:
+            raise _fail(
+                source,
+                f"tables[{i}]",
+                f"width {row[4]:g} is more than length {row[3]:g}: length is the longer side "
+                "(swap them and turn theta by 90°)",
+            )
         if not 2 * row[5] < min(row[3], row[4]):
             raise _fail(source, f"tables[{i}]", "each leg must be narrower than half the table")
     polygons = _table_polygons(tables)
@@ -296,6 +317,13 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
         catalogue = tuple((f"{a:g}x{b:g}", a, b, c) for a, b, c in sizes)
     if not catalogue:
         raise _fail(source, "catalogue", "a world without tables must list its catalogue")
+    for k, (_, length, width, leg) in enumerate(catalogue):
+        if width > length or not 2 * leg < width:
+            raise _fail(
+                source,
+                f"catalogue[{k}]",
+                "length must be the longer side and each leg narrower than half the width",
+            )
     wall_texture = float(obj["arena"].get("wall_texture", _DEFAULT_TEXTURE))
     return WorldFile(arena, tables, poses, grid, catalogue, wall_texture)
 

@@ -25,15 +25,27 @@ def read_document(path: str | Path) -> Any:
     Raises
     ------
     FormatError
-        The file cannot be read, is not UTF-8 text or is not JSON (with its line).
+        The file cannot be read, is not UTF-8 text, is not JSON, or holds ``NaN`` or
+        ``Infinity`` (which Python's JSON reader would take), with its line.
     """
     file = Path(path)
     try:
-        return json.loads(file.read_text(encoding="utf-8"))
+        text = file.read_text(encoding="utf-8")
     except OSError as error:
         raise FormatError(f"cannot read the world file ({error.strerror})", path=file) from None
     except UnicodeDecodeError:
         raise FormatError("the world file is not UTF-8 text", path=file) from None
+
+    def refuse(constant: str) -> Any:
+        line = text.count("\n", 0, max(text.find(constant), 0)) + 1
+        raise FormatError(
+            f"{constant} is not a number (sizes, positions and angles must be finite)",
+            path=file,
+            line=line,
+        )
+
+    try:
+        return json.loads(text, parse_constant=refuse)
     except json.JSONDecodeError as error:
         raise FormatError(f"not JSON: {error.msg}", path=file, line=error.lineno) from None
 

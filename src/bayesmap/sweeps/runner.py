@@ -238,6 +238,21 @@ def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
             yield client
 
 
+def _check_sweep_folder(out_dir: Path) -> None:
+    """ConfigError unless ``out_dir`` is missing, empty or a sweep's folder: a sweep resumes
+    in its own folder and never writes among a user's files."""
+    if not out_dir.exists() and not out_dir.is_symlink():
+        return
+    if not out_dir.is_dir():
+        raise ConfigError(f"the sweep folder {str(out_dir)!r} is a file; choose another path")
+    if (out_dir / SWEEP_RECORD).is_file() or not any(out_dir.iterdir()):
+        return
+    raise ConfigError(
+        f"the sweep folder {str(out_dir)!r} exists and holds something other than a bayesmap "
+        f"sweep (it has no {SWEEP_RECORD}); choose another path or empty it"
+    )
+
+
 def run_sweep(
     plan: SweepPlan,
     out_dir: Path,
@@ -265,11 +280,17 @@ def run_sweep(
         Run the tasks one after another in this process, without Dask.
     progress
         Called as ``progress("runs, <failed> failed", done, total)`` after every task.
+
+    Raises
+    ------
+    ConfigError
+        ``out_dir`` is a file, or a folder with other files and no ``sweep.json``.
     """
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {workers}")
     hook = progress or no_progress
     out_dir = Path(out_dir)
+    _check_sweep_folder(out_dir)
     write_json(out_dir / SWEEP_RECORD, {"bayesmap": __version__, **plan.to_json()})
     for world in plan.worlds:
         if not world.path.is_file() or world.path.read_text(encoding="utf-8") != world.text:

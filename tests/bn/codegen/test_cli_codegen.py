@@ -91,6 +91,11 @@ def test_codegen_name_and_soft_evidence(rain_file, tmp_path):
     ],
 )
 def test_codegen_errors_are_one_literal_line(rain_file, tmp_path, args, message):
+    a_file = tmp_path / "a_file"
+    a_file.write_text("mine")
+    result = runner.invoke(app, ["bn", "codegen", str(rain_file), "-o", str(a_file), "-t", "Rain"])
+    assert result.exit_code == 1 and "is a file" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and a_file.read_text() == "mine"
     result = runner.invoke(app, ["bn", "codegen", str(rain_file), "-o", str(tmp_path), *args])
     assert result.exit_code == 1
     assert message in result.stderr

@@ -15,6 +15,7 @@ from tests.bn.codegen.conftest import (
 )
 from tests.bn.helpers import random_net
 
+from bayesmap.bn import BayesNet
 from bayesmap.bn.codegen import SoftNetwork, generate
 from bayesmap.bn.codegen.native import NativeNetwork
 from bayesmap.bn.fixed_point import QFormat
@@ -138,6 +139,27 @@ def test_bad_patterns_are_config_errors():
         generate(net, ["X4"], ["X0"], "half")
     with pytest.raises(ConfigError, match="prefix"):
         generate(net, ["X4"], ["X0"], name="1bad-name")
+
+
+def test_names_that_would_share_a_c_name_are_refused():
+    net = BayesNet("clash")
+    for name in ("a b", "A_b", "T"):
+        net.add_variable(name, ["y", "n"], cpt=[0.5, 0.5])
+    with pytest.raises(ConfigError, match="'a b' and 'A_b' both become the C name"):
+        generate(net, ["T"], ["a b", "A_b"])
+    generate(net, ["T"], ["a b"])  # one of them alone is fine
+
+
+@needs_cc
+def test_names_cannot_end_or_nest_the_comments_they_appear_in(tmp_path):
+    net = BayesNet("n */ x /* y")
+    net.add_variable("a */ oops /* b", ["y*/", "n"], cpt=[0.3, 0.7])
+    net.add_variable("T", ["y", "n"], parents=["a */ oops /* b"], cpt=[[0.9, 0.2], [0.1, 0.8]])
+    code = generate(net, ["T"], ["a */ oops /* b"], "double", name="cmt")
+    native = NativeNetwork(code, tmp_path, flags=FAST_BUILD)
+    got = native.posterior("T", [0])
+    expected = net.posterior("T", {"a */ oops /* b": "y*/"})
+    np.testing.assert_allclose(got, [expected["y"], expected["n"]], atol=1e-12)
 
 
 def test_generated_code_has_no_allocation_recursion_or_libm():

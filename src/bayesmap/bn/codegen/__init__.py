@@ -89,7 +89,7 @@ class CSources:
     def write(self, directory: str | Path) -> tuple[Path, Path]:
         """Write both files (atomically) into ``directory``; return their paths."""
         folder = Path(directory)
-        folder.mkdir(parents=True, exist_ok=True)
+        _io.make_folder(folder)
         h = _io.write_text(folder / f"{self.prefix}.h", self.header)
         c = _io.write_text(folder / f"{self.prefix}.c", self.source)
         return h, c
@@ -129,7 +129,8 @@ def generate(
     ------
     ConfigError
         Unknown variables, a target also declared as evidence, too many evidence
-        variables, an unknown arithmetic or an invalid C prefix.
+        variables, an unknown arithmetic, an invalid C prefix, or two variables whose C
+        names would be the same.
     """
     kind = Arith.parse(arith)
     prefix = name if name is not None else identifier(net.name).lower()
@@ -161,6 +162,7 @@ def generate(
     data = tuple(
         v for v in range(len(compiled.names)) if v in compiled.sources and v not in virtual
     )
+    _check_c_names((*targets, *evidence_vars, *soft, *(compiled.names[v] for v in data)))
     spec = Spec(
         prefix=prefix,
         arith=kind,
@@ -186,6 +188,20 @@ def generate(
         data_sizes={compiled.names[v]: compiled.cpts[v].size for v in data},
         functions=sum(len(p) for p in programs.values()),
     )
+
+
+def _check_c_names(names: Sequence[str]) -> None:
+    """ConfigError if two variables the C code names would get the same C name (macros
+    are upper case, so names that differ only in case clash too)."""
+    seen: dict[str, str] = {}
+    for name in dict.fromkeys(names):
+        ident = identifier(name).upper()
+        if ident in seen:
+            raise ConfigError(
+                f"variables {seen[ident]!r} and {name!r} both become the C name "
+                f"{identifier(name)!r}; rename one of them in the network file"
+            )
+        seen[ident] = name
 
 
 def _prior_vars(programs: dict[int, list[Program]]) -> set[int]:
