@@ -154,6 +154,15 @@ def test_run_folders_refuse_to_replace_what_is_not_a_run(tmp_path):
     assert _leftovers(tmp_path) == []
 
 
+def test_a_folder_that_cannot_be_written_is_one_error(tmp_path, monkeypatch):
+    def refuse(**_: object) -> str:
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr("bayesmap._io.tempfile.mkdtemp", refuse)
+    with pytest.raises(ConfigError, match="cannot write into the folder .*: Permission denied"):
+        _run(tmp_path / "out", {"a": "b"})
+
+
 def test_verify_run_folder_notices_a_changed_or_missing_file(tmp_path):
     _run(tmp_path / "out", {"a.txt": "one"})
     (tmp_path / "out" / "a.txt").write_text("two")

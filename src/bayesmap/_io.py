@@ -373,7 +373,12 @@ def run_folder(
     prefix = f".{final.name}."
     sweep_abandoned(final.parent, prefix)
     started = _now()
-    work = Path(tempfile.mkdtemp(prefix=f"{prefix}run-", suffix=".tmp", dir=final.parent))
+    try:
+        work = Path(tempfile.mkdtemp(prefix=f"{prefix}run-", suffix=".tmp", dir=final.parent))
+    except OSError as error:
+        raise ConfigError(
+            f"cannot write into the folder {str(final.parent)!r}: {error.strerror or error}"
+        ) from None
     holder = os.open(work, os.O_RDONLY)
     try:
         _lock(holder)

@@ -92,6 +92,14 @@ def test_bad_logs_and_calibrations_are_format_errors(tmp_path: Path) -> None:
     (tmp_path / "c.csv").write_text("raw,distance\n10,1\n20,oops\n")
     with pytest.raises(FormatError, match="line 3|two numbers"):
         read_calibration(tmp_path / "c.csv")
+    for flat in ({"a": 0, "b": 0, "c": 0}, {"a": 1, "b": 1, "c": 1}, {"a": -8, "b": 57, "c": -1}):
+        (tmp_path / "c.json").write_text(json.dumps(flat))
+        with pytest.raises(FormatError, match="does not fall with range"):
+            read_calibration(tmp_path / "c.json")
+    (tmp_path / "c.csv").write_text("raw,distance\n50,10\n30,30\n20,60\n10,150\n")
+    with pytest.raises(FormatError, match="distances up to 150 m.*--distance-unit"):
+        read_calibration(tmp_path / "c.csv")
+    assert len(read_calibration(tmp_path / "c.csv", distance_unit="cm")) == 3
 
 
 @pytest.mark.parametrize("field", ["1_0", "Infinity", "nan", "\u0663"])

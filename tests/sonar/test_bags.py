@@ -133,6 +133,26 @@ def test_unknown_topics_are_named(tmp_path: Path) -> None:
         read_sonar_bag(_write(tmp_path, "ros1"), [*TOPICS[:3], "/sonar/9"])
 
 
+def test_a_topic_that_is_not_a_range_is_named(tmp_path: Path) -> None:
+    with pytest.raises(FormatError, match="topic /odom carries nav_msgs/msg/Odometry, not"):
+        read_sonar_bag(_write(tmp_path, "ros2"), ["/odom", *TOPICS[1:]])
+
+
+def test_damaged_bags_are_one_error(tmp_path: Path) -> None:
+    folder = _write(tmp_path, "ros2")
+    (folder / "metadata.yaml").unlink()
+    with pytest.raises(FormatError, match="needs its metadata.yaml"):
+        read_sonar_bag(folder, TOPICS)
+    noise = tmp_path / "noise.bag"
+    noise.write_bytes(np.random.default_rng(0).bytes(5000))
+    with pytest.raises(FormatError, match="cannot read the bag"):
+        read_sonar_bag(noise, TOPICS)
+    header_only = tmp_path / "header.mcap"
+    header_only.write_bytes(b"\x89MCAP0\r\n")
+    with pytest.raises(FormatError, match="cannot read the bag"):
+        read_sonar_bag(header_only, TOPICS)
+
+
 def test_sonar_map_reads_a_bag(tmp_path: Path) -> None:
     from typer.testing import CliRunner
 

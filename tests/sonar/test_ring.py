@@ -65,6 +65,10 @@ def test_acceptability_uses_the_true_offsets() -> None:
     assert not np.allclose(low_true, low_centre)
 
 
+TWO = "transducers:\n  - {x: 0, y: 0, heading: 0}\n  - {x: 0, y: 0, heading: 90}"
+"""A minimal list of transducers, for files whose other keys are under test."""
+
+
 @pytest.mark.parametrize(
     ("text", "error", "words"),
     [
@@ -86,6 +90,20 @@ def test_acceptability_uses_the_true_offsets() -> None:
         ),
         ("length_unit: furlong\ntransducers: []", FormatError, "length_unit"),
         ("transducers: [", FormatError, "line"),
+        (f"max_rnage: 3\n{TWO}", FormatError, "bad.yaml: unknown key.s. max_rnage"),
+        (f"beam_width: -25\n{TWO}", FormatError, "bad.yaml: beam_width -25 deg must lie"),
+        (
+            f"length_unit: mm\nmin_range: 6000\nmax_range: 5000\n{TWO}",
+            FormatError,
+            "min_range 6000 mm and max_range 5000 mm",
+        ),
+        (f"max_range: 5000\n{TWO}", FormatError, "max_range 5000 m .* is length_unit right"),
+        (f"sigma: 0\n{TWO}", FormatError, "sigma must be above 0, got sigma 0 m"),
+        (
+            "transducers:\n  - {x: 1.0e9, y: 0, heading: 0}\n  - {x: 0, y: 0, heading: 1}",
+            FormatError,
+            "a transducer sits 1e.09 m from the centre",
+        ),
     ],
 )
 def test_bad_ring_files_say_where_and_what(

@@ -40,7 +40,7 @@ def run_command(
         Literal["flat", "random"],
         typer.Option("--entropy-init", help="Entropy map starts at 1, or 1 - 0.1 U(0, 1)."),
     ] = "flat",
-    seed: Annotated[int, typer.Option("--seed", help="Seed of every random stream.")] = 0,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of every random stream.")] = 0,
     max_steps: Annotated[
         int | None,
         typer.Option(
@@ -68,9 +68,10 @@ def run_command(
 def generate_command(
     out: Annotated[Path, typer.Option("--out", help="Folder for the world files.")],
     count: Annotated[int, typer.Option("--count", min=1, help="How many worlds.")] = 12,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the generator.")] = 0,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the generator.")] = 0,
     size: Annotated[
-        float | None, typer.Option("--size", help="Side of the area [m] (default 20–60).")
+        float | None,
+        typer.Option("--size", help="Side of the area [m], 5–200 (default: drawn in 20–60)."),
     ] = None,
 ) -> None:
     """Write COUNT generated stress worlds (walls, L-shapes, corridors, passages, boxes, tilted)."""
@@ -79,10 +80,13 @@ def generate_command(
     from bayesmap.sim.rover_worlds import generate_world, save_world
 
     for k in range(count):
-        spec = generate_world(
-            SeedSequence([seed, k]), size=size, name=f"rover-generated-v2-s{seed}-{k:02d}"
-        )
-        path = save_world(out / f"world_{k:02d}.json", spec)
+        try:
+            spec = generate_world(
+                SeedSequence([seed, k]), size=size, name=f"rover-generated-v2-s{seed}-{k:02d}"
+            )
+            path = save_world(out / f"world_{k:02d}.json", spec)
+        except BayesmapError as error:
+            raise _fail(error) from None
         typer.echo(f"{path}: {spec.world.width:.1f} m, {spec.world.n_obstacles} obstacles")
 
 

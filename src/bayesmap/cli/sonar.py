@@ -295,7 +295,7 @@ def run_command(
     ],
     out: Annotated[Path, typer.Option("--out", help="Output folder (replaced when done).")],
     runs: Annotated[int, typer.Option("--runs", min=1, help="Seeded runs (logs).")] = 3,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of every random stream.")] = 2007,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of every random stream.")] = 2007,
     pipeline: Annotated[
         list[str] | None,
         typer.Option(

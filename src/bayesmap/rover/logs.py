@@ -31,7 +31,7 @@ from bayesmap._numbers import is_decimal
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError, InputError
 from bayesmap.limits import DEFAULT_LIMITS
-from bayesmap.sensing.ir import Calibration, fit_calibration
+from bayesmap.sensing.ir import Calibration, calibration_problem, fit_calibration
 from bayesmap.sonar.logs import ANGLE_UNITS, LENGTH_UNITS, SkippedRow
 
 __all__ = ["RoverLog", "read_calibration", "read_rover_log"]
@@ -125,6 +125,11 @@ def read_rover_log(
     return RoverLog(poses, table[:, 3:], tuple(skipped))
 
 
+MAX_CALIBRATION_DISTANCE = 10.0
+"""Longest calibration distance [m] taken as metres: IR rangers like the rover's read up to
+a few metres (the paper's to 2 m), so a larger number is a distance in cm or mm."""
+
+
 def read_calibration(path: str | Path, *, distance_unit: str = "m") -> Calibration:
     """An IR calibration from a JSON fit or a CSV of ``raw, distance`` pairs (fitted)."""
     file = Path(path)
@@ -141,9 +146,11 @@ def read_calibration(path: str | Path, *, distance_unit: str = "m") -> Calibrati
             raise FormatError(
                 'a JSON calibration needs numbers "a", "b" and "c"', path=file
             ) from None
-        if not all(math.isfinite(v) for v in fit):
-            raise FormatError("calibration numbers must be finite", path=file)
-        return (fit[0], fit[1], fit[2])
+        calibration = (fit[0], fit[1], fit[2])
+        problem = calibration_problem(calibration)
+        if problem is not None:
+            raise FormatError(problem, path=file)
+        return calibration
     if distance_unit not in LENGTH_UNITS:
         raise InputError(
             f"distance unit must be one of {list(LENGTH_UNITS)}, got {distance_unit!r}"
@@ -161,7 +168,14 @@ def read_calibration(path: str | Path, *, distance_unit: str = "m") -> Calibrati
         else:
             raise FormatError("expected two numbers (raw, distance)", path=file, line=number)
     raw, distance = np.asarray(pairs, dtype=np.float64).reshape(-1, 2).T
+    metres = distance * LENGTH_UNITS[distance_unit]
+    if metres.size and np.nanmax(metres) > MAX_CALIBRATION_DISTANCE:
+        raise FormatError(
+            f"distances up to {np.nanmax(metres):g} m, beyond the {MAX_CALIBRATION_DISTANCE:g} m "
+            "an IR ranger reads (are they in cm or mm? pass --distance-unit)",
+            path=file,
+        )
     try:
-        return fit_calibration(raw, distance * LENGTH_UNITS[distance_unit])
+        return fit_calibration(raw, metres)
     except InputError as error:
         raise FormatError(str(error), path=file) from None

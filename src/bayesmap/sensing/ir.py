@@ -163,6 +163,32 @@ def range_from_raw(raw: npt.ArrayLike, fit: Calibration = RAW_FIT) -> FloatArray
         return np.asarray((b - c * value) / (value - a))
 
 
+def calibration_problem(fit: Calibration) -> str | None:
+    """What is wrong with ``fit = (a, b, c)`` as an IR calibration, or ``None``.
+
+    The §5.1 model ``r_raw = (a r + b) / (r + c)`` must fall with range at every ``r > 0``,
+    so that a reading names one range: its slope ``(a c - b) / (r + c)^2`` is negative
+    where ``a c < b``, and the pole ``r = -c`` must not lie at a positive range (``c >= 0``).
+    The paper's fit has ``a c - b = -57.2`` and ``c = 0.075``.
+
+    >>> calibration_problem(RAW_FIT) is None
+    True
+    >>> calibration_problem((7.933, 56.61, 0.07544)) is None  # a sign slip in a: still falls
+    True
+    >>> print(calibration_problem((1.0, 1.0, 1.0)))
+    r_raw = (a r + b)/(r + c) with (a, b, c) = (1, 1, 1) does not fall with range (need ...)
+    """
+    a, b, c = fit
+    if not all(math.isfinite(v) for v in fit):
+        return f"the calibration numbers must be finite, got {fit}"
+    if a * c < b and c >= 0:
+        return None
+    return (
+        f"r_raw = (a r + b)/(r + c) with (a, b, c) = ({a:g}, {b:g}, {c:g}) does not fall with "
+        "range (need a c < b and c >= 0)"
+    )
+
+
 def fit_calibration(raw: npt.ArrayLike, distance: npt.ArrayLike) -> Calibration:
     """Fit ``r_raw = (a r + b) / (r + c)`` to calibration pairs, as §5.1 did (least squares).
 

@@ -31,7 +31,7 @@ import shapely
 from bayesmap._io import write_json
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import FloatArray
-from bayesmap.errors import FormatError
+from bayesmap.errors import ConfigError, FormatError
 from bayesmap.limits import cell_side_problem
 from bayesmap.sim.world2d import BoxWorld, world_distance
 from bayesmap.sim.world_files import check_schema, read_document
@@ -250,6 +250,12 @@ def _shape(group: Group) -> shapely.Geometry:
     return shapely.union_all(parts)
 
 
+GENERATED_SIDES = (5.0, 200.0)
+"""Sides [m] a generated world may have: below 5 m the 1.2 m passages leave no room for an
+obstacle; above 200 m placing its thousands of obstacle groups takes minutes (the rover's
+speed is measured on fields of 20 and 200 m)."""
+
+
 def generate_world(
     rng: RNGLike = None,
     *,
@@ -269,7 +275,8 @@ def generate_world(
     rng
         Seed or generator.
     size
-        Side of the square area [m]; drawn from 20–60 m when ``None``.
+        Side of the square area [m], within :data:`GENERATED_SIDES`; drawn from 20–60 m
+        when ``None``.
     n_groups
         Obstacle groups to place; about one per 40 m² when ``None``.
     passage
@@ -280,6 +287,11 @@ def generate_world(
     name
         Versioned name recorded by results.
     """
+    if size is not None and not GENERATED_SIDES[0] <= size <= GENERATED_SIDES[1]:
+        raise ConfigError(
+            f"a generated world's side must be {GENERATED_SIDES[0]:g}–{GENERATED_SIDES[1]:g} m, "
+            f"got {size!r}"
+        )
     generator = as_generator(rng)
     side = float(generator.uniform(20.0, 60.0)) if size is None else float(size)
     wanted = max(int(side * side / 40.0), 3) if n_groups is None else n_groups

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import math
+import struct
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -92,6 +93,12 @@ def read_sonar_bag(
                     f"{', '.join(sorted(known))}",
                     path=bag,
                 )
+            for topic in topics:
+                if not known[topic].msgtype.endswith("/Range"):
+                    raise FormatError(
+                        f"topic {topic} carries {known[topic].msgtype}, not sensor_msgs/Range",
+                        path=bag,
+                    )
             wanted = [c for c in reader.connections if c.topic in readings or c.topic == pose_topic]
             for connection, timestamp, raw in reader.messages(connections=wanted):
                 message: Any = reader.deserialize(raw, connection.msgtype)
@@ -131,8 +138,19 @@ def read_sonar_bag(
                         "nav_msgs/Odometry or tf2_msgs/TFMessage",
                         path=bag,
                     )
+    except FormatError:
+        raise
     except AnyReaderError as error:
         raise FormatError(f"cannot read the bag: {error}", path=bag) from None
+    except (OSError, UnicodeDecodeError, ValueError, TypeError, struct.error) as error:
+        # what rosbags raises on a damaged file, or a ROS 2 folder without its metadata
+        hint = (
+            "; a ROS 2 bag folder needs its metadata.yaml (or pass its .db3 / .mcap file)"
+            if bag.is_dir()
+            else ""
+        )
+        detail = " ".join(str(error).split()) or type(error).__name__
+        raise FormatError(f"cannot read the bag ({detail}){hint}", path=bag) from None
     return _assemble(bag, topics, readings, pose_rows, strict, time_tolerance, max_pose_gap)
 
 

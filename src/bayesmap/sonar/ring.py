@@ -41,6 +41,13 @@ _ANGLE = {"deg": math.pi / 180.0, "rad": 1.0}
 _SHARED = ("beam_width", "min_range", "max_range", "sigma")
 _DEFAULTS = {"beam_width": math.radians(25.0), "min_range": 0.1, "max_range": 5.0, "sigma": 0.02}
 
+MAX_SONAR_REACH = 50.0
+"""Longest max range and farthest transducer offset [m] a ring file may give: air sonars
+read to about 10 m and sit on a robot's body, so a larger number is a length in cm or mm
+given without its ``length_unit``."""
+
+_TOP_KEYS = {"name", "length_unit", "angle_unit", "transducers", *_SHARED}
+
 PRESETS: dict[str, Layout] = {"pioneer8": PIONEER_FRONT8, "pioneer16": PIONEER_RING16}
 """Rings known by name: the Pioneer 3-DX front array and full ring."""
 
@@ -71,6 +78,12 @@ def ring_from_mapping(data: Any, source: str = "ring") -> SonarGeometry:
     if not isinstance(data, dict):
         raise FormatError(
             f"{source}: a ring file is a mapping with 'transducers', got {type(data).__name__}"
+        )
+    unknown_top = set(map(str, data)) - _TOP_KEYS
+    if unknown_top:
+        raise FormatError(
+            f"{source}: unknown key(s) {', '.join(sorted(unknown_top))}; a ring file has "
+            f"{', '.join(sorted(_TOP_KEYS))}"
         )
     length_unit = data.get("length_unit", "m")
     angle_unit = data.get("angle_unit", "deg")
@@ -110,6 +123,13 @@ def ring_from_mapping(data: Any, source: str = "ring") -> SonarGeometry:
                         f"{where}: {key} differs from the ring's ({item[key]} vs the shared "
                         "value); the sonar models take one value per ring"
                     )
+    _check_shared(shared, source, length_unit, angle_unit)
+    far = max(math.hypot(x, y) for x, y in offsets)
+    if far > MAX_SONAR_REACH:
+        raise FormatError(
+            f"{source}: a transducer sits {far / metres:g} {length_unit} from the centre; is "
+            "length_unit right?"
+        )
     return SonarGeometry(
         angles=tuple(angles),
         offsets=tuple(offsets),
@@ -118,6 +138,30 @@ def ring_from_mapping(data: Any, source: str = "ring") -> SonarGeometry:
         max_range=shared["max_range"],
         sigma=shared["sigma"],
     )
+
+
+def _check_shared(shared: dict[str, float], source: str, length_unit: str, angle_unit: str) -> None:
+    """The ring's beam width, ranges and noise, checked and reported in the file's units."""
+    metres, radians = _LENGTH[length_unit], _ANGLE[angle_unit]
+
+    def length(key: str) -> str:
+        return f"{key} {shared[key] / metres:g} {length_unit}"
+
+    if not 0 < shared["beam_width"] < math.pi:
+        width = f"{shared['beam_width'] / radians:g} {angle_unit}"
+        raise FormatError(f"{source}: beam_width {width} must lie between 0 and a half turn")
+    if not 0 <= shared["min_range"] < shared["max_range"]:
+        raise FormatError(
+            f"{source}: need 0 <= min_range < max_range, got {length('min_range')} and "
+            f"{length('max_range')}"
+        )
+    if shared["max_range"] > MAX_SONAR_REACH:
+        raise FormatError(
+            f"{source}: {length('max_range')} is {shared['max_range']:g} m, beyond any "
+            "sonar's reach; is length_unit right?"
+        )
+    if not shared["sigma"] > 0:
+        raise FormatError(f"{source}: sigma must be above 0, got {length('sigma')}")
 
 
 def load_ring(spec: str | Path) -> SonarGeometry:
