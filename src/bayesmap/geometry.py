@@ -8,6 +8,8 @@ One convention for each concept, used everywhere in bayesmap:
 - **Poses** are ``(x [m], y [m], heading [rad])`` in the world frame (``bayesmap._typing.Poses``);
   a point in the robot's own frame has ``x`` ahead and ``y`` to the left.
   :func:`to_world` and :func:`to_robot` move points between the two frames.
+- **Tracks** of logged positions are checked by :func:`isolated_jumps`: a row that leaps
+  away and straight back is a glitch in the log, not a move.
 - **Rays** start at an origin and run along a unit direction; a hit is reported as the
   distance along the ray [m] (``inf``: no hit) and the index of what was hit (``-1``: none).
   :func:`cast_on_segments` casts on wall segments ``(x0, y0, x1, y1)``,
@@ -28,7 +30,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._typing import FloatArray, IntArray
+from bayesmap._typing import BoolArray, FloatArray, IntArray
 
 __all__ = ["cast_on_boxes", "cast_on_segments", "to_robot", "to_world", "wrap_angle"]
 
@@ -73,6 +75,36 @@ def to_robot(pose: npt.ArrayLike, points: npt.ArrayLike) -> FloatArray:
     c, s = np.cos(p[..., 2]), np.sin(p[..., 2])
     dx, dy = q[..., 0] - p[..., 0], q[..., 1] - p[..., 1]
     return np.stack([c * dx + s * dy, -s * dx + c * dy], axis=-1)
+
+
+MAX_POSE_JUMP = 5.0
+"""Largest step [m] between consecutive logged positions that :func:`isolated_jumps` takes
+for a move: robots these logs come from drive at most a few metres per second, and logs
+hold several poses a second."""
+
+
+def isolated_jumps(xy: npt.ArrayLike, jump: float = MAX_POSE_JUMP) -> BoolArray:
+    """Rows of a track of positions ``(n, 2)`` [m] that leap more than ``jump`` from both
+    neighbours while the neighbours lie within ``jump`` of each other.
+
+    A robot cannot leave its path and come straight back between two log rows, so such a
+    row is a corrupt pose (a dropped decimal point, a wrong field). A real jump, as after a
+    gap in the log, does not come back, and is kept; so are the first and last rows, whose
+    jump, with one neighbour, cannot be told from a real one.
+
+    >>> isolated_jumps([[0, 0], [0.1, 0], [3000, 1], [0.3, 0], [0.4, 0]]).tolist()
+    [False, False, True, False, False]
+    >>> isolated_jumps([[0, 0], [0.1, 0], [30, 0], [30.1, 0]]).tolist()
+    [False, False, False, False]
+    """
+    p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    out = np.zeros(len(p), dtype=bool)
+    if len(p) < 3:
+        return out
+    step = np.hypot(*np.diff(p, axis=0).T)
+    across = np.hypot(*(p[2:] - p[:-2]).T)
+    out[1:-1] = (step[:-1] > jump) & (step[1:] > jump) & (across <= jump)
+    return out
 
 
 def cast_on_segments(

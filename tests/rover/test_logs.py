@@ -120,6 +120,23 @@ def test_numbers_are_plain_decimals(tmp_path: Path, field: str) -> None:
         read_calibration(tmp_path / "c.json")
 
 
+def test_a_pose_that_leaps_away_and_back_costs_its_row(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    rows = [f"{0.1 * k:.1f},1,0,40" for k in range(6)]
+    rows[3] = "3000,1,0,40"  # a dropped decimal point
+    (tmp_path / "a.csv").write_text("x,y,heading,ir_0\n" + "\n".join(rows) + "\n")
+    log = read_rover_log(tmp_path / "a.csv", 1)
+    assert [row.line for row in log.skipped] == [5] and "leaps" in log.skipped[0].reason
+    assert log.poses[:, 0].tolist() == pytest.approx([0.0, 0.1, 0.2, 0.4, 0.5])
+    with pytest.raises(FormatError, match="line 5: the position leaps"):
+        read_rover_log(tmp_path / "a.csv", 1, strict=True)
+    millimetres = [f"{100 * k},1000,0,40" for k in range(6)]
+    (tmp_path / "mm.csv").write_text("x,y,heading,ir_0\n" + "\n".join(millimetres) + "\n")
+    read_rover_log(tmp_path / "mm.csv", 1)
+    assert "are the positions in cm or mm?" in caplog.text
+
+
 def test_a_folder_is_not_a_log(tmp_path: Path) -> None:
     with pytest.raises(FormatError, match="not a regular file"):
         read_rover_log(tmp_path, 1)

@@ -8,10 +8,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from bayesmap.errors import FormatError, InputError
+from bayesmap.geometry import isolated_jumps
 from bayesmap.sonar.logs import LogUnits, SonarLog, read_sonar_log, write_sonar_log
 
 DATA = Path(__file__).parent / "data"
@@ -37,6 +38,19 @@ def test_reading_reports_the_bytes_read_of_the_file() -> None:
     read_sonar_log(DATA / "example_log.txt", 16, units=MM, progress=lambda *c: calls.append(c))
     size = (DATA / "example_log.txt").stat().st_size
     assert calls[-1] == ("reading example_log.txt", size, size)
+
+
+def test_a_leaping_pose_and_a_repeated_timestamp_cost_their_rows(tmp_path: Path) -> None:
+    rows = [f"{t} {0.1 * t:.1f} 0 0 1.0 2.0" for t in range(6)]
+    rows[2] = "2 3000 0 0 1.0 2.0"
+    rows.insert(4, rows[3])  # line 5 repeats line 4
+    (tmp_path / "log.txt").write_text("\n".join(rows) + "\n")
+    log = read_sonar_log(tmp_path / "log.txt", 2)
+    reasons = {row.line: row.reason for row in log.skipped}
+    assert sorted(reasons) == [3, 5] or sorted(reasons) == [3, 4]
+    assert "leaps over 5 m away and back" in reasons[3]
+    assert any("repeats line" in reason for reason in reasons.values())
+    assert np.all(np.abs(log.poses[:, 0]) < 1.0)
 
 
 def test_strict_mode_aborts_at_the_first_bad_row() -> None:
@@ -121,6 +135,7 @@ def test_write_then_read_round_trips(
     poses = np.array(
         data.draw(st.lists(st.tuples(finite, finite, finite), min_size=rows, max_size=rows))
     )
+    assume(not isolated_jumps(poses[:, :2] / 1000.0).any())  # a leap out and back is skipped
     ranges = np.array(
         data.draw(
             st.lists(

@@ -30,6 +30,7 @@ from bayesmap._io import read_input
 from bayesmap._numbers import is_decimal
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError, InputError
+from bayesmap.geometry import MAX_POSE_JUMP, isolated_jumps
 from bayesmap.limits import DEFAULT_LIMITS
 from bayesmap.sensing.ir import Calibration, calibration_problem, fit_calibration
 from bayesmap.sonar.logs import ANGLE_UNITS, LENGTH_UNITS, SkippedRow
@@ -96,7 +97,15 @@ def read_rover_log(
     wanted = ["x", "y", "heading", *(f"ir_{k}" for k in range(n_rangers))]
     index = _columns(file, header, header_line, wanted)
     values: list[list[float]] = []
+    lines: list[int] = []
     skipped: list[SkippedRow] = []
+
+    def skip(number: int, reason: str) -> None:
+        if strict:
+            raise FormatError(reason, path=file, line=number)
+        logger.warning("%s:%d: skipped (%s)", file, number, reason)
+        skipped.append(SkippedRow(str(file), number, reason))
+
     for number, fields in rows:
         reason = None
         if len(fields) != len(header):
@@ -110,18 +119,28 @@ def read_rover_log(
             elif not all(0.0 <= v <= 255.0 for v in row[3:]):
                 reason = "an IR reading outside 0..255"
         if reason is not None:
-            if strict:
-                raise FormatError(reason, path=file, line=number)
-            logger.warning("%s:%d: skipped (%s)", file, number, reason)
-            skipped.append(SkippedRow(str(file), number, reason))
+            skip(number, reason)
             continue
         values.append(row)
+        lines.append(number)
     if not values:
         raise FormatError("no usable rows", path=file)
     table = np.asarray(values, dtype=np.float64)
-    poses = np.column_stack(
-        [table[:, :2] * LENGTH_UNITS[position_unit], table[:, 2] * ANGLE_UNITS[heading_unit]]
-    )
+    xy = table[:, :2] * LENGTH_UNITS[position_unit]
+    glitches = isolated_jumps(xy)
+    for k in np.flatnonzero(glitches).tolist():
+        skip(lines[k], f"the position leaps over {MAX_POSE_JUMP:g} m away and back")
+    table, xy = table[~glitches], xy[~glitches]
+    steps = np.hypot(*np.diff(xy, axis=0).T)
+    if steps.size and float(np.median(steps)) > MAX_POSE_JUMP:
+        logger.warning(
+            "%s: the poses lie %.3g m apart (median): are the positions in cm or mm? "
+            "give --position-unit",
+            file,
+            float(np.median(steps)),
+        )
+    poses = np.column_stack([xy, table[:, 2] * ANGLE_UNITS[heading_unit]])
+    skipped.sort(key=lambda row: row.line)
     return RoverLog(poses, table[:, 3:], tuple(skipped))
 
 

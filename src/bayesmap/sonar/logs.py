@@ -40,7 +40,7 @@ from bayesmap._io import open_input, write_text
 from bayesmap._numbers import is_decimal
 from bayesmap._typing import FloatArray, Poses, ProgressHook, Ranges
 from bayesmap.errors import FormatError, InputError
-from bayesmap.geometry import wrap_angle
+from bayesmap.geometry import MAX_POSE_JUMP, isolated_jumps, wrap_angle
 
 __all__ = [
     "ANGLE_UNITS",
@@ -206,15 +206,17 @@ def _parse(
     keep = _in_order(values[:, 0])
     if keep.all():
         return _Table(lines, values, rows)
+    kept = np.flatnonzero(keep)
     for index in np.flatnonzero(~keep):
-        kept_before = np.flatnonzero(keep[:index])
-        after = f" (line {int(lines[kept_before[-1]])})" if len(kept_before) else ""
-        _report(
-            path,
-            int(lines[index]),
-            f"timestamp {float(values[index, 0])!r} out of order with its neighbours{after}",
-            skipped,
-        )
+        time = float(values[index, 0])
+        kept_before, kept_after = kept[kept < index], kept[kept > index]
+        twins = [k for k in (*kept_before[-1:], *kept_after[:1]) if values[k, 0] == time]
+        if twins:
+            reason = f"timestamp {time!r} repeats line {int(lines[twins[0]])}'s"
+        else:
+            after = f" (line {int(lines[kept_before[-1]])})" if len(kept_before) else ""
+            reason = f"timestamp {time!r} out of order with its neighbours{after}"
+        _report(path, int(lines[index]), reason, skipped)
     return _Table(lines[keep], values[keep], rows)
 
 
@@ -307,6 +309,10 @@ def read_sonar_log(
         table = _parse(main, 4 + n_ranges, n_ranges, skipped, progress)
         _abort_if_strict(strict, skipped)
         data = table.values
+        glitches = isolated_jumps(data[:, 1:3] * length)
+        _report_glitches(main, table.lines[glitches], skipped)
+        _abort_if_strict(strict, skipped)
+        data = data[~glitches]
         # A copy: a view would keep the whole parsed table alive beside the log.
         times, range_raw = data[:, 0].copy(), data[:, 4:]
         poses = np.column_stack([data[:, 1:3] * length, data[:, 3] * angle])
@@ -315,7 +321,10 @@ def read_sonar_log(
         pose_table = _parse(pose_file, 4, 0, skipped)
         table = _parse(main, 1 + n_ranges, n_ranges, skipped, progress)
         _abort_if_strict(strict, skipped)
-        pose_data = pose_table.values
+        glitches = isolated_jumps(pose_table.values[:, 1:3] * length)
+        _report_glitches(pose_file, pose_table.lines[glitches], skipped)
+        _abort_if_strict(strict, skipped)
+        pose_data = pose_table.values[~glitches]
         data = table.values
         times, range_raw = data[:, 0], data[:, 1:]
         pose_si = np.column_stack([pose_data[:, 1:3] * length, pose_data[:, 3] * angle])
@@ -342,6 +351,14 @@ def read_sonar_log(
             100.0 * dropped / max(table.rows, 1),
         )
     return SonarLog(times, poses, ranges, table.rows, tuple(skipped))
+
+
+def _report_glitches(path: Path, lines: npt.NDArray[np.int64], skipped: list[SkippedRow]) -> None:
+    """Skip the rows whose position leaps away and straight back (:func:`isolated_jumps`)."""
+    for number in lines.tolist():
+        _report(
+            path, int(number), f"position leaps over {MAX_POSE_JUMP:g} m away and back", skipped
+        )
 
 
 def _abort_if_strict(strict: bool, skipped: list[SkippedRow]) -> None:
