@@ -139,6 +139,22 @@ probability ( b | a ) { (x) 0.2 0.3 0.5; (y) 0.1 0.1 0.8; }
         bif.loads(text)
 
 
+def test_an_empty_file_is_not_a_network() -> None:
+    with pytest.raises(FormatError, match="empty.bif: the file is empty"):
+        bif.loads(" \n", path="empty.bif")
+
+
+def test_a_cycle_is_named_without_the_variables_below_it() -> None:
+    lines = ["network n {}"]
+    lines += [f"variable {v} {{ type discrete [ 2 ] {{ x, y }}; }}" for v in "ABCD"]
+    lines += [
+        f"probability ( {child} | {parent} ) {{ default 0.5, 0.5; }}"
+        for child, parent in [("A", "B"), ("B", "A"), ("C", "A"), ("D", "C")]
+    ]
+    with pytest.raises(FormatError, match=r"cycle through \['A', 'B'\]$"):
+        bif.loads("\n".join(lines))
+
+
 def test_state_count_must_match_declaration() -> None:
     with pytest.raises(FormatError, match="declares 3 states but lists 2") as caught:
         bif.loads("variable a {\n  type discrete [ 3 ] { x, y };\n}\n")

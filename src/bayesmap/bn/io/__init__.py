@@ -94,7 +94,7 @@ def format_of(path: str | Path, format: str | None = None) -> Format:
     known = sorted(ext for fmt in FORMATS.values() for ext in fmt.extensions)
     raise FormatError(
         f"cannot tell the format from the file name; use one of the extensions {known} "
-        "(optionally followed by .gz) or pass format=",
+        "(optionally followed by .gz), or from Python pass format=",
         path=str(path),
     )
 

@@ -136,11 +136,28 @@ def _topological(by_name: Mapping[str, VariableSpec]) -> list[str]:
                 heapq.heappush(ready, rank[child])
     if len(order) != len(by_name):
         stuck = sorted((n for n in by_name if waiting[n] > 0), key=rank.__getitem__)
-        first = by_name[stuck[0]]
+        cycle = _cycle(stuck[0], by_name, waiting)
+        first = by_name[cycle[0]]
         raise (first.cpt_where or first.where).error(
-            f"the parents form a cycle through {stuck[:8]}" + (" ..." if len(stuck) > 8 else "")
+            f"the parents form a cycle through {cycle[:8]}" + (" ..." if len(cycle) > 8 else "")
         )
     return order
+
+
+def _cycle(start: str, by_name: Mapping[str, VariableSpec], waiting: dict[str, int]) -> list[str]:
+    """A cycle of parents among the variables left ``waiting``, found from ``start``.
+
+    Each such variable has a parent that is waiting too (else it would have been ordered),
+    so following such parents from ``start`` must come back to a variable met before; the
+    walk from there on is the cycle, in child-to-parent order."""
+    seen: dict[str, int] = {}
+    walk: list[str] = []
+    current = start
+    while current not in seen:
+        seen[current] = len(walk)
+        walk.append(current)
+        current = next(p for p in by_name[current].parents if waiting.get(p, 0) > 0)
+    return walk[seen[current] :]
 
 
 def _describe(where: Location) -> str:

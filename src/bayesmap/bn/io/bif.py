@@ -114,7 +114,12 @@ def loads(
     text: str | bytes, *, path: str | None = None, limits: ReadLimits | None = None
 ) -> BayesNet:
     """Parse BIF text; ``path`` only names the source in error messages."""
-    return _Parser(decode(text), path, TableBudget(limits)).parse()
+    decoded = decode(text)
+    if not decoded.strip():
+        raise FormatError(
+            "the file is empty; a BIF network starts with a 'network' block", path=path
+        )
+    return _Parser(decoded, path, TableBudget(limits)).parse()
 
 
 class _Parser:
