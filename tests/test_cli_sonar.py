@@ -111,7 +111,16 @@ def test_two_file_log(tmp_path: Path) -> None:
     assert [row["line"] for row in summary["skipped"]] == [8, 9]
 
 
-def test_bad_angles_are_an_input_error(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("angles", "words"),
+    [
+        ("0,abc", "must be comma-separated numbers"),
+        ("0,,22.5", "must be comma-separated numbers"),
+        ("nan,1,15", "angles must be finite"),
+        ("45", "at least two angles"),
+    ],
+)
+def test_bad_angles_are_an_input_error(tmp_path: Path, angles: str, words: str) -> None:
     result = runner.invoke(
         app,
         [
@@ -119,7 +128,7 @@ def test_bad_angles_are_an_input_error(tmp_path: Path) -> None:
             "map",
             str(DATA / "example_log.txt"),
             "--angles-deg",
-            "0,abc",
+            angles,
             "--max-range",
             "5",
             "--resolution",
@@ -128,7 +137,17 @@ def test_bad_angles_are_an_input_error(tmp_path: Path) -> None:
             str(tmp_path),
         ],
     )
-    assert result.exit_code != 0
+    assert result.exit_code != 0 and words in _text(result)
+
+
+def test_poses_with_a_bag_are_refused(tmp_path: Path) -> None:
+    result = _map(
+        tmp_path / "o", "--topics", ",".join(f"/s{k}" for k in range(16)), "--poses", "p.csv"
+    )
+    assert result.exit_code != 0 and "a bag's poses come from --pose-topic" in _text(result)
+    twice = ",".join(["/s0", *(f"/s{k}" for k in range(15))])
+    result = _map(tmp_path / "o", "--topics", twice)
+    assert result.exit_code != 0 and "--topics names /s0 twice" in _text(result)
 
 
 def _text(result: object) -> str:

@@ -115,3 +115,10 @@ def test_bad_config():
         blackboard.Config().seed = 3  # frozen
     with pytest.raises(ConfigError, match="snapshot_pose"):
         blackboard.run(blackboard.Config(poses=3, snapshot_pose=5, conditions=()), "unused")
+
+
+def test_unknown_mapper_overrides_stop_the_config_not_the_run() -> None:
+    with pytest.raises(ConfigError, match="mapper: bogus not a field of BlackboardParams"):
+        blackboard.Config(mapper={"bogus": 1})
+    with pytest.raises(ConfigError, match="fused_mapper: nope not a field of FusedParams"):
+        blackboard.Config(fused_mapper={"nope": 1.0})

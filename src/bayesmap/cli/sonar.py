@@ -76,11 +76,15 @@ def _user_errors() -> Iterator[None]:
 
 def _angles(text: str) -> tuple[float, ...]:
     try:
-        values = tuple(float(part) for part in text.replace(" ", "").split(",") if part)
+        values = tuple(float(part) for part in text.replace(" ", "").split(","))
     except ValueError:
-        raise InputError(f"--angles-deg must be comma-separated numbers, got {text!r}") from None
-    if len(values) < 2 or not all(math.isfinite(v) for v in values):
-        raise InputError(f"--angles-deg needs at least two finite angles, got {text!r}")
+        raise InputError(
+            f"--angles-deg must be comma-separated numbers, one per transducer, got {text!r}"
+        ) from None
+    if not all(math.isfinite(v) for v in values):
+        raise InputError(f"--angles-deg angles must be finite, got {text!r}")
+    if len(values) < 2:
+        raise InputError(f"--angles-deg needs at least two angles, got {text!r}")
     return tuple(math.radians(v) for v in values)
 
 
@@ -200,10 +204,13 @@ def map_command(
     ] = False,
     strict: Annotated[bool, typer.Option("--strict", help="Abort at the first bad row.")] = False,
     pose_tolerance: Annotated[
-        float, typer.Option("--pose-tolerance", help="Nearest-pose tolerance (s).")
+        float, typer.Option("--pose-tolerance", min=0.0, help="Nearest-pose tolerance (s).")
     ] = 0.05,
     max_pose_gap: Annotated[
-        float, typer.Option("--max-pose-gap", help="Interpolate poses across gaps up to this (s).")
+        float,
+        typer.Option(
+            "--max-pose-gap", min=0.0, help="Interpolate poses across gaps up to this (s)."
+        ),
     ] = 1.0,
     max_cells: Annotated[
         int, typer.Option("--max-cells", help="Refuse maps with more cells than this.")
@@ -241,6 +248,8 @@ def map_command(
             chosen = replace(
                 chosen, acceptability=False, agreeability=False, trait_verification=False
             )
+        if topics is not None and poses is not None:
+            raise InputError("--poses is for text logs; a bag's poses come from --pose-topic")
         with progress_bar(_err, first=f"reading {log.name}", percent=True) as hook:
             if topics is not None:
                 data = _read_bag(
@@ -336,6 +345,9 @@ def _read_bag(
     names = [t.strip() for t in topics.split(",") if t.strip()]
     if len(names) != geometry.n:
         raise InputError(f"--topics names {len(names)} topics for a ring of {geometry.n}")
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise InputError(f"--topics names {repeated[0]} twice; each transducer has its own topic")
     frames = tuple(f.strip() for f in tf_frames.split(","))
     if len(frames) != 2 or not all(frames):
         raise InputError(f"--tf-frames needs 'parent,child', got {tf_frames!r}")

@@ -33,11 +33,17 @@ class ExperimentConfig(BaseModel):
         try:
             super().__init__(**data)
         except ValidationError as error:
-            problems = "; ".join(
-                f"{'.'.join(str(part) for part in e['loc']) or 'config'}: {e['msg']}"
-                for e in error.errors()
-            )
-            raise ConfigError(f"{type(self).__name__}: {problems}") from None
+            raise ConfigError(f"{type(self).__name__}: {validation_problems(error)}") from None
+
+
+def validation_problems(error: ValidationError) -> str:
+    """pydantic's errors on one line: ``field: why; field.sub: why`` (``config`` for the
+    whole model), without pydantic's ``Value error,`` prefixes."""
+    return "; ".join(
+        f"{'.'.join(str(part) for part in e['loc']) or 'config'}: "
+        + e["msg"].removeprefix("Value error, ")
+        for e in error.errors()
+    )
 
 
 def no_progress(description: str, completed: int, total: int) -> None:

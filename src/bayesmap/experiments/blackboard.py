@@ -32,7 +32,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +42,7 @@ from pydantic import ConfigDict, Field, field_validator
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap._typing import ProgressHook
 from bayesmap.blackboard import BlackboardParams, Snapshot, TableMapper
+from bayesmap.blackboard.fused import FusedParams
 from bayesmap.blackboard.sweep_model import ObjectType
 from bayesmap.errors import ConfigError
 from bayesmap.experiments._common import (
@@ -138,6 +139,16 @@ class Config(ExperimentConfig):
     world: Path | None = None
     fused: bool = True
     fused_mapper: dict[str, int | float] = Field(default_factory=dict)
+
+    @field_validator("mapper", "fused_mapper")
+    @classmethod
+    def _known_fields(cls, value: dict[str, int | float], info: Any) -> dict[str, int | float]:
+        """Unknown overrides stop a run (or a sweep) before it starts, not at its first pose."""
+        params = BlackboardParams if info.field_name == "mapper" else FusedParams
+        unknown = sorted(set(value) - {f.name for f in fields(params)})
+        if unknown:
+            raise ValueError(f"{', '.join(unknown)} not a field of {params.__name__}")
+        return value
 
     @field_validator("conditions")
     @classmethod

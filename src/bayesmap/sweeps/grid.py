@@ -28,6 +28,7 @@ import pydantic
 import yaml
 
 from bayesmap.errors import ConfigError
+from bayesmap.experiments._common import validation_problems
 from bayesmap.sweeps import protocol
 
 __all__ = [
@@ -179,12 +180,11 @@ def build_config(module: ModuleType, data: dict[str, Any], *, where: str) -> pyd
         known = ", ".join(config_type.model_fields)
         raise ConfigError(f"{where}: unknown setting(s) {', '.join(unknown)}; known: {known}")
     try:
-        return config_type.model_validate(data)
-    except pydantic.ValidationError as error:
-        problems = "; ".join(
-            f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in error.errors()
-        )
-        raise ConfigError(f"{where}: {problems}") from None
+        return config_type(**data)  # an ExperimentConfig raises one ConfigError line itself
+    except ConfigError as error:
+        raise ConfigError(f"{where}: {error}") from None
+    except pydantic.ValidationError as error:  # a plain pydantic model of a user's experiment
+        raise ConfigError(f"{where}: {validation_problems(error)}") from None
 
 
 def task_key(experiment: str, config: dict[str, Any], world: str | None = None) -> str:
