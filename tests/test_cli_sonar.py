@@ -109,6 +109,14 @@ def test_two_file_log(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert [row["line"] for row in summary["skipped"]] == [8, 9]
+    poses = tmp_path / "poses.csv"
+    lines = (DATA / "example_poses.csv").read_text().splitlines()
+    poses.write_text("\n".join([lines[0], "1e9 nan nan nan", *lines[1:]]) + "\n")
+    result = runner.invoke(app, [*args[:4], str(poses), *args[5:-1], str(tmp_path / "p")])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((tmp_path / "p" / "summary.json").read_text())
+    assert summary["rows_skipped"] == 0 and summary["pose_rows_skipped"] == 1
+    assert "(0 skipped; 1 pose rows skipped)" in result.output
 
 
 @pytest.mark.parametrize(

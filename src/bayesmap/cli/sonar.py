@@ -408,7 +408,8 @@ def _write_outputs(
         "pipeline": pipeline,
         "filter": built.filt is not None,
         "rows": data.rows,
-        "rows_skipped": len(data.skipped),
+        "rows_skipped": dropped,
+        "pose_rows_skipped": len(data.skipped) - dropped,
         "dropped_fraction": dropped / max(data.rows, 1),
         "readings": int(data.ranges.size),
         "repeated_rings": int(built.run.repeat.sum()),
@@ -425,8 +426,10 @@ def _write_outputs(
         },
     }
     write_json(out / "summary.json", summary)
+    pose_skips = len(data.skipped) - dropped
+    skips = f"{dropped} skipped" + (f"; {pose_skips} pose rows skipped" if pose_skips else "")
     typer.echo(
-        f"{data.rows} rows ({len(data.skipped)} skipped), {data.ranges.size} readings, "
+        f"{data.rows} rows ({skips}), {data.ranges.size} readings, "
         f"{int(built.run.repeat.sum())} repeated rings merged, "
         f"rejected {sum(rejected.values())} "
         f"({', '.join(f'{k} {v}' for k, v in rejected.items())}); "
