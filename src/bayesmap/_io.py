@@ -404,15 +404,22 @@ def run_folder(
 
 
 def _check_replaceable(final: Path) -> None:
-    if not final.exists() and not final.is_symlink():
+    check_own_folder(final, MANIFEST, "output folder", "run")
+
+
+def check_own_folder(folder: Path, marker: str, noun: str, what: str) -> None:
+    """ConfigError unless ``folder`` is missing, empty, or bayesmap's own (it holds the
+    ``marker`` file): a command writes only where it wrote before, never among a user's
+    files. ``noun`` and ``what`` name the folder and its kind in the message."""
+    if not folder.exists() and not folder.is_symlink():
         return
-    if final.is_symlink() or not final.is_dir():
-        raise ConfigError(f"the output folder {str(final)!r} is a file; choose another path")
-    if (final / MANIFEST).is_file() or not any(final.iterdir()):
+    if folder.is_symlink() or not folder.is_dir():
+        raise ConfigError(f"the {noun} {str(folder)!r} is a file; choose another path")
+    if (folder / marker).is_file() or not any(folder.iterdir()):
         return
     raise ConfigError(
-        f"the output folder {str(final)!r} exists and holds something other than a bayesmap "
-        f"run (it has no {MANIFEST}); choose another path or empty it"
+        f"the {noun} {str(folder)!r} exists and holds something other than a bayesmap "
+        f"{what} (it has no {marker}); choose another path or empty it"
     )
 
 
@@ -520,6 +527,7 @@ __all__ = [
     "MANIFEST",
     "RunFolder",
     "atomic_open",
+    "check_own_folder",
     "make_folder",
     "open_input",
     "read_input",

@@ -36,7 +36,7 @@ from typing import Any
 from threadpoolctl import threadpool_limits
 
 from bayesmap import __version__
-from bayesmap._io import write_json, write_text
+from bayesmap._io import check_own_folder, write_json, write_text
 from bayesmap._typing import ProgressHook
 from bayesmap.errors import ConfigError
 from bayesmap.experiments import load
@@ -238,21 +238,6 @@ def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
             yield client
 
 
-def _check_sweep_folder(out_dir: Path) -> None:
-    """ConfigError unless ``out_dir`` is missing, empty or a sweep's folder: a sweep resumes
-    in its own folder and never writes among a user's files."""
-    if not out_dir.exists() and not out_dir.is_symlink():
-        return
-    if not out_dir.is_dir():
-        raise ConfigError(f"the sweep folder {str(out_dir)!r} is a file; choose another path")
-    if (out_dir / SWEEP_RECORD).is_file() or not any(out_dir.iterdir()):
-        return
-    raise ConfigError(
-        f"the sweep folder {str(out_dir)!r} exists and holds something other than a bayesmap "
-        f"sweep (it has no {SWEEP_RECORD}); choose another path or empty it"
-    )
-
-
 def run_sweep(
     plan: SweepPlan,
     out_dir: Path,
@@ -290,7 +275,7 @@ def run_sweep(
         raise ConfigError(f"--workers must be at least 1, got {workers}")
     hook = progress or no_progress
     out_dir = Path(out_dir)
-    _check_sweep_folder(out_dir)
+    check_own_folder(out_dir, SWEEP_RECORD, "sweep folder", "sweep")
     write_json(out_dir / SWEEP_RECORD, {"bayesmap": __version__, **plan.to_json()})
     for world in plan.worlds:
         if not world.path.is_file() or world.path.read_text(encoding="utf-8") != world.text:
