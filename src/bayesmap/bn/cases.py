@@ -231,34 +231,37 @@ def read_cases(path: str | Path, *, chunk_rows: int = CHUNK_ROWS) -> Iterator[pd
         return
     header = _csv_header(path)
     spare = "\x00beyond the header"
+    line = 2
     try:
-        with warnings.catch_warnings():
-            # a row with two or more values past the header: pandas would drop them
-            warnings.simplefilter("error", pd.errors.ParserWarning)
-            reader = pd.read_csv(
-                path,
-                dtype=str,
-                chunksize=chunk_rows,
-                skipinitialspace=True,
-                header=None,
-                skiprows=1,
-                names=[*header, spare],
-                index_col=False,
-                keep_default_na=False,
-                skip_blank_lines=False,
-                encoding="utf-8-sig",
-            )
-            line = 2
-            for frame in reader:
-                frame.index = pd.RangeIndex(line, line + len(frame), name="line")
-                line += len(frame)
-                beyond = frame[spare].fillna("").str.strip() != ""
-                if beyond.any():
-                    raise FormatError(
-                        f"{path}: {case_label(frame, int(np.flatnonzero(beyond)[0]))} has "
-                        f"more values than the header's {len(header)} columns"
-                    )
-                yield frame.drop(columns=spare)
+        reader = pd.read_csv(
+            path,
+            dtype=str,
+            chunksize=chunk_rows,
+            skipinitialspace=True,
+            header=None,
+            skiprows=1,
+            names=[*header, spare],
+            index_col=False,
+            keep_default_na=False,
+            skip_blank_lines=False,
+            encoding="utf-8-sig",
+        )
+        while True:
+            with warnings.catch_warnings():
+                # a row with two or more values past the header: pandas would drop them
+                warnings.simplefilter("error", pd.errors.ParserWarning)
+                frame = next(reader, None)
+            if frame is None:
+                return
+            frame.index = pd.RangeIndex(line, line + len(frame), name="line")
+            line += len(frame)
+            beyond = frame[spare].fillna("").str.strip() != ""
+            if beyond.any():
+                raise FormatError(
+                    f"{path}: {case_label(frame, int(np.flatnonzero(beyond)[0]))} has "
+                    f"more values than the header's {len(header)} columns"
+                )
+            yield frame.drop(columns=spare)
     except pd.errors.ParserWarning:
         raise FormatError(
             f"{path}: a row has more values than the header's {len(header)} columns"
