@@ -368,7 +368,7 @@ def run_folder(
         ``target`` is a file, lies under a file, or is a folder that is not a run.
     """
     final = Path(target)
-    _check_replaceable(final)
+    check_own_folder(final, MANIFEST, "output folder", "run")
     make_folder(final.parent)
     prefix = f".{final.name}."
     sweep_abandoned(final.parent, prefix)
@@ -394,17 +394,13 @@ def run_folder(
             "files": _inventory(work),
         }
         write_json(work / MANIFEST, manifest)
-        _check_replaceable(final)
+        check_own_folder(final, MANIFEST, "output folder", "run")
         _move_into_place(work, final, prefix)
     except BaseException:
         shutil.rmtree(work, ignore_errors=True)
         raise
     finally:
         os.close(holder)
-
-
-def _check_replaceable(final: Path) -> None:
-    check_own_folder(final, MANIFEST, "output folder", "run")
 
 
 def check_own_folder(folder: Path, marker: str, noun: str, what: str) -> None:
