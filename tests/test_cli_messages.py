@@ -131,3 +131,25 @@ def test_sigterm_during_reproduce_leaves_no_partial_results(tmp_path: Path) -> N
         pytest.fail(f"no exit 60 s after SIGTERM; its stderr:\n{err_path.read_text()[-6000:]}")
     assert child.returncode != 0, err_path.read_text()[-6000:]
     assert list(out.iterdir()) == [], err_path.read_text()[-6000:]
+
+
+def test_library_warnings_print_as_one_literal_line(tmp_path: Path) -> None:
+    """A skipped row and a renormalised table each print as ``warning: …``, without the
+    logger's name or Python's file, line and source echo."""
+    rows = ["1,2,0,40,40,40", "1,2,0,nan,40,40", "3,2,0,41,41,41"]
+    log = tmp_path / "drive[m].csv"
+    log.write_text("x,y,heading,ir_0,ir_1,ir_2\n" + "\n".join(rows) + "\n")
+    mapped = runner.invoke(app, ["rover", "map", str(log), "--out", str(tmp_path / "m")])
+    assert mapped.exit_code == 0, mapped.output
+    skipped = [line for line in mapped.output.splitlines() if "line 3" in line]
+    assert len(skipped) == 1 and skipped[0].startswith("warning: "), mapped.output
+    assert "drive[m].csv, line 3: " in skipped[0] and "bayesmap.rover" not in mapped.output
+    (tmp_path / "n.bif").write_text(
+        "network n {}\nvariable A { type discrete [ 2 ] { a, b }; }\n"
+        "probability ( A ) { table 0.4, 0.5999; }\n"
+    )
+    info = runner.invoke(app, ["bn", "info", str(tmp_path / "n.bif")])
+    assert info.exit_code == 0, info.output
+    lines = info.output.splitlines()
+    assert lines[0].startswith("warning: ") and "renormalised" in lines[0], info.output
+    assert "Warning" not in info.output and "table 0.4" not in info.output

@@ -20,7 +20,7 @@ from typer.exceptions import TyperException
 
 from bayesmap import __version__
 from bayesmap._io import terminate_as_exit
-from bayesmap.cli._console import print_error
+from bayesmap.cli._console import library_messages, print_error
 from bayesmap.cli._values import plain_values
 from bayesmap.errors import BayesmapError
 
@@ -140,6 +140,7 @@ def _version(value: bool) -> None:
 
 @app.callback()
 def _root(
+    context: typer.Context,
     version: Annotated[
         bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")
     ] = False,
@@ -150,6 +151,7 @@ def _root(
         level=logging.INFO if verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
+    context.with_resource(library_messages())
 
 
 def main() -> None:

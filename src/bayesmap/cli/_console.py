@@ -13,11 +13,13 @@ Rich itself loads on the first message, so a command that prints nothing through
 
 from __future__ import annotations
 
+import logging
 import math
+import warnings
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from functools import cache
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TextIO
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -55,6 +57,51 @@ def print_note(message: object, *, out: Console | None = None) -> None:
     from rich.text import Text
 
     (out or _stderr()).print(Text(str(message)), soft_wrap=True)
+
+
+class _LiteralHandler(logging.Handler):
+    """Print the library's log records as ``level: message`` lines on stderr, literally."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        print_note(f"{record.levelname.lower()}: {record.getMessage()}")
+
+
+@contextmanager
+def library_messages() -> Iterator[None]:
+    """While a command runs, print what the library logs and warns as one literal line each.
+
+    The ``bayesmap`` logger's records (skipped rows, a suspicious unit) print as
+    ``warning: message`` (``info: message`` with ``--verbose``), and warnings the library
+    raises (a table renormalised) as ``warning: message``, without Python's file, line and
+    source line. Other libraries' logs and warnings keep their usual form.
+    """
+    handler = _LiteralHandler()
+    library = logging.getLogger("bayesmap")
+    library.addHandler(handler)
+    propagate = library.propagate
+    library.propagate = False
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+
+        def show(
+            message: Warning | str,
+            category: type[Warning],
+            filename: str,
+            lineno: int,
+            file: TextIO | None = None,
+            line: str | None = None,
+        ) -> None:
+            if category.__module__.startswith("bayesmap."):
+                print_note(f"warning: {message}")
+            else:
+                shown(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        try:
+            yield
+        finally:
+            library.removeHandler(handler)
+            library.propagate = propagate
 
 
 @contextmanager

@@ -6,7 +6,6 @@ are printed literally (no markup), so ``[m]`` in a message stays ``[m]``.
 
 from __future__ import annotations
 
-import logging
 import math
 import shlex
 import sys
@@ -50,28 +49,13 @@ def _say(message: str) -> None:
     print_note(message, out=_err)
 
 
-class _LiteralHandler(logging.Handler):
-    """Log warnings of the library (skipped rows) as plain lines on stderr."""
-
-    def emit(self, record: logging.LogRecord) -> None:
-        _say(f"warning: {record.getMessage()}")
-
-
 @contextmanager
 def _user_errors() -> Iterator[None]:
-    handler = _LiteralHandler(level=logging.WARNING)
-    library = logging.getLogger("bayesmap")
-    library.addHandler(handler)
-    propagate = library.propagate
-    library.propagate = False
     try:
         yield
     except BayesmapError as error:
         _say(f"error: {error}")
         raise typer.Exit(1) from None
-    finally:
-        library.removeHandler(handler)
-        library.propagate = propagate
 
 
 def _angles(text: str) -> tuple[float, ...]:

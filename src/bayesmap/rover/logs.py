@@ -103,7 +103,7 @@ def read_rover_log(
     def skip(number: int, reason: str) -> None:
         if strict:
             raise FormatError(reason, path=file, line=number)
-        logger.warning("%s:%d: skipped (%s)", file, number, reason)
+        logger.warning("%s, line %d: %s; row skipped", file, number, reason)
         skipped.append(SkippedRow(str(file), number, reason))
 
     for number, fields in rows:
