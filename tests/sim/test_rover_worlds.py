@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import shapely
 
-from bayesmap.errors import FormatError
+from bayesmap.errors import ConfigError, FormatError
 from bayesmap.sim.rover_worlds import generate_world, load_world, save_world
 from bayesmap.sim.world2d import world_distance, world_ray_cast, world_truth
 
@@ -42,6 +42,8 @@ def test_the_issue_example_loads(tmp_path: Path) -> None:
         ({"start": [30.0, 1.0, 0.0]}, "outside"),
         ({"colour": "red"}, "colour"),
         ({"resolution": 50}, r"resolution.*50 m.*cm or mm"),  # a cell side in cm
+        ({"resolution": 0.05}, r"resolution.*0.05 m, finer than the 0.1 m"),
+        ({"size": [2000.0, 20.0]}, r"size\[0\].*maximum of 200"),  # a side in dm
     ],
 )
 def test_bad_worlds_name_the_field(tmp_path: Path, change: dict, words: str) -> None:  # type: ignore[type-arg]
@@ -49,6 +51,23 @@ def test_bad_worlds_name_the_field(tmp_path: Path, change: dict, words: str) -> 
     path.write_text(json.dumps({**ISSUE_EXAMPLE, **change}))
     with pytest.raises(FormatError, match=words):
         load_world(path)
+
+
+def test_an_obstacle_outside_the_area_is_kept_with_a_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    far = [[1400.0, 1600.0], [1500.0, 1600.0], [1500.0, 1700.0]]  # the example's box in dm
+    path = tmp_path / "w.json"
+    path.write_text(json.dumps({**ISSUE_EXAMPLE, "obstacles": [*ISSUE_EXAMPLE["obstacles"], far]}))
+    spec = load_world(path)
+    assert spec.world.n_obstacles == 2
+    assert "obstacles[1]: lies wholly outside the 20 x 20 m area" in caplog.text
+    assert "obstacles[0]" not in caplog.text
+
+
+def test_generated_worlds_refuse_a_cell_side_the_planner_cannot_afford() -> None:
+    with pytest.raises(ConfigError, match="0.05 m, finer than"):
+        generate_world(0, size=20.0, resolution=0.05)
 
 
 def test_broken_json_reports_the_line(tmp_path: Path) -> None:

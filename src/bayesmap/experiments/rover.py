@@ -41,6 +41,7 @@ from bayesmap.experiments._common import (
 )
 from bayesmap.grid import OccupancyGrid
 from bayesmap.grid.ros import write_ros_map
+from bayesmap.limits import MAX_CELL_SIDE
 from bayesmap.rover.explorer import Decision, Explorer
 from bayesmap.rover.network import DecisionNetwork
 from bayesmap.rover.params import RoverParams
@@ -71,7 +72,7 @@ class Config(ExperimentConfig):
 
     seed: int = 2016
     runs: tuple[str, ...] = tuple(RUNS)
-    resolution: float = Field(0.5, gt=0)
+    resolution: float = Field(0.5, ge=rover_worlds.FINEST_CELL_SIDE, le=MAX_CELL_SIDE)
     prior: float = Field(0.2, gt=0, lt=1)
     beta_b: float = Field(0.2, ge=0, le=1)
     reliability_floor: float = Field(0.5, ge=0, lt=1)

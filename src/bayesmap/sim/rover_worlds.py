@@ -20,6 +20,7 @@ areas, keeping at least
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,7 +37,31 @@ from bayesmap.limits import cell_side_problem
 from bayesmap.sim.world2d import BoxWorld, world_distance
 from bayesmap.sim.world_files import check_schema, read_document
 
-__all__ = ["WORLD_SCHEMA", "WorldSpec", "generate_world", "load_world", "save_world"]
+__all__ = [
+    "FINEST_CELL_SIDE",
+    "MAX_WORLD_SIDE",
+    "WORLD_SCHEMA",
+    "WorldSpec",
+    "generate_world",
+    "load_world",
+    "rover_cell_side_problem",
+    "save_world",
+]
+
+logger = logging.getLogger(__name__)
+
+MAX_WORLD_SIDE = 200.0
+"""Longest side [m] of a rover world. Setting a world up rasterises its free space at
+0.1 m to find the ground the rangers can see (:func:`bayesmap.sim.rover.observable_cells`):
+a 200 m world takes about 15 s and 0.3 GB before the first cycle, and both grow with the
+area; a longer side is most likely given in cm or mm."""
+
+FINEST_CELL_SIDE = 0.1
+"""Finest map cell side [m] the rover accepts. Looking for a viewpoint of a target
+(:func:`bayesmap.rover.planning.view_costs`) tries every cell within the rangers' reach
+and checks the line of sight, so a cycle's cost grows with about the fifth power of one
+over the cell side: 200 cycles of a 20 m world took 6.6 s on the paper's 0.5 m grid, 8.3 s
+at 0.25 m and 33 s at 0.1 m; 20 cycles at 0.05 m took 42 s."""
 
 WORLD_SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -49,12 +74,13 @@ WORLD_SCHEMA: dict[str, Any] = {
         "size": {
             "description": "Width and height of the mapped area [m]; its corner is (0, 0).",
             "type": "array",
-            "items": {"type": "number", "exclusiveMinimum": 0, "maximum": 10000},
+            "items": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_WORLD_SIDE},
             "minItems": 2,
             "maxItems": 2,
         },
         "resolution": {
-            "description": "Cell side of the map [m], at most 2 (bayesmap.limits.MAX_CELL_SIDE).",
+            "description": "Cell side of the map [m], 0.1–2 (FINEST_CELL_SIDE, "
+            "bayesmap.limits.MAX_CELL_SIDE).",
             "type": "number",
             "exclusiveMinimum": 0,
             "default": 0.5,
@@ -176,10 +202,43 @@ def load_world(path: str | Path) -> WorldSpec:
             f"start ({x}, {y}) is within {START_CLEARANCE} m of an obstacle", path=file
         )
     resolution = float(document.get("resolution", 0.5))
-    problem = cell_side_problem(resolution)
+    problem = rover_cell_side_problem(resolution)
     if problem is not None:
         raise FormatError(f"the cell side {problem}", path=file, element="resolution")
+    for k, obstacle in enumerate(obstacles):
+        x0, y0, x1, y1 = _bounds(obstacle)
+        if x1 < 0.0 or y1 < 0.0 or x0 > width or y0 > height:
+            logger.warning(
+                "%s, obstacles[%d]: lies wholly outside the %g x %g m area (corner at 0, 0), "
+                "so the rover never meets it; are its vertices in cm or mm?",
+                file,
+                k,
+                width,
+                height,
+            )
     return WorldSpec(world, resolution, (x, y, heading))
+
+
+def rover_cell_side_problem(resolution: float) -> str | None:
+    """What is wrong with ``resolution`` as the rover's map cell side [m], or ``None``:
+    :func:`bayesmap.limits.cell_side_problem`, and no finer than :data:`FINEST_CELL_SIDE`."""
+    problem = cell_side_problem(resolution)
+    if problem is None and resolution < FINEST_CELL_SIDE:
+        problem = (
+            f"is {resolution:g} m, finer than the {FINEST_CELL_SIDE:g} m the rover can plan "
+            "on (its planning cost grows with the fifth power of one over the cell side; "
+            "the paper's grid is 0.5 m)"
+        )
+    return problem
+
+
+def _bounds(obstacle: tuple[float, ...] | FloatArray) -> tuple[float, float, float, float]:
+    """``(xmin, ymin, xmax, ymax)`` of a box or a polygon's vertices."""
+    if isinstance(obstacle, tuple):
+        x0, y0, x1, y1 = obstacle
+        return x0, y0, x1, y1
+    (x0, y0), (x1, y1) = obstacle.min(axis=0), obstacle.max(axis=0)
+    return float(x0), float(y0), float(x1), float(y1)
 
 
 def save_world(path: str | Path, spec: WorldSpec) -> Path:
@@ -250,10 +309,11 @@ def _shape(group: Group) -> shapely.Geometry:
     return shapely.union_all(parts)
 
 
-GENERATED_SIDES = (5.0, 200.0)
+GENERATED_SIDES = (5.0, MAX_WORLD_SIDE)
 """Sides [m] a generated world may have: below 5 m the 1.2 m passages leave no room for an
-obstacle; above 200 m placing its thousands of obstacle groups takes minutes (the rover's
-speed is measured on fields of 20 and 200 m)."""
+obstacle; above :data:`MAX_WORLD_SIDE` a rover world is refused (placing the obstacle
+groups of a 200 m world already takes a while; the rover's speed is measured on fields of
+20 and 200 m)."""
 
 
 def generate_world(
@@ -292,6 +352,9 @@ def generate_world(
             f"a generated world's side must be {GENERATED_SIDES[0]:g}–{GENERATED_SIDES[1]:g} m, "
             f"got {size!r}"
         )
+    problem = rover_cell_side_problem(resolution)
+    if problem is not None:
+        raise ConfigError(f"a generated world's cell side {problem}")
     generator = as_generator(rng)
     side = float(generator.uniform(20.0, 60.0)) if size is None else float(size)
     wanted = max(int(side * side / 40.0), 3) if n_groups is None else n_groups
