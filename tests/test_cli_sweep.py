@@ -56,16 +56,19 @@ def test_bad_requests_get_one_line_errors_and_write_nothing(tmp_path):
     ]
     for extra, message in cases:
         result = _sweep(tmp_path / "out", *extra)
-        assert result.exit_code == 1, extra
+        assert result.exit_code == 2, extra
         assert message in result.output and "Traceback" not in result.output
         assert not (tmp_path / "out").exists()
     no_worlds = "bayesmap.experiments.rover_world"
     result = runner.invoke(
         app, ["sweep", no_worlds, "--worlds", "3", "--out", str(tmp_path / "out")]
     )
-    assert result.exit_code == 1 and "cannot take --worlds" in result.output
+    assert result.exit_code == 2 and "cannot take --worlds" in result.output
     result = runner.invoke(app, ["sweep", "nosuch", "--out", str(tmp_path / "out")])
-    assert result.exit_code == 1 and "unknown experiment 'nosuch'" in result.output
+    assert result.exit_code == 2 and "unknown experiment 'nosuch'" in result.output
+    result = _sweep(tmp_path / "out", "--scheduler", str(tmp_path / "gone.json"))
+    assert result.exit_code == 2 and "no such scheduler file" in result.output
+    assert not (tmp_path / "out").exists()
 
 
 def test_a_negative_root_seed_is_a_usage_error(tmp_path):
@@ -88,4 +91,4 @@ def test_a_folder_of_other_files_is_not_swept_into(tmp_path):
 
 def test_messages_print_user_text_literally(tmp_path):
     result = _sweep(tmp_path / "out", "--set", "[red]x[/red]=1")
-    assert result.exit_code == 1 and "[red]x[/red]" in result.output
+    assert result.exit_code == 2 and "[red]x[/red]" in result.output

@@ -28,6 +28,10 @@ if TYPE_CHECKING:
     from bayesmap._typing import ProgressHook
 
 
+USAGE = 2
+"""Exit code of a usage mistake, as click's own: a malformed, repeated or conflicting option."""
+
+
 def console(*, stderr: bool = False) -> Console:
     """A console that prints strings as they are (no markup, no highlighting, no emoji)."""
     from rich.console import Console

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
 
-from bayesmap.cli._console import console, print_error, print_note, progress_bar
+from bayesmap.cli._console import USAGE, console, print_error, print_note, progress_bar
 from bayesmap.cli.codegen import codegen
 from bayesmap.errors import BayesmapError, InputError
 
@@ -35,9 +35,6 @@ app = typer.Typer(
     rich_markup_mode=None,
 )
 app.command()(codegen)
-
-USAGE = 2
-"""Exit code of a usage mistake (as click's own)."""
 
 
 def _fail(message: object, code: int = 1) -> NoReturn:

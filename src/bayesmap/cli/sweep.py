@@ -9,16 +9,16 @@ from typing import Annotated
 import typer
 from rich.text import Text
 
+from bayesmap.cli._console import USAGE, print_error, progress_bar
 from bayesmap.cli._console import console as make_console
-from bayesmap.cli._console import print_error, progress_bar
 from bayesmap.errors import BayesmapError, ConfigError
 
 console = make_console(stderr=True)
 
 
-def _error(message: str) -> typer.Exit:
+def _error(message: str, code: int = 1) -> typer.Exit:
     print_error(" ".join(message.split()))
-    return typer.Exit(1)
+    return typer.Exit(code)
 
 
 def _quiet_dask() -> None:
@@ -86,10 +86,11 @@ def sweep(
     from bayesmap.sweeps import aggregate, expand, run_sweep
     from bayesmap.sweeps.grid import parse_condition, parse_setting
     from bayesmap.sweeps.report import paired_lines, sections_from_sweep, write_report
+    from bayesmap.sweeps.runner import scheduler_problem
 
     if not serial:
         _quiet_dask()
-    try:
+    try:  # a command line that cannot make a sweep: a usage error, before any run
         module = load(experiment)
         parsed = [parse_setting(item) for item in set_ or []]
         settings = dict(parsed)
@@ -103,6 +104,9 @@ def sweep(
             conditions.setdefault(name, {})
             if setting is not None:
                 conditions[name][setting[0]] = setting[1]
+        problem = None if scheduler is None else scheduler_problem(scheduler)
+        if problem is not None:
+            raise ConfigError(problem)
         plan = expand(
             experiment,
             module,
@@ -113,6 +117,9 @@ def sweep(
             conditions=conditions or None,
             out_dir=out,
         )
+    except BayesmapError as error:
+        raise _error(str(error), USAGE) from error
+    try:
         where = (
             "in this process"
             if serial

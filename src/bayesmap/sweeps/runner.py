@@ -190,6 +190,17 @@ def _environment_restored() -> Iterator[None]:
         os.environ.update(saved)
 
 
+def scheduler_problem(scheduler: str) -> str | None:
+    """What is wrong with ``--scheduler`` before connecting, or ``None``: it must name an
+    existing scheduler file or be an address (``tcp://host:8786``, ``host:8786``)."""
+    if ":" in scheduler or Path(scheduler).is_file():
+        return None
+    return (
+        f"--scheduler {scheduler}: no such scheduler file, and not an address such as "
+        "tcp://host:8786"
+    )
+
+
 @contextlib.contextmanager
 def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
     """A Dask client on the scheduler at ``scheduler`` or on a new local cluster.
@@ -203,6 +214,9 @@ def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
+        problem = scheduler_problem(scheduler)
+        if problem is not None:
+            raise ConfigError(problem)
         by_file = Path(scheduler).is_file()
         try:
             client = (
