@@ -97,6 +97,14 @@ def test_a_world_without_poses_is_toured_like_the_paper() -> None:
             lambda w: w.update(catalogue=[{"length": 0.6, "width": 1.0, "leg": 0.05}]),
             r"catalogue\[0\]: length must be the longer side",
         ),
+        (
+            lambda w: w.update(poses={"grid": 100000}),
+            r"poses\.grid: a 100,000 x 100,000 grid of 4 headings is 40,000,000,000 poses",
+        ),
+        (
+            lambda w: w.update(poses=[[1.0, 1.0, 0.0]] * 100_001),
+            r"poses: 100,001 poses are more than a run takes \(100,000\)",
+        ),
     ],
 )
 def test_bad_world_files_name_the_element(change, message) -> None:

@@ -42,6 +42,7 @@ from bayesmap.sim.tables_world import TablesWorld, build_mixed, rectangle_corner
 from bayesmap.sim.world_files import check_schema, read_document
 
 __all__ = [
+    "MAX_POSES",
     "POSE_CLEARANCE",
     "WORLD_SCHEMA",
     "StressOptions",
@@ -59,6 +60,12 @@ MAX_ARENA_SIDE = 100.0
 """Longest arena side [m] a world file may give. A whisker robot maps a room a few metres
 across; the contact-vote grid of a 100 m square at its 2.5 cm cells already holds 16
 million cells, and a longer side is most likely written in cm or mm."""
+
+MAX_POSES = 100_000
+"""Most robot poses a world file may ask for, listed or as a grid (``grid`` × ``grid`` ×
+``headings``). The fused mapper takes about 20–35 ms of CPU a pose (docs/benchmarks.md),
+so this many already run for about an hour; a grid of tens of thousands a side is most
+likely a typo."""
 
 _NUMBER = {"type": "number"}
 _POSITIVE = {"type": "number", "exclusiveMinimum": 0}
@@ -293,6 +300,12 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
     poses: Poses | None = None
     grid = (10, 0.45, 4)
     if isinstance(poses_obj, list):
+        if len(poses_obj) > MAX_POSES:
+            raise _fail(
+                source,
+                "poses",
+                f"{len(poses_obj):,} poses are more than a run takes ({MAX_POSES:,})",
+            )
         poses = np.asarray(poses_obj, dtype=np.float64)
         outside = (poses[:, 0] <= 0) | (poses[:, 0] >= arena[0])
         outside |= (poses[:, 1] <= 0) | (poses[:, 1] >= arena[1])
@@ -307,6 +320,14 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
         )
         if 2 * grid[1] >= min(arena):
             raise _fail(source, "poses.margin", "must be below half the arena's smaller side")
+        if grid[0] ** 2 * grid[2] > MAX_POSES:
+            raise _fail(
+                source,
+                "poses.grid",
+                f"a {grid[0]:,} x {grid[0]:,} grid of {grid[2]:,} headings is "
+                f"{grid[0] ** 2 * grid[2]:,} poses, more than a run takes ({MAX_POSES:,}, "
+                "about an hour of mapping)",
+            )
     if "catalogue" in obj:
         catalogue = tuple(
             (str(c.get("name", f"type{k}")), float(c["length"]), float(c["width"]), float(c["leg"]))
