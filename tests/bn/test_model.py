@@ -59,7 +59,7 @@ def test_changes_invalidate_cached_answers() -> None:
         ({"parents": ["Nope"]}, "'Nope' is not in the network"),
         ({"parents": ["A"], "cpt": [[0.5, 0.2], [0.5, 0.2]]}, "A=a1"),
         ({"parents": ["A"], "cpt": [0.5, 0.5]}, "expected (2, 2)"),
-        ({"cpt": [-0.5, 1.5]}, "negative probability"),
+        ({"cpt": [-0.5, 1.5]}, "negative probability at state 'x0'"),
     ],
 )
 def test_bad_variables_raise_model_error_naming_the_node(kwargs: dict, needle: str) -> None:

@@ -325,7 +325,7 @@ class BayesNet:
         table = (
             np.full(shape, 1.0 / len(state_tuple))
             if cpt is None
-            else checked_cpt(name, cpt, shape, parent_tuple, self)
+            else checked_cpt(name, cpt, shape, parent_tuple, self, states=state_tuple)
         )
         table.setflags(write=False)
         variable = Variable(

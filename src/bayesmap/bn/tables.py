@@ -42,9 +42,18 @@ class _StateNames(Protocol):
 
 
 def checked_cpt(
-    name: str, cpt: npt.ArrayLike, shape: tuple[int, ...], parents: Sequence[str], net: _StateNames
+    name: str,
+    cpt: npt.ArrayLike,
+    shape: tuple[int, ...],
+    parents: Sequence[str],
+    net: _StateNames,
+    *,
+    states: Sequence[str] | None = None,
 ) -> FloatArray:
     """Validate ``cpt`` against ``shape`` and renormalise it by the normalisation policy.
+
+    ``states`` names the child's states when it is not in ``net`` yet (a variable being
+    added), so that messages name a state rather than its index.
 
     Raises
     ------
@@ -71,7 +80,8 @@ def checked_cpt(
     if np.any(table < 0):
         column = np.argwhere(table < 0)[0]
         raise ModelError(
-            f"variable {name!r}: negative probability at {_describe(column, name, parents, net)}"
+            f"variable {name!r}: negative probability at "
+            f"{_describe(column, name, parents, net, states)}"
         )
     sums = table.sum(axis=0)
     deviation = np.abs(sums - 1.0)
@@ -104,6 +114,14 @@ def _parent_states(where: Sequence[Any], parents: Sequence[str], net: _StateName
     return "parents " + ", ".join(pairs)
 
 
-def _describe(index: Sequence[Any], name: str, parents: Sequence[str], net: _StateNames) -> str:
-    state = net.states(name)[int(index[0])] if name in net else str(index[0])
+def _describe(
+    index: Sequence[Any],
+    name: str,
+    parents: Sequence[str],
+    net: _StateNames,
+    states: Sequence[str] | None,
+) -> str:
+    if states is None and name in net:
+        states = net.states(name)
+    state = str(index[0]) if states is None else states[int(index[0])]
     return f"state {state!r} given {_parent_states(index[1:], parents, net)}"
