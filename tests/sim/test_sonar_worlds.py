@@ -43,9 +43,11 @@ def test_a_hand_written_world_has_its_obstacle_as_a_hole(tmp_path):
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        ({"outline": [[0, 0], [4, 4], [4, 0], [0, 4]]}, "outline.*crosses itself"),
-        ({"waypoints": [[0.8, 1.0], [20.0, 1.0]]}, "waypoint"),
-        ({"waypoints": [[0.8, 1.0], [5.3, 1.0]]}, "waypoint"),  # inside the box
+        ({"outline": [[0, 0], [4, 4], [4, 0], [0, 4]]}, r"outline: .*\(Self-intersection"),
+        ({"outline": [[0, 0], [4, 0], [8, 0]]}, "outline: .*vertices lie on one line"),
+        ({"obstacles": [[[50, 50], [51, 50], [51, 51]]]}, r"obstacles\[0\]: lies wholly outside"),
+        ({"waypoints": [[0.8, 1.0], [20.0, 1.0]]}, r"waypoints\[1\] \(20, 1\)"),
+        ({"waypoints": [[0.8, 1.0], [5.3, 1.0]]}, r"waypoints\[1\]"),  # inside the box
         ({"outline": [[0, 0], [1, 0]]}, "outline"),
         ({"extra": 1}, "extra"),
     ],

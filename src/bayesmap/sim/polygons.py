@@ -114,8 +114,13 @@ def _make(
         raise ConfigError(f"world {name!r}: free space must be one connected polygon")
     free = shapely.normalize(free)
     path = np.asarray(waypoints, dtype=np.float64)
-    if not all(free.contains(shapely.points(path))):
-        raise ConfigError(f"world {name!r}: every waypoint must lie in free space")
+    inside = free.contains(shapely.points(path))
+    if not all(inside):
+        k = int(np.flatnonzero(~inside)[0])
+        raise ConfigError(
+            f"world {name!r}: waypoints[{k}] ({path[k, 0]:g}, {path[k, 1]:g}) must lie in free "
+            "space, not in an obstacle, on a wall or outside the outline"
+        )
     return PolygonWorld(name=name, free=free, segments=_segments(free), waypoints=path)
 
 

@@ -35,7 +35,7 @@ from bayesmap._typing import FloatArray
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.limits import cell_side_problem
 from bayesmap.sim.world2d import BoxWorld, world_distance
-from bayesmap.sim.world_files import check_schema, read_document
+from bayesmap.sim.world_files import check_schema, polygon_problem, read_document
 
 __all__ = [
     "FINEST_CELL_SIDE",
@@ -171,12 +171,9 @@ def _obstacle(polygon: list[list[float]], where: str, path: Path) -> tuple[float
     box = _rectangle(corners)
     if box is not None:
         return box
-    shape = shapely.Polygon(corners)
-    if len(set(corners)) < 3 or not shape.is_valid or shape.area <= 0:
-        reason = shapely.is_valid_reason(shape) if len(set(corners)) >= 3 else "too few vertices"
-        raise FormatError(
-            f"must be a simple polygon of positive area ({reason})", path=path, element=where
-        )
+    problem = polygon_problem(shapely.Polygon(corners))
+    if problem is not None:
+        raise FormatError(problem, path=path, element=where)
     return np.asarray(corners, dtype=np.float64)
 
 

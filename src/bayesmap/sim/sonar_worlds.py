@@ -8,8 +8,10 @@ robot's closed waypoint path, all in metres::
      "obstacles": [[[5, 0.8], [5.6, 0.8], [5.6, 1.2], [5, 1.2]]],
      "waypoints": [[0.8, 1.0], [11.2, 1.0]]}
 
-The free space is the outline minus the obstacles; it must be one connected region, and
-every waypoint must lie in it. Every wall is acoustically smooth (see
+The outline and each obstacle are simple polygons of positive area, and an obstacle must
+touch the outline (one wholly outside it is most likely in another unit). The free space is
+the outline minus the obstacles; it must be one connected region, and every waypoint must
+lie in it. Every wall is acoustically smooth (see
 :mod:`bayesmap.sim.sonar`). :func:`generate_world` draws the random buildings of
 :func:`bayesmap.sim.polygons.random_building`. Every failure to read a file is a
 :class:`~bayesmap.errors.FormatError` naming the file and the element.
@@ -27,7 +29,7 @@ from bayesmap._io import write_json
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.sim.polygons import PolygonWorld, _make, random_building
-from bayesmap.sim.world_files import check_schema, read_document
+from bayesmap.sim.world_files import check_schema, polygon_problem, read_document
 
 __all__ = ["WORLD_SCHEMA", "generate_world", "load_world", "parse_world", "save_world", "to_json"]
 
@@ -80,20 +82,31 @@ def parse_world(obj: Any, source: str = "world") -> PolygonWorld:
         Naming ``source`` and the offending element.
     """
     check_schema(obj, WORLD_SCHEMA, source)
-    outline = Polygon(obj["outline"])
-    if not outline.is_valid:
-        raise FormatError("the outline crosses itself", path=source, element="outline")
+    outline = _polygon(obj["outline"], "outline", source)
     holes = []
     for k, ring in enumerate(obj.get("obstacles", [])):
-        hole = Polygon(ring)
-        if not hole.is_valid:
-            raise FormatError("the obstacle crosses itself", path=source, element=f"obstacles[{k}]")
+        hole = _polygon(ring, f"obstacles[{k}]", source)
+        if not hole.intersects(outline):
+            raise FormatError(
+                "lies wholly outside the outline (are its vertices in another unit?)",
+                path=source,
+                element=f"obstacles[{k}]",
+            )
         holes.append(hole)
     name = str(obj.get("name", Path(source).stem))
     try:
         return _make(name, outline, holes, [tuple(p) for p in obj["waypoints"]])
     except ConfigError as error:
         raise FormatError(str(error), path=source) from None
+
+
+def _polygon(ring: list[list[float]], element: str, source: str) -> Polygon:
+    """A simple polygon of positive area, or a :class:`FormatError` saying what is wrong."""
+    polygon = Polygon(ring)
+    problem = polygon_problem(polygon)
+    if problem is not None:
+        raise FormatError(problem, path=source, element=element)
+    return polygon
 
 
 def load_world(path: str | Path) -> PolygonWorld:

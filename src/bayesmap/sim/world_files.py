@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import jsonschema
+import shapely
 
 from bayesmap.errors import FormatError
 
@@ -66,3 +67,16 @@ def check_schema(document: Any, schema: dict[str, Any], source: str | Path) -> N
         raise FormatError(
             error.message, path=source, element=element_name(error.absolute_path)
         ) from None
+
+
+def polygon_problem(polygon: shapely.Polygon) -> str | None:
+    """What keeps ``polygon`` from being a simple polygon of positive area, or ``None``.
+
+    The text follows the element's name in a :class:`FormatError`
+    (``obstacles[0]: must be a simple polygon of positive area (Self-intersection[4 4])``).
+    """
+    if polygon.is_valid and polygon.area > 0:
+        return None
+    flat = polygon.convex_hull.area <= 0
+    reason = "its vertices lie on one line" if flat else shapely.is_valid_reason(polygon)
+    return f"must be a simple polygon of positive area ({reason})"
