@@ -18,7 +18,7 @@ from pydantic import BaseModel, ConfigDict
 from bayesmap._io import write_bytes, write_json
 from bayesmap.errors import FormatError, InputError
 from bayesmap.experiments import ExperimentResult
-from bayesmap.viz.tables import figure_png
+from bayesmap.viz import figure_png
 
 KEY_METRICS = ("value",)
 

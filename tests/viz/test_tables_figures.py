@@ -7,10 +7,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from bayesmap.blackboard.annealing import Snapshot
+from bayesmap.viz.render import figure_png
 from bayesmap.viz.tables import (
     TableShape,
     annealing_gif,
-    figure_png,
     ground_truth_figure,
     montage_figure,
     snapshot_figure,

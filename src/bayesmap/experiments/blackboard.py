@@ -56,10 +56,10 @@ from bayesmap.experiments.table_metrics import MatchTolerance, recall_by_support
 from bayesmap.sim import whisker_worlds
 from bayesmap.sim.tables_world import TablesWorld, initial, pose_sequence, world_params
 from bayesmap.sim.whiskers import CONDITIONS, WhiskerParams, h, observe
+from bayesmap.viz.render import figure_png
 from bayesmap.viz.tables import (
     TableShape,
     annealing_gif,
-    figure_png,
     fused_map_figure,
     ground_truth_figure,
     montage_figure,

@@ -39,7 +39,8 @@ from bayesmap.experiments.table_metrics import MatchTolerance
 from bayesmap.sim.tables_world import TablesWorld
 from bayesmap.sim.whisker_worlds import WorldFile, load_world
 from bayesmap.sim.whiskers import CONDITIONS, condition
-from bayesmap.viz.tables import figure_png, fused_map_figure
+from bayesmap.viz.render import figure_png
+from bayesmap.viz.tables import fused_map_figure
 
 __all__ = ["Config", "catalogue_of", "map_figure", "run"]
 

@@ -15,17 +15,18 @@ from typing import TYPE_CHECKING
 from bayesmap._lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from bayesmap.viz import network, rover, sonar, sweeps, tables
+    from bayesmap.viz import network, render, rover, sonar, sweeps, tables
     from bayesmap.viz.network import network_figure, network_image, to_dot
+    from bayesmap.viz.render import figure_png
     from bayesmap.viz.rover import coverage_figure, maps_pair_figure
     from bayesmap.viz.sonar import map_png, maps_side_by_side
     from bayesmap.viz.sweeps import metrics_figure
-    from bayesmap.viz.tables import annealing_gif, figure_png
+    from bayesmap.viz.tables import annealing_gif
 
 _EXPORTS = {
     "annealing_gif": "tables",
     "coverage_figure": "rover",
-    "figure_png": "tables",
+    "figure_png": "render",
     "map_png": "sonar",
     "maps_pair_figure": "rover",
     "maps_side_by_side": "sonar",
@@ -33,6 +34,7 @@ _EXPORTS = {
     "network": "network",
     "network_figure": "network",
     "network_image": "network",
+    "render": "render",
     "rover": "rover",
     "sonar": "sonar",
     "sweeps": "sweeps",
@@ -52,6 +54,7 @@ __all__ = [
     "network",
     "network_figure",
     "network_image",
+    "render",
     "rover",
     "sonar",
     "sweeps",

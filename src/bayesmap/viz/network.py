@@ -9,7 +9,6 @@ barycentre sweeps; :func:`network_figure` draws it with matplotlib.
 
 from __future__ import annotations
 
-import io
 import math
 from collections.abc import Mapping
 
@@ -17,6 +16,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from bayesmap.bn import BayesNet, NodeKind
+from bayesmap.viz.render import figure_png
 
 KIND_COLOURS: Mapping[NodeKind | None, str] = {
     NodeKind.ABILITY: "#8fd18f",
@@ -144,9 +144,7 @@ def network_figure(net: BayesNet) -> Figure:
 
 def network_image(net: BayesNet, suffix: str) -> bytes:
     """:func:`network_figure` as ``.png`` or ``.svg`` bytes."""
-    buffer = io.BytesIO()
-    network_figure(net).savefig(buffer, format=suffix.lstrip("."), dpi=150)
-    return buffer.getvalue()
+    return figure_png(network_figure(net), 150, tight=False, format=suffix.lstrip("."))
 
 
 def to_dot(net: BayesNet) -> str:

@@ -7,7 +7,6 @@ drawing them leaves the caller's backend and figure list alone.
 
 from __future__ import annotations
 
-import io
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -16,13 +15,9 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon, Rectangle
 
+from bayesmap.viz.render import figure_png
+
 _DPI = 90
-
-
-def _png(fig: Figure) -> bytes:
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=_DPI)
-    return buffer.getvalue()
 
 
 def _draw_extras(
@@ -157,7 +152,7 @@ def maps_pair_figure(
         ax.set_ylabel("y [m]")
     fig.suptitle(title, fontsize=11)
     _legend_below(fig, axes[0])
-    return _png(fig)
+    return figure_png(fig, _DPI, tight=False)
 
 
 def coverage_figure(curves: Mapping[str, Sequence[tuple[float, float]]], *, title: str) -> bytes:
@@ -182,4 +177,4 @@ def coverage_figure(curves: Mapping[str, Sequence[tuple[float, float]]], *, titl
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower right")
     ax.set_title(title, fontsize=10)
-    return _png(fig)
+    return figure_png(fig, _DPI, tight=False)

@@ -6,7 +6,6 @@ Every map has its axes in metres and the figure carries a grey-level key: white 
 
 from __future__ import annotations
 
-import io
 from collections.abc import Sequence
 
 import numpy as np
@@ -15,6 +14,7 @@ from matplotlib.figure import Figure
 from matplotlib.image import AxesImage
 
 from bayesmap._typing import FloatArray, Grid
+from bayesmap.viz.render import figure_png
 
 __all__ = ["map_png", "maps_side_by_side"]
 
@@ -105,9 +105,7 @@ def maps_side_by_side(
         key.ax.tick_params(labelsize=6)
     if title:
         fig.suptitle(title, fontsize=9)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=90)
-    return buffer.getvalue()
+    return figure_png(fig, 90, tight=False)
 
 
 def map_png(

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from matplotlib.figure import Figure
 
-from bayesmap.viz.tables import figure_png
+from bayesmap.viz import figure_png
 
 __all__ = ["MetricPanel", "metrics_figure"]
 

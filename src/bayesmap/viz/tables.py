@@ -22,12 +22,12 @@ from matplotlib.patches import Patch
 from PIL import Image
 
 from bayesmap._typing import FloatArray
+from bayesmap.viz.render import figure_png
 
 __all__ = [
     "BoardView",
     "TableShape",
     "annealing_gif",
-    "figure_png",
     "fused_map_figure",
     "ground_truth_figure",
     "montage_figure",
@@ -131,17 +131,6 @@ def _arena(ax: Axes, bounds: tuple[float, float, float, float], pad: float = 0.3
     ax.tick_params(labelsize=7)
     ax.set_xlabel("x [m]", fontsize=8)
     ax.set_ylabel("y [m]", fontsize=8)
-
-
-def figure_png(fig: Figure, dpi: int = 110, *, tight: bool = True) -> bytes:
-    """Render a figure to PNG bytes (``tight``: crop to its content).
-
-    Figures here are plain :class:`~matplotlib.figure.Figure` objects, never registered
-    with pyplot, so drawing them neither changes the caller's backend nor leaks memory.
-    """
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight" if tight else None)
-    return buffer.getvalue()
 
 
 def ground_truth_figure(
