@@ -1,14 +1,18 @@
-"""Shared by the sonar tests: the data folder and its recording scripts."""
+"""Shared by the sonar tests: the data folder, its recording scripts, simulated Player logs."""
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
+from typing import NamedTuple
 
+import numpy as np
 import pytest
 
+from bayesmap.sensing.sonar_rings import PIONEER_RING16
 from bayesmap.sonar.pipeline import PIPELINES
 
 DATA = Path(__file__).parent / "data"
@@ -29,3 +33,71 @@ def recorder(name: str) -> ModuleType:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+class Drive(NamedTuple):
+    """A simulated Pioneer drive, rounded as Player's ``writelog`` rounds it."""
+
+    times: np.ndarray  # (n,) ring times [s]
+    ranges: np.ndarray  # (n, 16) [m], to the millimetre
+    pose_times: np.ndarray  # (m,) odometry times [s]: every other ring (and the last), 3 ms late
+    poses: np.ndarray  # (m, 3) odometry [m, m, rad]
+
+
+@functools.cache
+def simulated_drive(rings: int = 240) -> Drive:
+    """The first ``rings`` rings of a 16-sonar Pioneer driving the L corridor, and its odometry."""
+    from bayesmap.sim.polygons import world
+    from bayesmap.sim.sonar import SonarRing
+    from bayesmap.sim.sonar_log import Realism, simulate_log
+
+    log = simulate_log(
+        world("sonar-lcorridor-v2"), SonarRing.pioneer(16), Realism(stops=1, people=0), rng=3
+    )
+    times = np.round(log.times[:rings] + 100.0, 3)
+    pose_index = np.unique(np.r_[np.arange(0, rings, 2), rings - 1])
+    return Drive(
+        times=times,
+        ranges=np.round(log.ranges[:rings], 3),
+        pose_times=np.round(times[pose_index] + 0.003, 3),
+        poses=np.round(log.odometry[pose_index], 3),
+    )
+
+
+def player_lines(drive: Drive, version: str = "0.3.0", geometry: bool = True) -> list[str]:
+    """The lines a Player ``writelog`` of file version 0.3.0 (Player 2-3) or 0.2.0 (Player 1.6)
+    would write for ``drive``: odometry on position device 0, the ring on sonar 0, a laser
+    on the side; the ring's geometry is Player's (the Pioneer ring, to the millimetre)."""
+    layout = [(round(x, 3), round(y, 3), round(a, 4)) for x, y, a in PIONEER_RING16]
+    geom = f"{len(layout)} " + " ".join(f"{x:+07.3f} {y:+07.3f} {a:+07.4f}" for x, y, a in layout)
+    if version == "0.2.0":  # server time, host name, port, ..., data time; geometry on each line
+        head = "{t:014.3f} robot 6665 {name} {index:02d} {t:014.3f} "
+        position, prefix = "position", (geom if geometry else "0") + " "
+    else:
+        head = "{t:014.3f} 0 6665 {name} {index:02d} {kind} "
+        position, prefix = "position2d", ""
+    lines = [
+        f"## Player version {'1.6.5' if version == '0.2.0' else '3.0.2'} ",
+        f"## File version {version} ",
+        "## written by the tests: time host robot interface index (type subtype) payload",
+    ]
+    if version == "0.3.0" and geometry:
+        lines.append(head.format(t=drive.times[0], name="sonar", index=0, kind="004 001") + geom)
+    timed: list[tuple[float, int, str]] = []
+    for t, (x, y, a) in zip(drive.pose_times, drive.poses, strict=True):
+        body = f"{x:+07.3f} {y:+07.3f} {a:+04.3f} +00.400 +00.000 +00.000 0"
+        line = head.format(t=t, name=position, index=0, kind="001 001") + body
+        timed.append((float(t), 0, line))
+    for t, r in zip(drive.times, drive.ranges, strict=True):
+        body = f"{prefix}{len(r)} " + " ".join(f"{v:.3f}" for v in r)
+        timed.append((float(t), 1, head.format(t=t, name="sonar", index=0, kind="001 001") + body))
+        laser = head.format(t=t, name="laser", index=0, kind="001 001") + "0001 -1.5708 +1.5708"
+        timed.append((float(t), 2, laser))
+    lines.extend(line + " " for _, _, line in sorted(timed))
+    return lines
+
+
+def write_player_log(path: Path, lines: list[str]) -> Path:
+    """Write ``lines`` as a log file (LF line ends, as ``writelog`` writes them)."""
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path

@@ -5,7 +5,8 @@
 - :mod:`~bayesmap.sonar.filter`: :class:`SpecularFilter`, the three stages as one stateful object;
 - :mod:`~bayesmap.sonar.mapping`: grid mappers (eq. 1 cone model, Thrun ±0.4, ROS range layer);
 - :mod:`~bayesmap.sonar.map_verdict`: the map's verdict on each reading after the pass;
-- :mod:`~bayesmap.sonar.logs`: real plain-text logs; :mod:`~bayesmap.sonar.pipeline`: log → map.
+- :mod:`~bayesmap.sonar.logs`: real plain-text logs; :mod:`~bayesmap.sonar.player`: Player logs;
+  :mod:`~bayesmap.sonar.pipeline`: log → map.
 
 See docs/sonar.md for every choice that fills the fragment's gaps.
 
@@ -28,6 +29,7 @@ if TYPE_CHECKING:
         map_verdict,
         mapping,
         pipeline,
+        player,
         ring,
         traits,
         verification,
@@ -40,6 +42,7 @@ if TYPE_CHECKING:
     from bayesmap.sonar.map_verdict import MapVerdict
     from bayesmap.sonar.mapping import ElfesMapper, NoEcho, RosRangeLayerMapper, ThrunMapper
     from bayesmap.sonar.pipeline import DEFAULT_PIPELINE, PIPELINES, Pipeline, build_map, map_log
+    from bayesmap.sonar.player import PlayerLog, read_player_log
     from bayesmap.sonar.ring import load_ring, preset
     from bayesmap.sonar.traits import fit_traits
 
@@ -50,6 +53,7 @@ _EXPORTS = {
     "NoEcho": "mapping",
     "PIPELINES": "pipeline",
     "Pipeline": "pipeline",
+    "PlayerLog": "player",
     "Rejection": "filter",
     "RingVerdict": "filter",
     "RosRangeLayerMapper": "mapping",
@@ -71,7 +75,9 @@ _EXPORTS = {
     "map_verdict": "map_verdict",
     "mapping": "mapping",
     "pipeline": "pipeline",
+    "player": "player",
     "preset": "ring",
+    "read_player_log": "player",
     "read_sonar_bag": "bags",
     "read_sonar_log": "logs",
     "ring": "ring",
@@ -88,6 +94,7 @@ __all__ = [
     "NoEcho",
     "PIPELINES",
     "Pipeline",
+    "PlayerLog",
     "Rejection",
     "RingVerdict",
     "RosRangeLayerMapper",
@@ -109,7 +116,9 @@ __all__ = [
     "map_verdict",
     "mapping",
     "pipeline",
+    "player",
     "preset",
+    "read_player_log",
     "read_sonar_bag",
     "read_sonar_log",
     "ring",

@@ -152,6 +152,49 @@ def _row_values(fields: list[str], columns: int, n_ranges: int) -> list[float] |
     return numbers
 
 
+class _Rows:
+    """Rows of ``columns`` numbers and their line numbers, gathered into numpy blocks.
+
+    Blocks of :data:`_CHUNK` rows keep memory near the size of the numbers themselves.
+    """
+
+    def __init__(self, columns: int) -> None:
+        self.columns = columns
+        self._blocks: list[FloatArray] = []
+        self._line_blocks: list[npt.NDArray[np.int64]] = []
+        self._pending: list[list[float]] = []
+        self._pending_lines: list[int] = []
+
+    def add(self, line: int, values: list[float]) -> bool:
+        """Add one row; whether a full block was just stored."""
+        self._pending.append(values)
+        self._pending_lines.append(line)
+        if len(self._pending) < _CHUNK:
+            return False
+        self._flush()
+        return True
+
+    def _flush(self) -> None:
+        if self._pending:
+            self._blocks.append(
+                np.asarray(self._pending, dtype=np.float64).reshape(-1, self.columns)
+            )
+            self._line_blocks.append(np.asarray(self._pending_lines, dtype=np.int64))
+            self._pending.clear()
+            self._pending_lines.clear()
+
+    def table(self, rows: int) -> _Table:
+        """All rows as one table (the blocks are freed as they are copied)."""
+        self._flush()
+        values = np.vstack(self._blocks) if self._blocks else np.zeros((0, self.columns))
+        lines = (
+            np.concatenate(self._line_blocks) if self._line_blocks else np.zeros(0, dtype=np.int64)
+        )
+        self._blocks.clear()
+        self._line_blocks.clear()
+        return _Table(lines, values, rows)
+
+
 def _parse(
     path: Path,
     columns: int,
@@ -162,20 +205,9 @@ def _parse(
     """Stream ``path`` line by line into numpy blocks; bad rows go to ``skipped``."""
     handle, size = open_input(path)
     total = max(size, 1)
-    blocks: list[FloatArray] = []
-    line_blocks: list[npt.NDArray[np.int64]] = []
-    pending: list[list[float]] = []
-    pending_lines: list[int] = []
+    parsed = _Rows(columns)
     rows = 0
     done = 0
-
-    def flush() -> None:
-        if pending:
-            blocks.append(np.asarray(pending, dtype=np.float64).reshape(-1, columns))
-            line_blocks.append(np.asarray(pending_lines, dtype=np.int64))
-            pending.clear()
-            pending_lines.clear()
-
     with handle:
         for number, raw in enumerate(handle, start=1):
             done += len(raw)
@@ -190,22 +222,22 @@ def _parse(
             if isinstance(outcome, str):
                 _report(path, number, outcome, skipped)
                 continue
-            pending.append(outcome)
-            pending_lines.append(number)
-            if len(pending) >= _CHUNK:
-                flush()
-                if progress is not None:
-                    progress(f"reading {path.name}", done, total)
-    flush()
+            if parsed.add(number, outcome) and progress is not None:
+                progress(f"reading {path.name}", done, total)
     if progress is not None:
         progress(f"reading {path.name}", total, total)
-    values = np.vstack(blocks) if blocks else np.zeros((0, columns))
-    lines = np.concatenate(line_blocks) if line_blocks else np.zeros(0, dtype=np.int64)
-    blocks.clear()  # the blocks are copied: free them before anything else is allocated
-    line_blocks.clear()
+    return _in_order_rows(path, parsed.table(rows), skipped)
+
+
+def _in_order_rows(path: Path, table: _Table, skipped: list[SkippedRow]) -> _Table:
+    """The rows of ``table`` whose timestamps (column 0) strictly increase (:func:`_in_order`).
+
+    Each row left out is reported: as repeating a neighbour's timestamp, or as out of order.
+    """
+    values, lines = table.values, table.lines
     keep = _in_order(values[:, 0])
     if keep.all():
-        return _Table(lines, values, rows)
+        return table
     kept = np.flatnonzero(keep)
     for index in np.flatnonzero(~keep):
         time = float(values[index, 0])
@@ -217,7 +249,7 @@ def _parse(
             after = f" (line {int(lines[kept_before[-1]])})" if len(kept_before) else ""
             reason = f"timestamp {time!r} out of order with its neighbours{after}"
         _report(path, int(lines[index]), reason, skipped)
-    return _Table(lines[keep], values[keep], rows)
+    return _Table(lines[keep], values[keep], table.rows)
 
 
 def _in_order(times: FloatArray) -> npt.NDArray[np.bool_]:
@@ -296,11 +328,7 @@ def read_sonar_log(
     """
     if n_ranges < 1:
         raise InputError(f"a sonar log needs at least one range column, got n_ranges={n_ranges}")
-    if not (time_tolerance >= 0 and max_pose_gap >= 0):
-        raise InputError(
-            "need time_tolerance >= 0 and max_pose_gap >= 0 s, "
-            f"got {time_tolerance}, {max_pose_gap}"
-        )
+    _check_join_settings(time_tolerance, max_pose_gap)
     main = Path(path)
     skipped: list[SkippedRow] = []
     length = LENGTH_UNITS[units.position_unit]
@@ -320,26 +348,74 @@ def read_sonar_log(
         pose_file = Path(poses_path)
         pose_table = _parse(pose_file, 4, 0, skipped)
         table = _parse(main, 1 + n_ranges, n_ranges, skipped, progress)
-        _abort_if_strict(strict, skipped)
-        glitches = isolated_jumps(pose_table.values[:, 1:3] * length)
-        _report_glitches(pose_file, pose_table.lines[glitches], skipped)
-        _abort_if_strict(strict, skipped)
-        pose_data = pose_table.values[~glitches]
-        data = table.values
-        times, range_raw = data[:, 0], data[:, 1:]
-        pose_si = np.column_stack([pose_data[:, 1:3] * length, pose_data[:, 3] * angle])
-        poses, why = join_poses(times, pose_data[:, 0], pose_si, time_tolerance, max_pose_gap)
-        keep = why == ""
-        for number, reason in zip(table.lines[~keep], why[~keep], strict=True):
-            _report(main, int(number), str(reason), skipped)
-        _abort_if_strict(strict, skipped)
-        times, range_raw, poses = times[keep], range_raw[keep], poses[keep]
-    if len(times) == 0:
-        raise FormatError(
-            f"no usable rows ({len(skipped)} skipped; expected {n_ranges} ranges per row)",
-            path=main,
+        pose_si = pose_table.values * np.array([1.0, length, length, angle])
+        times, range_raw, poses = _posed_rows(
+            (main, table),
+            (pose_file, _Table(pose_table.lines, pose_si, pose_table.rows)),
+            skipped,
+            strict,
+            time_tolerance,
+            max_pose_gap,
         )
     ranges = range_raw * LENGTH_UNITS[units.range_unit]
+    return _finish_log(
+        main, times, poses, ranges, table.rows, skipped, f"expected {n_ranges} ranges per row"
+    )
+
+
+def _check_join_settings(time_tolerance: float, max_pose_gap: float) -> None:
+    """Refuse a negative pose-join setting (:func:`join_poses`) with an :class:`InputError`."""
+    if not (time_tolerance >= 0 and max_pose_gap >= 0):
+        raise InputError(
+            "need time_tolerance >= 0 and max_pose_gap >= 0 s, "
+            f"got {time_tolerance}, {max_pose_gap}"
+        )
+
+
+def _posed_rows(
+    ranges: tuple[Path, _Table],
+    poses: tuple[Path, _Table],
+    skipped: list[SkippedRow],
+    strict: bool,
+    time_tolerance: float,
+    max_pose_gap: float,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Join timed ranges rows ``t r_1..r_N`` to timed pose rows ``t x y heading`` [s, m, rad].
+
+    Pose rows that leap away and back are skipped first; each ranges row then takes its pose
+    from :func:`join_poses`, or is skipped and reported. ``strict`` aborts at the first bad row
+    found so far. Returns the kept rows' times, ranges and ``(n, 3)`` poses.
+    """
+    (main, table), (pose_file, pose_table) = ranges, poses
+    _abort_if_strict(strict, skipped)
+    glitches = isolated_jumps(pose_table.values[:, 1:3])
+    _report_glitches(pose_file, pose_table.lines[glitches], skipped)
+    _abort_if_strict(strict, skipped)
+    pose_data = pose_table.values[~glitches]
+    times, range_raw = table.values[:, 0], table.values[:, 1:]
+    joined, why = join_poses(times, pose_data[:, 0], pose_data[:, 1:], time_tolerance, max_pose_gap)
+    keep = why == ""
+    for number, reason in zip(table.lines[~keep], why[~keep], strict=True):
+        _report(main, int(number), str(reason), skipped)
+    _abort_if_strict(strict, skipped)
+    return times[keep], range_raw[keep], joined[keep]
+
+
+def _finish_log(
+    main: Path,
+    times: FloatArray,
+    poses: FloatArray,
+    ranges: FloatArray,
+    rows: int,
+    skipped: list[SkippedRow],
+    hint: str,
+) -> SonarLog:
+    """The :class:`SonarLog` of the kept rows, with one summary warning of the rows skipped.
+
+    Raises :class:`FormatError` (with ``hint`` on what a row should hold) when no row is kept.
+    """
+    if len(times) == 0:
+        raise FormatError(f"no usable rows ({len(skipped)} skipped; {hint})", path=main)
     skipped.sort(key=lambda row: (row.path != str(main), row.line))
     if skipped:
         dropped = sum(row.path == str(main) for row in skipped)
@@ -347,10 +423,10 @@ def read_sonar_log(
             "%s: %d of %d rows skipped (%.1f %%); see the warnings above or summary.json",
             main,
             dropped,
-            table.rows,
-            100.0 * dropped / max(table.rows, 1),
+            rows,
+            100.0 * dropped / max(rows, 1),
         )
-    return SonarLog(times, poses, ranges, table.rows, tuple(skipped))
+    return SonarLog(times, poses, ranges, rows, tuple(skipped))
 
 
 def _report_glitches(path: Path, lines: npt.NDArray[np.int64], skipped: list[SkippedRow]) -> None:

@@ -34,7 +34,7 @@ from bayesmap.errors import ConfigError, FormatError, InputError
 from bayesmap.sensing.sonar_rings import PIONEER_FRONT8, PIONEER_RING16, Layout
 from bayesmap.sonar.geometry import SonarGeometry
 
-__all__ = ["PRESETS", "load_ring", "preset", "ring_from_mapping"]
+__all__ = ["PRESETS", "load_ring", "preset", "ring_from_layout", "ring_from_mapping"]
 
 _LENGTH = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 _ANGLE = {"deg": math.pi / 180.0, "rad": 1.0}
@@ -56,7 +56,14 @@ def preset(name: str) -> SonarGeometry:
     """The preset ring ``name`` (``pioneer8``, ``pioneer16``): 25° beams, 0.1–5 m, σ 2 cm."""
     if name not in PRESETS:
         raise ConfigError(f"unknown ring preset {name!r}; choose from: {', '.join(PRESETS)}")
-    layout = PRESETS[name]
+    return ring_from_layout(PRESETS[name])
+
+
+def ring_from_layout(layout: Layout) -> SonarGeometry:
+    """A ring of transducers at ``layout``'s ``(x [m], y [m], heading [rad])``, in ring order.
+
+    Beam width, ranges and noise are the presets' (25°, 0.1–5 m, σ 2 cm).
+    """
     return SonarGeometry(
         angles=tuple(a for _, _, a in layout),
         offsets=tuple((x, y) for x, y, _ in layout),
