@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
+from tests.sonar.helpers import player_lines, simulated_drive, write_player_log
 from typer.testing import CliRunner
 
 from bayesmap.cli import app
@@ -288,3 +289,57 @@ def test_run_names_a_bad_world_file_or_pipeline_in_one_line(tmp_path: Path) -> N
     args = ["sonar", "run", "--world", str(bad), "--out", str(out), "--pipeline", "best"]
     result = runner.invoke(app, args)
     assert result.exit_code == 1 and "unknown pipeline 'best'" in result.output
+
+
+def _player_map(log: Path, out: Path, *extra: str) -> object:
+    return runner.invoke(
+        app, ["sonar", "map", str(log), "--resolution", "0.2", "--out", str(out), *extra]
+    )
+
+
+def test_a_player_log_is_mapped_with_the_ring_it_describes(tmp_path: Path) -> None:
+    log = write_player_log(tmp_path / "drive.log", player_lines(simulated_drive()))
+    result = _player_map(log, tmp_path / "o")
+    assert result.exit_code == 0, _text(result)
+    assert "ring: the log's sonar geometry, 16 transducers, max range 5 m" in _text(result)
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["readings"] == 240 * 16 and summary["rows_skipped"] == 0
+    assert summary["rows"] == 240 + 121 + 1  # sonar, odometry and geometry lines
+    manifest = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    assert manifest["configuration"]["format"] == "player"
+    assert read_ros_map(tmp_path / "o" / "map.yaml").resolution == pytest.approx(0.2)
+    old = write_player_log(tmp_path / "old.log", player_lines(simulated_drive(), "0.2.0", False))
+    given = ["--format", "player", "--ring", "pioneer16", "--max-range", "5"]
+    result = _player_map(old, tmp_path / "p", *given, "--sonar-index", "0")
+    assert result.exit_code == 0, _text(result)
+    assert "sonar geometry" not in _text(result)
+
+
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [
+        (["--poses", "p.txt"], "--poses is for text logs; a Player log holds its own odometry"),
+        (["--range-unit", "mm"], "a Player log is in metres and radians"),
+        (["--format", "text", "--sonar-index", "1"], "--sonar-index is for Player logs"),
+        (["--format", "player", "--topics", "/a,/b"], "--format player is for log files"),
+    ],
+)
+def test_options_that_do_not_go_with_the_format_exit_2(
+    tmp_path: Path, extra: list[str], words: str
+) -> None:
+    log = write_player_log(tmp_path / "drive.log", player_lines(simulated_drive())[:40])
+    result = _player_map(log, tmp_path / "o", *extra)
+    assert result.exit_code == 2 and words in _text(result)
+    assert "Traceback" not in _text(result) and not (tmp_path / "o").exists()
+
+
+def test_player_logs_that_cannot_be_mapped_are_one_line_errors(tmp_path: Path) -> None:
+    result = _player_map(DATA / "example_log.txt", tmp_path / "o", "--format", "player")
+    assert result.exit_code == 1 and "not a Player log" in _text(result)
+    bare = player_lines(simulated_drive(), geometry=False)[:40]
+    result = _player_map(write_player_log(tmp_path / "bare.log", bare), tmp_path / "o")
+    assert result.exit_code == 1 and "no usable sonar geometry" in _text(result)
+    result = _player_map(tmp_path / "bare.log", tmp_path / "o", "--ring", "pioneer8")
+    assert result.exit_code == 1
+    assert "the log's rings hold 16 ranges, the ring has 8 transducers" in _text(result)
+    assert "Traceback" not in _text(result) and not (tmp_path / "o").exists()

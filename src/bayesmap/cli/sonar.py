@@ -1,7 +1,8 @@
 """``bayesmap sonar``: build maps from real sonar-ring logs.
 
-Every user mistake ends in one plain line on stderr (``error: ...``), exit code 1; messages
-are printed literally (no markup), so ``[m]`` in a message stays ``[m]``.
+Every user mistake ends in one plain line on stderr (``error: ...``), exit code 1, or 2 for
+options that do not go together; messages are printed literally (no markup), so ``[m]`` in a
+message stays ``[m]``.
 """
 
 from __future__ import annotations
@@ -13,13 +14,13 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Literal, NoReturn
 
 import numpy as np
 import typer
 
 from bayesmap._io import RunFolder, run_folder, write_bytes, write_json
-from bayesmap.cli._console import console, headline_text, print_note, progress_bar
+from bayesmap.cli._console import USAGE, console, headline_text, print_note, progress_bar
 from bayesmap.errors import BayesmapError, InputError
 from bayesmap.limits import cell_side_problem
 from bayesmap.sonar.filter import Stage
@@ -32,6 +33,7 @@ from bayesmap.sonar.pipeline import (
     BuiltMap,
     build_map,
 )
+from bayesmap.sonar.player import PlayerLog, is_player_log, read_player_log
 from bayesmap.sonar.ring import PRESETS, load_ring
 
 app = typer.Typer(
@@ -41,12 +43,19 @@ app = typer.Typer(
 
 LengthUnit = Literal["mm", "cm", "m"]
 AngleUnit = Literal["rad", "deg", "decideg"]
+LogFormat = Literal["auto", "text", "player"]
 _err = console(stderr=True)
 
 
 def _say(message: str) -> None:
     """Print ``message`` to stderr exactly as written."""
     print_note(message, out=_err)
+
+
+def _usage(message: str) -> NoReturn:
+    """End a command line whose options do not go together: one line, exit code 2."""
+    _say(f"error: {message}")
+    raise typer.Exit(USAGE)
 
 
 @contextmanager
@@ -79,27 +88,27 @@ def _geometry(
     beam_width_deg: float | None,
     sigma: float | None,
     range_unit: str,
+    logged: SonarGeometry | None = None,
 ) -> SonarGeometry:
-    """The ring from ``--ring`` or ``--angles-deg``, with the command line's overrides."""
-    if (ring is None) == (angles_deg is None):
-        raise InputError(
-            "give the ring either as --ring (a YAML ring file or one of: "
-            f"{', '.join(PRESETS)}) or as --angles-deg, not both or neither"
-        )
+    """The ring from ``--ring`` or ``--angles-deg`` (else the ring a Player log describes,
+    ``logged``), with the command line's overrides."""
+    if ring is not None and angles_deg is not None:
+        raise InputError("give the ring either as --ring or as --angles-deg, not both")
+    _check_overrides(max_range, beam_width_deg, sigma)
     metres = LENGTH_UNITS[range_unit]
-    for name, value in (
-        ("--max-range", max_range),
-        ("--sigma", sigma),
-        ("--beam-width-deg", beam_width_deg),
-    ):
-        if value is not None and not (math.isfinite(value) and value > 0):
-            raise InputError(f"{name} must be a positive number, got {value}")
     if ring is not None:
         geometry = load_ring(ring)
-    else:
+    elif angles_deg is not None:
         if max_range is None:
             raise InputError("--max-range is needed with --angles-deg (in --range-unit)")
-        geometry = SonarGeometry(angles=_angles(angles_deg or ""), max_range=max_range * metres)
+        geometry = SonarGeometry(angles=_angles(angles_deg), max_range=max_range * metres)
+    elif logged is not None:
+        geometry = logged
+    else:
+        raise InputError(
+            "give the ring either as --ring (a YAML ring file or one of: "
+            f"{', '.join(PRESETS)}) or as --angles-deg"
+        )
     if max_range is not None:
         geometry = replace(
             geometry,
@@ -111,6 +120,18 @@ def _geometry(
     if beam_width_deg is not None:
         geometry = replace(geometry, beam_width=math.radians(beam_width_deg))
     return geometry
+
+
+def _check_overrides(
+    max_range: float | None, beam_width_deg: float | None, sigma: float | None
+) -> None:
+    for name, value in (
+        ("--max-range", max_range),
+        ("--sigma", sigma),
+        ("--beam-width-deg", beam_width_deg),
+    ):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise InputError(f"{name} must be a positive number, got {value}")
 
 
 def _check_ranges(data: SonarLog, geometry: SonarGeometry, range_unit: str) -> None:
@@ -131,7 +152,11 @@ def _check_ranges(data: SonarLog, geometry: SonarGeometry, range_unit: str) -> N
 @app.command("map")
 def map_command(
     log: Annotated[
-        Path, typer.Argument(help="Log: rows 't x y heading r1..rN' (or 't r1..rN' with --poses).")
+        Path,
+        typer.Argument(
+            help="Log: rows 't x y heading r1..rN' (or 't r1..rN' with --poses), a Player "
+            "log, or a ROS bag (with --topics)."
+        ),
     ],
     out: Annotated[Path, typer.Option("--out", help="Output folder (created if missing).")],
     resolution: Annotated[
@@ -142,7 +167,7 @@ def map_command(
         typer.Option(
             "--ring",
             help="Ring file (YAML: each transducer's x, y, heading...) or preset: "
-            f"{', '.join(PRESETS)}.",
+            f"{', '.join(PRESETS)}. Default for a Player log: the ring its geometry describes.",
         ),
     ] = None,
     angles_deg: Annotated[
@@ -157,7 +182,7 @@ def map_command(
         typer.Option(
             "--max-range",
             help="Max range in --range-unit; a reading at or above it means no echo "
-            "(default: the ring file's).",
+            "(default: the ring file's; for a ring from a Player log, the presets' 5 m).",
         ),
     ] = None,
     poses: Annotated[
@@ -213,9 +238,35 @@ def map_command(
     tf_frames: Annotated[
         str, typer.Option("--tf-frames", help="Bag with --pose-topic /tf: 'parent,child'.")
     ] = "odom,base_link",
+    log_format: Annotated[
+        LogFormat,
+        typer.Option(
+            "--format",
+            help="LOG's format: 'text' rows, a 'player' log (Player/Stage writelog, metres and "
+            "radians), or 'auto': player when LOG opens with '## Player version', else text.",
+        ),
+    ] = "auto",
+    sonar_index: Annotated[
+        int | None,
+        typer.Option("--sonar-index", min=0, help="Player log: the sonar device's index [0]."),
+    ] = None,
+    position_index: Annotated[
+        int | None,
+        typer.Option(
+            "--position-index", min=0, help="Player log: the odometry's position2d index [0]."
+        ),
+    ] = None,
 ) -> None:
     """Build map.png, map.yaml + map.pgm (ROS map_server) and summary.json from a sonar log."""
     with _user_errors():
+        kind = _log_kind(
+            log,
+            log_format,
+            topics,
+            poses,
+            (sonar_index, position_index),
+            (range_unit, position_unit, heading_unit),
+        )
         if pipeline not in PIPELINES:
             raise InputError(f"--pipeline {pipeline!r} is not one of: {', '.join(PIPELINES)}")
         if out.exists() and not out.is_dir():
@@ -223,7 +274,11 @@ def map_command(
         problem = cell_side_problem(resolution)
         if problem is not None:
             raise InputError(f"--resolution {problem}")
-        geometry = _geometry(ring, angles_deg, max_range, beam_width_deg, sigma, range_unit)
+        geometry: SonarGeometry | None = None
+        if kind == "player" and ring is None and angles_deg is None:
+            _check_overrides(max_range, beam_width_deg, sigma)  # the ring comes with the log
+        else:
+            geometry = _geometry(ring, angles_deg, max_range, beam_width_deg, sigma, range_unit)
         units = LogUnits(
             range_unit=range_unit, position_unit=position_unit, heading_unit=heading_unit
         )
@@ -235,7 +290,19 @@ def map_command(
         if topics is not None and poses is not None:
             raise InputError("--poses is for text logs; a bag's poses come from --pose-topic")
         with progress_bar(_err, first=f"reading {log.name}", percent=True) as hook:
-            if topics is not None:
+            if kind == "player" or geometry is None:
+                player = read_player_log(
+                    log,
+                    sonar_index=sonar_index or 0,
+                    position_index=position_index or 0,
+                    strict=strict,
+                    time_tolerance=pose_tolerance,
+                    max_pose_gap=max_pose_gap,
+                    progress=hook,
+                )
+                data = player.log
+                geometry = _player_ring(player, geometry, max_range, beam_width_deg, sigma)
+            elif topics is not None:
                 data = _read_bag(
                     log,
                     topics,
@@ -269,6 +336,7 @@ def map_command(
             )
         settings = {
             "log": str(log),
+            "format": kind,
             "poses": None if poses is None else str(poses),
             "pipeline": pipeline,
             "no_filter": no_filter,
@@ -314,6 +382,67 @@ def run_command(
                 config, out, progress=hook, command=shlex.join(["bayesmap", *sys.argv[1:]])
             )
     typer.echo(f"{headline_text(result.headline)}; wrote {out}")
+
+
+def _log_kind(
+    log: Path,
+    log_format: LogFormat,
+    topics: str | None,
+    poses: Path | None,
+    indices: tuple[int | None, int | None],
+    units: tuple[str, str, str],
+) -> Literal["text", "player", "bag"]:
+    """How to read LOG: a bag (``--topics``), a Player log or text rows (``--format``, or the
+    ``## Player version`` line Player's writelog opens its logs with). Options that do not go
+    with it are a usage error (exit 2)."""
+    kind: Literal["text", "player", "bag"]
+    if topics is not None:
+        if log_format != "auto":
+            _usage(f"--format {log_format} is for log files; with --topics LOG is a ROS bag")
+        kind = "bag"
+    elif log_format == "auto":
+        kind = "player" if is_player_log(log) else "text"
+    else:
+        kind = log_format
+    if kind == "player":
+        if poses is not None:
+            _usage("--poses is for text logs; a Player log holds its own odometry")
+        if units != ("m", "m", "rad"):
+            _usage(
+                "a Player log is in metres and radians: drop --range-unit, --position-unit "
+                "and --heading-unit"
+            )
+    else:
+        for name, value in zip(("--sonar-index", "--position-index"), indices, strict=True):
+            if value is not None:
+                _usage(f"{name} is for Player logs; LOG is read as {kind} (see --format)")
+    return kind
+
+
+def _player_ring(
+    player: PlayerLog,
+    given: SonarGeometry | None,
+    max_range: float | None,
+    beam_width_deg: float | None,
+    sigma: float | None,
+) -> SonarGeometry:
+    """The ring of a Player log's rings: the one given, else the one its geometry describes."""
+    geometry = given
+    if geometry is None:
+        if player.ring is None:
+            raise InputError(
+                "the Player log has no usable sonar geometry: give the ring as --ring or "
+                "--angles-deg"
+            )
+        geometry = _geometry(None, None, max_range, beam_width_deg, sigma, "m", player.ring)
+        _say(
+            f"ring: the log's sonar geometry, {geometry.n} transducers, max range "
+            f"{geometry.max_range:g} m"
+        )
+    n = player.log.ranges.shape[1]
+    if n != geometry.n:
+        raise InputError(f"the log's rings hold {n} ranges, the ring has {geometry.n} transducers")
+    return geometry
 
 
 def _read_bag(
