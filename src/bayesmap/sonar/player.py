@@ -158,13 +158,18 @@ def _counted(payload: list[str], per_item: int, what: str) -> tuple[list[str], l
     return values, payload[1 + count * per_item :]
 
 
-def _layout(values: list[str]) -> Layout | str:
-    """Transducer poses ``x y yaw`` [m, m, rad] from their fields, or why they are bad."""
+def _geometry(payload: list[str]) -> tuple[Layout, list[str]] | str:
+    """Transducer poses ``x y yaw`` [m, m, rad] from ``count x_1 y_1 yaw_1 ..``, and the fields
+    after them; or why they are bad."""
+    split = _counted(payload, 3, "sonar geometry")
+    if isinstance(split, str):
+        return split
+    values, rest = split
     culprit = next((v for v in values if not is_decimal(v)), None)
     if culprit is not None:
         return f"sonar geometry: {culprit[:40]!r} is not a plain decimal number"
     n = [float(v) for v in values]
-    return tuple((n[i], n[i + 1], n[i + 2]) for i in range(0, len(n), 3))
+    return tuple((n[i], n[i + 1], n[i + 2]) for i in range(0, len(n), 3)), rest
 
 
 def _range_fields(payload: list[str]) -> list[str] | str:
@@ -208,18 +213,24 @@ class _Scan:
         _report(self.path, line, reason, self.skipped)
 
     def take(self, line: int, message: _Message, role: _Role) -> None:
-        """Record one line of the sonar ring or of the odometry."""
+        """Record one line of the sonar ring or of the odometry; a bad line is reported."""
         if role == "pose":
             self._row(line, self.poses, _pose(message.time, message.payload))
             return
+        layout: Layout = ()
         payload = message.payload
         if role != "ranges":
-            rest = self._geometry(line, payload)
-            if rest is None or role == "geometry":
-                if rest:
-                    self.bad(line, f"{len(rest)} fields after the sonar geometry")
+            split = _geometry(payload)
+            if isinstance(split, str):
+                self.bad(line, split)
                 return
-            payload = rest
+            layout, payload = split
+            if role == "geometry":
+                if payload:
+                    self.bad(line, f"{len(payload)} fields after the sonar geometry")
+                else:
+                    self._keep(line, layout)
+                return
         fields = _range_fields(payload)
         if isinstance(fields, str):
             self.bad(line, fields)
@@ -227,27 +238,21 @@ class _Scan:
         if self.rings is None:
             self.rings, self.first_ring_line = _Rows(1 + len(fields)), line
         n = self.rings.columns - 1
-        self._row(line, self.rings, _ranges(message.time, fields, n, self.first_ring_line))
+        if self._row(line, self.rings, _ranges(message.time, fields, n, self.first_ring_line)):
+            self._keep(line, layout)
 
-    def _geometry(self, line: int, payload: list[str]) -> list[str] | None:
-        """Keep the first geometry; the fields after it, or ``None`` if it is bad (reported)."""
-        split = _counted(payload, 3, "sonar geometry")
-        if isinstance(split, str):
-            self.bad(line, split)
-            return None
-        layout = _layout(split[0])
-        if isinstance(layout, str):
-            self.bad(line, layout)
-            return None
+    def _keep(self, line: int, layout: Layout) -> None:
+        """Keep the log's first (non-empty) geometry and its line."""
         if layout and self.geometry is None:
             self.geometry = (line, layout)
-        return split[1]
 
-    def _row(self, line: int, rows: _Rows, outcome: list[float] | str) -> None:
+    def _row(self, line: int, rows: _Rows, outcome: list[float] | str) -> bool:
+        """Add a good row to ``rows`` or report a bad one; whether it was good."""
         if isinstance(outcome, str):
             self.bad(line, outcome)
-        else:
-            rows.add(line, outcome)
+            return False
+        rows.add(line, outcome)
+        return True
 
 
 def _scan(
