@@ -68,6 +68,9 @@ def test_geometry_published_as_data_and_a_wrong_sized_one(tmp_path: Path) -> Non
     assert [(row.line, row.reason) for row in log.log.skipped] == [
         (4, "sonar geometry of 8 transducers for rings of 16 ranges")
     ]
+    lines[3] = geometry + " 7"  # a field too many: the line is skipped, its ring unused
+    log = read_player_log(write_player_log(tmp_path / "long.log", lines))
+    assert log.ring is None and log.log.skipped[0].reason == "1 fields after the sonar geometry"
 
 
 def test_bad_lines_cost_their_line_and_strict_names_the_first(tmp_path: Path) -> None:
