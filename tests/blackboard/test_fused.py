@@ -440,6 +440,9 @@ def test_bad_sweeps_raise_a_clear_error(pose: np.ndarray, sweeps: np.ndarray, wh
 def test_bad_catalogue_and_params_are_config_errors() -> None:
     with pytest.raises(ConfigError, match="catalogue"):
         FusedMapper((ObjectType("bad", 0.5, 0.8, 0.1),), ARENA)
+    desk = ObjectType("desk", 1.2, 0.8, 0.05)
+    with pytest.raises(ConfigError, match=r"catalogue\[1\] \(copy\) has the size of"):
+        FusedMapper((desk, desk._replace(name="copy")), ARENA)
     with pytest.raises(ConfigError, match="p_miss"):
         FusedParams(p_miss=1.5)
 

@@ -21,6 +21,7 @@ from bayesmap.blackboard.sweep_model import (
     legs_swept,
     legs_swept_pairs,
     tables_overlap,
+    wall_contact_density,
 )
 
 CATALOGUE = (ObjectType("desk", 1.2, 0.8, 0.1), ObjectType("stool", 0.8, 0.8, 0.08))
@@ -229,3 +230,24 @@ def test_pair_densities_are_the_grids_entries_bit_for_bit(model: SweepModel) -> 
         got = legs_swept_pairs(legs[k], root[i], start[i], stop[i], length[i])
         assert np.array_equal(got, swept[k, i])
     assert (grid > 0).any() and swept.any()
+
+
+@pytest.mark.parametrize("reach", [0.3, 0.1 * 3, 0.7, 1.0])
+def test_a_whisker_touching_with_its_tip_is_within_reach(reach: float) -> None:
+    """A whisker first touches with its tip, at exactly its reach; rounding must not push
+    the wall or leg beyond it (contacts of a corridor's walls were lost to clutter so)."""
+    model = MODEL._replace(reach=reach)
+    bearing = np.linspace(-1.2, 1.2, 241)
+    tip = np.column_stack([np.full_like(bearing, ARENA[0]), np.full_like(bearing, 2.0)])
+    root = tip - reach * np.column_stack([np.cos(bearing), np.sin(bearing)])
+    r_hat, phi_hat = np.full_like(bearing, reach), np.full_like(bearing, math.pi)
+    assert (wall_contact_density(root, bearing, r_hat, phi_hat, model) > 0).all()
+    farther = root - 1e-4 * np.column_stack([np.cos(bearing), np.sin(bearing)])
+    assert (wall_contact_density(farther, bearing, r_hat, phi_hat, model) == 0).all()
+    leg = np.array([[1.0, 2.0, 0.05]])  # x, y, half side: the tip touches its west face
+    root = np.array([[1.0 - 0.05 - reach, 2.0]])
+    one = np.array([reach])
+    density = leg_contact_density(
+        root, np.zeros(1), one, np.array([math.pi]), leg, np.zeros(1), model
+    )
+    assert density.shape == (1, 1) and density[0, 0] > 0

@@ -98,6 +98,19 @@ def test_a_world_without_poses_is_toured_like_the_paper() -> None:
             r"catalogue\[0\]: length must be the longer side",
         ),
         (
+            lambda w: w.update(
+                catalogue=[
+                    {"name": "a", "length": 1.2, "width": 0.8, "leg": 0.05},
+                    {"name": "b", "length": 1.2, "width": 0.8, "leg": 0.05},
+                ]
+            ),
+            r"catalogue\[1\]: has the size of catalogue\[0\]",
+        ),
+        (
+            lambda w: w.update(poses=[[3.0, 2.0, 0.0], [4.0, 4.0, 0.0]]),
+            r"poses\[1\]: the robot cannot stand inside a table",
+        ),
+        (
             lambda w: w.update(poses={"grid": 100000}),
             r"poses\.grid: a 100,000 x 100,000 grid of 4 headings is 40,000,000,000 poses",
         ),

@@ -75,6 +75,11 @@ __all__ = [
 
 _TWO_PI = 2.0 * math.pi
 
+_REACH_ROUNDING = 1e-9
+"""[m] A surface computed to lie exactly at the whisker's reach (its tip touching a wall or
+a leg, as a whisker first does) comes out up to ~1e-15 m beyond it in floating point; it
+is within reach."""
+
 
 class ObjectType(NamedTuple):
     """One kind of four-legged object (the paper's §IV "several types of object").
@@ -110,6 +115,12 @@ def check_catalogue(catalogue: tuple[ObjectType, ...]) -> tuple[ObjectType, ...]
                 f"catalogue[{k}] ({t.name}): need 0 < 2 × leg < width <= length, got "
                 f"length={t.length}, width={t.width}, leg={t.leg}"
             )
+        for j, other in enumerate(catalogue[:k]):
+            if (t.length, t.width, t.leg) == (other.length, other.width, other.leg):
+                raise ConfigError(
+                    f"catalogue[{k}] ({t.name}) has the size of catalogue[{j}] ({other.name}): "
+                    "no contact can tell them apart, so a table's belief would split between them"
+                )
     return tuple(catalogue)
 
 
@@ -364,7 +375,7 @@ def _screened_density(
     gap = np.maximum(np.abs(ux * oy - uy * ox) - h * (ax + ay), 0.0)
     along = np.where(hit, t_near, -(ox * ux + oy * uy))
     e_perp = np.where(hit, 0.0, gap)
-    kept = (np.where(hit, along, along - math.sqrt(2.0) * h) <= model.reach) & (
+    kept = (np.where(hit, along, along - math.sqrt(2.0) * h) <= model.reach + _REACH_ROUNDING) & (
         e_perp <= across_cut
     )
     # φ*: of the (one or two) faces turned towards the root, the one nearest φ̂ — a whisker
@@ -403,7 +414,7 @@ def wall_contact_density(
     )
     d_phi = wrap_angle(phi_hat - normal)
     return np.asarray(
-        np.where(r_star <= model.reach, 1.0, 0.0)
+        np.where(r_star <= model.reach + _REACH_ROUNDING, 1.0, 0.0)
         * _range_density(r_hat, r_star, model.sigma_r)
         * _normal(np.zeros(1), model.sigma_perp)
         * _normal(d_phi, model.sigma_phi)

@@ -205,8 +205,11 @@ class WorldFile:
         if self.poses is not None:
             return np.asarray(self.poses, dtype=np.float64)
         count, margin, headings = self.grid
-        xs = np.linspace(margin, self.arena[0] - margin, count)
-        ys = np.linspace(margin, self.arena[1] - margin, count)
+        if count == 1:  # one position: the middle of the arena, not a corner
+            xs, ys = np.array([self.arena[0] / 2]), np.array([self.arena[1] / 2])
+        else:
+            xs = np.linspace(margin, self.arena[0] - margin, count)
+            ys = np.linspace(margin, self.arena[1] - margin, count)
         rows = []
         for row, y in enumerate(ys):
             for x in xs if row % 2 == 0 else xs[::-1]:
@@ -312,6 +315,15 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
         if outside.any() or not np.isfinite(poses).all():
             first = int(np.flatnonzero(outside | ~np.isfinite(poses).all(axis=1))[0])
             raise _fail(source, f"poses[{first}]", "a pose must be finite and inside the arena")
+        blocked = next(
+            (k for k, (x, y, _) in enumerate(poses) if not _position_free(x, y, tables)), None
+        )
+        if blocked is not None:
+            raise _fail(
+                source,
+                f"poses[{blocked}]",
+                f"the robot cannot stand inside a table or within {POSE_CLEARANCE:g} m of a leg",
+            )
     else:
         grid = (
             int(poses_obj["grid"]),
@@ -344,6 +356,13 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
                 source,
                 f"catalogue[{k}]",
                 "length must be the longer side and each leg narrower than half the width",
+            )
+        twin = next((j for j in range(k) if catalogue[j][1:] == (length, width, leg)), None)
+        if twin is not None:
+            raise _fail(
+                source,
+                f"catalogue[{k}]",
+                f"has the size of catalogue[{twin}]: the mapper could not tell them apart",
             )
     wall_texture = float(obj["arena"].get("wall_texture", _DEFAULT_TEXTURE))
     return WorldFile(arena, tables, poses, grid, catalogue, wall_texture)
