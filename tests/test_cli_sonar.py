@@ -156,7 +156,7 @@ def test_poses_with_a_bag_are_refused(tmp_path: Path) -> None:
     assert result.exit_code != 0 and "a bag's poses come from --pose-topic" in _text(result)
     twice = ",".join(["/s0", *(f"/s{k}" for k in range(15))])
     result = _map(tmp_path / "o", "--topics", twice)
-    assert result.exit_code != 0 and "--topics names /s0 twice" in _text(result)
+    assert result.exit_code == 2 and "--topics names /s0 twice" in _text(result)
 
 
 def _text(result: object) -> str:
@@ -288,7 +288,7 @@ def test_run_names_a_bad_world_file_or_pipeline_in_one_line(tmp_path: Path) -> N
     assert not out.exists()
     args = ["sonar", "run", "--world", str(bad), "--out", str(out), "--pipeline", "best"]
     result = runner.invoke(app, args)
-    assert result.exit_code == 1 and "unknown pipeline 'best'" in result.output
+    assert result.exit_code == 2 and "unknown pipeline 'best'" in result.output
 
 
 def _player_map(log: Path, out: Path, *extra: str) -> object:

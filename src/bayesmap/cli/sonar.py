@@ -71,13 +71,11 @@ def _angles(text: str) -> tuple[float, ...]:
     try:
         values = tuple(float(part) for part in text.replace(" ", "").split(","))
     except ValueError:
-        raise InputError(
-            f"--angles-deg must be comma-separated numbers, one per transducer, got {text!r}"
-        ) from None
+        _usage(f"--angles-deg must be comma-separated numbers, one per transducer, got {text!r}")
     if not all(math.isfinite(v) for v in values):
-        raise InputError(f"--angles-deg angles must be finite, got {text!r}")
+        _usage(f"--angles-deg angles must be finite, got {text!r}")
     if len(values) < 2:
-        raise InputError(f"--angles-deg needs at least two angles, got {text!r}")
+        _usage(f"--angles-deg needs at least two angles, got {text!r}")
     return tuple(math.radians(v) for v in values)
 
 
@@ -93,7 +91,7 @@ def _geometry(
     """The ring from ``--ring`` or ``--angles-deg`` (else the ring a Player log describes,
     ``logged``), with the command line's overrides."""
     if ring is not None and angles_deg is not None:
-        raise InputError("give the ring either as --ring or as --angles-deg, not both")
+        _usage("give the ring either as --ring or as --angles-deg, not both")
     _check_overrides(max_range, beam_width_deg, sigma)
     metres = LENGTH_UNITS[range_unit]
     if ring is not None:
@@ -268,7 +266,7 @@ def map_command(
             (range_unit, position_unit, heading_unit),
         )
         if pipeline not in PIPELINES:
-            raise InputError(f"--pipeline {pipeline!r} is not one of: {', '.join(PIPELINES)}")
+            _usage(f"--pipeline {pipeline!r} is not one of: {', '.join(PIPELINES)}")
         if out.exists() and not out.is_dir():
             raise InputError(f"--out {out} is a file; name a folder (it is created if missing)")
         problem = cell_side_problem(resolution)
@@ -288,7 +286,7 @@ def map_command(
                 chosen, acceptability=False, agreeability=False, trait_verification=False
             )
         if topics is not None and poses is not None:
-            raise InputError("--poses is for text logs; a bag's poses come from --pose-topic")
+            _usage("--poses is for text logs; a bag's poses come from --pose-topic")
         with progress_bar(_err, first=f"reading {log.name}", percent=True) as hook:
             if kind == "player" or geometry is None:
                 player = read_player_log(
@@ -373,7 +371,7 @@ def run_command(
         names = tuple(pipeline) if pipeline else tuple(PIPELINES)
         unknown = [name for name in names if name not in PIPELINES]
         if unknown:
-            raise InputError(f"unknown pipeline {unknown[0]!r}; choose from {', '.join(PIPELINES)}")
+            _usage(f"unknown pipeline {unknown[0]!r}; choose from {', '.join(PIPELINES)}")
         config = experiment.Config.model_validate(
             {"world": world, "runs": runs, "seed": seed, "pipelines": names, "jobs": jobs}
         )
@@ -457,13 +455,13 @@ def _read_bag(
 ) -> SonarLog:
     names = [t.strip() for t in topics.split(",") if t.strip()]
     if len(names) != geometry.n:
-        raise InputError(f"--topics names {len(names)} topics for a ring of {geometry.n}")
+        _usage(f"--topics names {len(names)} topics for a ring of {geometry.n}")
     repeated = sorted({name for name in names if names.count(name) > 1})
     if repeated:
-        raise InputError(f"--topics names {repeated[0]} twice; each transducer has its own topic")
+        _usage(f"--topics names {repeated[0]} twice; each transducer has its own topic")
     frames = tuple(f.strip() for f in tf_frames.split(","))
     if len(frames) != 2 or not all(frames):
-        raise InputError(f"--tf-frames needs 'parent,child', got {tf_frames!r}")
+        _usage(f"--tf-frames needs 'parent,child', got {tf_frames!r}")
     from bayesmap.sonar.bags import read_sonar_bag  # rosbags loads only for bags
 
     return read_sonar_bag(
