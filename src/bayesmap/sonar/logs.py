@@ -20,6 +20,11 @@ rows after it. Every skipped row
 is reported with its line number and reason (a warning each, and in ``skipped``) and a summary
 warning gives the fraction dropped; with ``strict=True`` the first bad row in the file aborts
 the read with a :class:`~bayesmap.errors.FormatError` naming its file and line.
+
+The row machinery (:class:`RowBlocks`, :func:`row_values`, :func:`in_order_rows`,
+:func:`posed_rows`, :func:`finish_log`, :func:`report_skipped`) is shared with the Player
+log reader (:mod:`bayesmap.sonar.player`), so both treat bad rows alike; it is not part of
+the package's API (``__all__``).
 """
 
 from __future__ import annotations
@@ -124,16 +129,16 @@ class _Table(NamedTuple):
 
 
 _SPLIT = re.compile(r"\s*,\s*|\s+")
-_CHUNK = 20_000
+CHUNK_ROWS = 20_000
 """Rows parsed into one numpy block: memory stays near the size of the numbers themselves."""
 
 
-def _report(path: Path, number: int, reason: str, skipped: list[SkippedRow]) -> None:
+def report_skipped(path: Path, number: int, reason: str, skipped: list[SkippedRow]) -> None:
     skipped.append(SkippedRow(str(path), number, reason))
     logger.warning("%s, line %d: %s; row skipped", path, number, reason)
 
 
-def _row_values(fields: list[str], columns: int, n_ranges: int) -> list[float] | str:
+def row_values(fields: list[str], columns: int, n_ranges: int) -> list[float] | str:
     """The row's numbers, or why it is bad."""
     if len(fields) != columns:
         return f"expected {columns} columns, found {len(fields)}"
@@ -152,10 +157,10 @@ def _row_values(fields: list[str], columns: int, n_ranges: int) -> list[float] |
     return numbers
 
 
-class _Rows:
+class RowBlocks:
     """Rows of ``columns`` numbers and their line numbers, gathered into numpy blocks.
 
-    Blocks of :data:`_CHUNK` rows keep memory near the size of the numbers themselves.
+    Blocks of :data:`CHUNK_ROWS` rows keep memory near the size of the numbers themselves.
     """
 
     def __init__(self, columns: int) -> None:
@@ -169,7 +174,7 @@ class _Rows:
         """Add one row; whether a full block was just stored."""
         self._pending.append(values)
         self._pending_lines.append(line)
-        if len(self._pending) < _CHUNK:
+        if len(self._pending) < CHUNK_ROWS:
             return False
         self._flush()
         return True
@@ -205,7 +210,7 @@ def _parse(
     """Stream ``path`` line by line into numpy blocks; bad rows go to ``skipped``."""
     handle, size = open_input(path)
     total = max(size, 1)
-    parsed = _Rows(columns)
+    parsed = RowBlocks(columns)
     rows = 0
     done = 0
     with handle:
@@ -218,18 +223,18 @@ def _parse(
             if not body:
                 continue
             rows += 1
-            outcome = _row_values(_SPLIT.split(body), columns, n_ranges)
+            outcome = row_values(_SPLIT.split(body), columns, n_ranges)
             if isinstance(outcome, str):
-                _report(path, number, outcome, skipped)
+                report_skipped(path, number, outcome, skipped)
                 continue
             if parsed.add(number, outcome) and progress is not None:
                 progress(f"reading {path.name}", done, total)
     if progress is not None:
         progress(f"reading {path.name}", total, total)
-    return _in_order_rows(path, parsed.table(rows), skipped)
+    return in_order_rows(path, parsed.table(rows), skipped)
 
 
-def _in_order_rows(path: Path, table: _Table, skipped: list[SkippedRow]) -> _Table:
+def in_order_rows(path: Path, table: _Table, skipped: list[SkippedRow]) -> _Table:
     """The rows of ``table`` whose timestamps (column 0) strictly increase (:func:`_in_order`).
 
     Each row left out is reported: as repeating a neighbour's timestamp, or as out of order.
@@ -248,7 +253,7 @@ def _in_order_rows(path: Path, table: _Table, skipped: list[SkippedRow]) -> _Tab
         else:
             after = f" (line {int(lines[kept_before[-1]])})" if len(kept_before) else ""
             reason = f"timestamp {time!r} out of order with its neighbours{after}"
-        _report(path, int(lines[index]), reason, skipped)
+        report_skipped(path, int(lines[index]), reason, skipped)
     return _Table(lines[keep], values[keep], table.rows)
 
 
@@ -328,7 +333,7 @@ def read_sonar_log(
     """
     if n_ranges < 1:
         raise InputError(f"a sonar log needs at least one range column, got n_ranges={n_ranges}")
-    _check_join_settings(time_tolerance, max_pose_gap)
+    check_join_settings(time_tolerance, max_pose_gap)
     main = Path(path)
     skipped: list[SkippedRow] = []
     length = LENGTH_UNITS[units.position_unit]
@@ -349,7 +354,7 @@ def read_sonar_log(
         pose_table = _parse(pose_file, 4, 0, skipped)
         table = _parse(main, 1 + n_ranges, n_ranges, skipped, progress)
         pose_si = pose_table.values * np.array([1.0, length, length, angle])
-        times, range_raw, poses = _posed_rows(
+        times, range_raw, poses = posed_rows(
             (main, table),
             (pose_file, _Table(pose_table.lines, pose_si, pose_table.rows)),
             skipped,
@@ -358,12 +363,12 @@ def read_sonar_log(
             max_pose_gap,
         )
     ranges = range_raw * LENGTH_UNITS[units.range_unit]
-    return _finish_log(
+    return finish_log(
         main, times, poses, ranges, table.rows, skipped, f"expected {n_ranges} ranges per row"
     )
 
 
-def _check_join_settings(time_tolerance: float, max_pose_gap: float) -> None:
+def check_join_settings(time_tolerance: float, max_pose_gap: float) -> None:
     """Refuse a negative pose-join setting (:func:`join_poses`) with an :class:`InputError`."""
     if not (time_tolerance >= 0 and max_pose_gap >= 0):
         raise InputError(
@@ -372,7 +377,7 @@ def _check_join_settings(time_tolerance: float, max_pose_gap: float) -> None:
         )
 
 
-def _posed_rows(
+def posed_rows(
     ranges: tuple[Path, _Table],
     poses: tuple[Path, _Table],
     skipped: list[SkippedRow],
@@ -396,12 +401,12 @@ def _posed_rows(
     joined, why = join_poses(times, pose_data[:, 0], pose_data[:, 1:], time_tolerance, max_pose_gap)
     keep = why == ""
     for number, reason in zip(table.lines[~keep], why[~keep], strict=True):
-        _report(main, int(number), str(reason), skipped)
+        report_skipped(main, int(number), str(reason), skipped)
     _abort_if_strict(strict, skipped)
     return times[keep], range_raw[keep], joined[keep]
 
 
-def _finish_log(
+def finish_log(
     main: Path,
     times: FloatArray,
     poses: FloatArray,
@@ -432,7 +437,7 @@ def _finish_log(
 def _report_glitches(path: Path, lines: npt.NDArray[np.int64], skipped: list[SkippedRow]) -> None:
     """Skip the rows whose position leaps away and straight back (:func:`isolated_jumps`)."""
     for number in lines.tolist():
-        _report(
+        report_skipped(
             path, int(number), f"position leaps over {MAX_POSE_JUMP:g} m away and back", skipped
         )
 

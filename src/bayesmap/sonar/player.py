@@ -41,16 +41,16 @@ from bayesmap.errors import ConfigError, FormatError
 from bayesmap.sensing.sonar_rings import Layout
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.logs import (
-    _CHUNK,
+    CHUNK_ROWS,
+    RowBlocks,
     SkippedRow,
     SonarLog,
-    _check_join_settings,
-    _finish_log,
-    _in_order_rows,
-    _posed_rows,
-    _report,
-    _row_values,
-    _Rows,
+    check_join_settings,
+    finish_log,
+    in_order_rows,
+    posed_rows,
+    report_skipped,
+    row_values,
 )
 from bayesmap.sonar.ring import ring_from_layout
 
@@ -186,14 +186,14 @@ def _ranges(time: str, values: list[str], n: int, first: int) -> list[float] | s
     """``[time, r_1 .. r_n]`` from a ranges line's fields, or why they are bad."""
     if len(values) != n:
         return f"{len(values)} ranges where the first sonar line (line {first}) has {n}"
-    return _row_values([time, *values], 1 + n, n)
+    return row_values([time, *values], 1 + n, n)
 
 
 def _pose(time: str, payload: list[str]) -> list[float] | str:
     """``[time, px, py, pa]`` from an odometry line's ``px py pa vx vy va stall``."""
     if len(payload) != 7:
         return f"an odometry line holds 7 values (px py pa vx vy va stall), found {len(payload)}"
-    return _row_values([time, *payload[:3]], 4, 0)
+    return row_values([time, *payload[:3]], 4, 0)
 
 
 class _Scan:
@@ -202,15 +202,15 @@ class _Scan:
     def __init__(self, path: Path, skipped: list[SkippedRow]) -> None:
         self.path = path
         self.skipped = skipped
-        self.rings: _Rows | None = None
+        self.rings: RowBlocks | None = None
         self.first_ring_line = 0
-        self.poses = _Rows(4)
+        self.poses = RowBlocks(4)
         self.geometry: tuple[int, Layout] | None = None
         self.devices: set[str] = set()
         self.rows = 0
 
     def bad(self, line: int, reason: str) -> None:
-        _report(self.path, line, reason, self.skipped)
+        report_skipped(self.path, line, reason, self.skipped)
 
     def take(self, line: int, message: _Message, role: _Role) -> None:
         """Record one line of the sonar ring or of the odometry; a bad line is reported."""
@@ -236,7 +236,7 @@ class _Scan:
             self.bad(line, fields)
             return
         if self.rings is None:
-            self.rings, self.first_ring_line = _Rows(1 + len(fields)), line
+            self.rings, self.first_ring_line = RowBlocks(1 + len(fields)), line
         n = self.rings.columns - 1
         if self._row(line, self.rings, _ranges(message.time, fields, n, self.first_ring_line)):
             self._keep(line, layout)
@@ -246,7 +246,7 @@ class _Scan:
         if layout and self.geometry is None:
             self.geometry = (line, layout)
 
-    def _row(self, line: int, rows: _Rows, outcome: list[float] | str) -> bool:
+    def _row(self, line: int, rows: RowBlocks, outcome: list[float] | str) -> bool:
         """Add a good row to ``rows`` or report a bad one; whether it was good."""
         if isinstance(outcome, str):
             self.bad(line, outcome)
@@ -277,7 +277,7 @@ def _scan(
         done = len(first)
         for number, raw in enumerate(handle, start=2):
             done += len(raw)
-            if number % _CHUNK == 0 and progress is not None:
+            if number % CHUNK_ROWS == 0 and progress is not None:
                 progress(f"reading {path.name}", done, total)
             tokens = raw.decode("utf-8", errors="replace").split()
             if not tokens:
@@ -366,7 +366,7 @@ def read_player_log(
     InputError
         A negative pose join setting.
     """
-    _check_join_settings(time_tolerance, max_pose_gap)
+    check_join_settings(time_tolerance, max_pose_gap)
     source = Path(path)
     skipped: list[SkippedRow] = []
     scan = _scan(source, sonar_index, position_index, skipped, progress)
@@ -377,13 +377,13 @@ def read_player_log(
     if len(pose_table.values) == 0:
         raise FormatError(f"no odometry of position device {position_index} ({seen})", path=source)
     ring = _ring(scan, scan.rings.columns - 1)
-    times, ranges, poses = _posed_rows(
-        (source, _in_order_rows(source, scan.rings.table(scan.rows), skipped)),
-        (source, _in_order_rows(source, pose_table, skipped)),
+    times, ranges, poses = posed_rows(
+        (source, in_order_rows(source, scan.rings.table(scan.rows), skipped)),
+        (source, in_order_rows(source, pose_table, skipped)),
         skipped,
         strict,
         time_tolerance,
         max_pose_gap,
     )
     hint = f"each sonar:{sonar_index} ring needs odometry of position device {position_index}"
-    return PlayerLog(_finish_log(source, times, poses, ranges, scan.rows, skipped, hint), ring)
+    return PlayerLog(finish_log(source, times, poses, ranges, scan.rows, skipped, hint), ring)
