@@ -127,6 +127,16 @@ def test_bad_world_files_name_the_element(change, message) -> None:
         parse_world(world, "room.json")
 
 
+def test_a_table_of_no_catalogue_size_is_named_in_a_warning(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    world = json.loads(json.dumps(EXAMPLE))
+    world["catalogue"] = [{"name": "desk", "length": 1.2, "width": 0.8, "leg": 0.1}]
+    parse_world(world, "room.json")
+    assert "room.json: no catalogue type has the size of tables[1]," in caplog.text
+    assert "tables[0]" not in caplog.text
+
+
 def test_not_json_names_line_and_column(tmp_path) -> None:
     path = tmp_path / "broken.json"
     path.write_text('{"arena": {"width": 7.0,\n "height": }')

@@ -26,6 +26,7 @@ and the element.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +41,8 @@ from bayesmap._typing import FloatArray, Poses
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.sim.tables_world import TablesWorld, build_mixed, rectangle_corners
 from bayesmap.sim.world_files import check_schema, read_document
+
+logger = logging.getLogger(__name__)
 
 __all__ = [
     "MAX_POSES",
@@ -364,6 +367,18 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
                 f"catalogue[{k}]",
                 f"has the size of catalogue[{twin}]: the mapper could not tell them apart",
             )
+    known = {entry[1:] for entry in catalogue}
+    strangers = [i for i, row in enumerate(tables) if tuple(map(float, row[3:6])) not in known]
+    if strangers:
+        named = ", ".join(f"tables[{i}]" for i in strangers[:5])
+        more = f" and {len(strangers) - 5} more" if len(strangers) > 5 else ""
+        logger.warning(
+            "%s: no catalogue type has the size of %s%s, so the mapper can report such a "
+            "table only as one of its types, or not at all",
+            source,
+            named,
+            more,
+        )
     wall_texture = float(obj["arena"].get("wall_texture", _DEFAULT_TEXTURE))
     return WorldFile(arena, tables, poses, grid, catalogue, wall_texture)
 
