@@ -326,10 +326,49 @@ def test_every_prior_equals_brute_force(seed: int) -> None:
 
 def test_a_first_question_computes_only_the_priors_it_uses() -> None:
     net = _two_parts()
-    net.posterior("B", {"D": "1"})  # D's part is d-separated: only its prior check is needed
+    net.posterior("B", {"A": "0", "D": "1"})  # D's part is d-separated: only its prior check
     computed = {net._engine.compiled.names[v] for v in net._engine.priors}
     assert computed <= {"C", "D"}
     assert "A" not in computed and "B" not in computed
+
+
+def test_a_target_no_evidence_reaches_is_answered_by_its_prior() -> None:
+    """P(B | D) = P(B) when B and D share no ancestor: the plan is B's prior alone, and the
+    evidence is still checked (dropped: by its prior; every variable observed: as a check)."""
+    net = _two_parts()
+    engine = net._engine
+    b, d = engine.compiled.id("B"), engine.compiled.id("D")
+    np.testing.assert_allclose(
+        list(net.posterior("B", {"D": "1"}).values()), brute_posterior(net, ["B"], {})
+    )
+    plan = engine.plan(plans.QueryKind.MARGINAL, (b,), frozenset({d}))
+    assert [f.var for f in plan.factors] == [b] and plan.factors[0].array is engine.priors[b]
+    assert plan.dropped == (d,) and not plan.checks
+    with pytest.raises(InputError, match="probability zero"):
+        net.posterior("D", {"A": "1", "B": "1"})  # P(A=1) = 0: a check, no contraction
+    net.add_variable("E", ["0", "1"], parents=["B"], cpt=[[0.5, 0.5], [0.5, 0.5]])
+    np.testing.assert_allclose(
+        list(net.posterior("E", {"D": "1"}).values()), brute_posterior(net, ["E"], {"D": "1"})
+    )  # a network changed after the question: its new variable answers from its own prior
+
+
+@FAST
+@given(seed=SEEDS)
+def test_a_prior_plan_equals_brute_force_and_the_pruned_plan(seed: int) -> None:
+    """Every single-target question answers as by enumeration, whether its plan is the
+    target's prior (no shared ancestor with the evidence) or a pruned contraction."""
+    net = random_net(seed, n_vars=7, max_card=3)
+    rng = np.random.default_rng(seed)
+    names = list(net.variables)
+    for _ in range(4):
+        evidence = sample_evidence(net, rng, int(rng.integers(1, 3)))
+        target = str(rng.choice([n for n in names if n not in evidence]))
+        np.testing.assert_allclose(
+            list(net.posterior(target, evidence).values()),
+            brute_posterior(net, [target], evidence),
+            rtol=1e-9,
+            atol=1e-12,
+        )
 
 
 def test_a_long_chain_computes_its_priors_without_recursion() -> None:

@@ -153,9 +153,11 @@ def case_namer(
 
 def single_program(plan: Plan, compiled: Compiled, tuning: Tuning) -> tuple[Any, list[Factor]]:
     """The compiled contraction of one case, or the constant result if nothing is observed."""
-    if not plan.factors:
-        return np.ones(()), []
     factors = plan.factors
+    if not factors:
+        return np.ones(()), []
+    if len(factors) == 1 and not factors[0].observed and factors[0].free == plan.targets:
+        return factors[0].array, []  # one evidence-free factor over the targets: the answer
     flags = list(map(_OBSERVED, factors))
     observed = list(compress(factors, flags))
     scopes = list(map(_FREE, factors))

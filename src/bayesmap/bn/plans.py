@@ -4,6 +4,10 @@ A plan depends on the network version, the queried variables and *which* variabl
 observed — never on the observed values — so it is cached and reused every sensor cycle.
 Building one:
 
+0. **Unreachable evidence**: a single target that shares no ancestor with any evidence
+   variable (and has no data node among its ancestors) has its prior as its answer; its
+   plan is that one factor, with the evidence's checks (:func:`_prior_plan`), and no
+   pruning, order or contraction is needed.
 1. **Barren nodes** (Post et al. 2016 §3.2: only ancestors matter): keep the targets, the
    evidence and their ancestors; every other CPT sums to 1 and drops out.
 2. **Evidence slicing**: each CPT is transposed so its observed axes come first, so that
@@ -263,21 +267,33 @@ def build(
     prior
         Gives the (cached) prior marginal of a variable; with it, every evidence-free
         ancestral sub-network that meets the rest only through one variable ``Y`` is
-        replaced by ``P(Y)`` (see :func:`clean_roots`).
+        replaced by ``P(Y)`` (see :func:`clean_roots`), and a :attr:`QueryKind.MARGINAL`
+        question about one target the evidence cannot reach is its prior (see
+        :func:`_prior_plan`).
     """
     prune_barren = kind is not QueryKind.WHOLE
     keep_all_components = kind is not QueryKind.MARGINAL
     ev = tuple(evidence)
-    ev_mask = t_mask = 0
+    lineage = compiled.lineage_masks
+    ev_mask = t_mask = ev_lineage = 0  # ev_lineage: the evidence and its ancestors
     for v in ev:
         ev_mask |= 1 << v
+        ev_lineage |= lineage[v]
+    if (
+        prior is not None
+        and ev
+        and len(targets) == 1
+        and not keep_all_components
+        and not lineage[targets[0]] & (ev_lineage | compiled.source_mask)
+    ):
+        return _prior_plan(compiled, targets[0], ev, ev_mask, prior)
     for v in targets:
         t_mask |= 1 << v
     anc = compiled.ancestor_masks
     if prune_barren:
-        r_mask = ev_mask | t_mask
-        for v in (*targets, *ev):
-            r_mask |= anc[v]
+        r_mask = ev_lineage
+        for v in targets:
+            r_mask |= lineage[v]
         relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
     else:
         relevant = list(compiled.topo)
@@ -302,7 +318,6 @@ def build(
     keep = -1 if keep_all_components else _component(scope_masks, t_mask)
     ev_index = {v: k for k, v in enumerate(ev)}
     shared = compiled.factors  # evidence-free factors, the same in every plan
-    layouts = compiled.layouts  # observed-first layouts of CPTs, by observed family members
     factors: list[Factor] = []
     checks: list[Factor] = []
     dropped = 0
@@ -312,12 +327,7 @@ def build(
             continue
         if (replaced_mask >> v) & 1:
             assert prior is not None
-            factor = shared.get(-1 - v)
-            if factor is None:
-                table = prior(v)
-                factor = Factor(v, table, perm=(0,), ev_pos=(), free=(v,), shape=table.shape)
-                shared[-1 - v] = factor
-            factors.append(factor)
+            factors.append(_prior_factor(compiled, v, prior))
             continue
         seen_mask = ev_mask & family_masks[v]
         if not seen_mask:
@@ -331,17 +341,8 @@ def build(
                 shared[v] = factor
             factors.append(factor)
             continue
-        key = (v, seen_mask)
-        layout = layouts.get(key)
-        if layout is None:
-            layout = layouts[key] = _layout(compiled, v, ev_mask)
-        array, perm, seen, free, made = layout
-        ev_pos = tuple([ev_index[u] for u in seen])
-        factor = made.get(ev_pos)
-        if factor is None:
-            shape = tuple(map(compiled.card.__getitem__, free))
-            factor = made[ev_pos] = Factor(v, array, perm, ev_pos, free, shape)
-        (factors if free else checks).append(factor)
+        factor = _observed_factor(compiled, v, seen_mask, ev_mask, ev_index)
+        (factors if factor.free else checks).append(factor)
     return Plan(
         targets=tuple(targets),
         evidence=ev,
@@ -349,6 +350,74 @@ def build(
         checks=tuple(checks),
         dropped=tuple(bits(dropped)),
     )
+
+
+def _prior_plan(
+    compiled: Compiled,
+    target: int,
+    ev: tuple[int, ...],
+    ev_mask: int,
+    prior: Callable[[int], FloatArray],
+) -> Plan:
+    """The plan of ``P(target | ev)`` when the evidence cannot change it: one factor, the
+    target's prior ``P(target)``.
+
+    :func:`build` makes it when no evidence variable shares an ancestor (or itself) with
+    the target and no data node is among the target and its ancestors: the plan it would
+    make otherwise has no factor that depends on the evidence — the target's component is
+    the target and its ancestors, whose CPTs multiply to ``P(target)`` — and conversely, a
+    shared ancestor links the target to some evidence through a factor that holds an
+    observed variable. The evidence's own CPTs are the plan's checks (every variable
+    observed) or dropped (in a component without the target), as :func:`build` sorts them;
+    no pruning is needed.
+    """
+    ev_index = {v: k for k, v in enumerate(ev)}
+    checks: list[Factor] = []
+    dropped: list[int] = []
+    for v in sorted(ev, key=compiled.topo_pos.__getitem__):
+        family = compiled.family_masks[v]
+        if family & ~ev_mask:
+            dropped.append(v)
+        else:
+            checks.append(_observed_factor(compiled, v, family, ev_mask, ev_index))
+    return Plan(
+        targets=(target,),
+        evidence=ev,
+        factors=[_prior_factor(compiled, target, prior)],
+        checks=tuple(checks),
+        dropped=tuple(sorted(dropped)),
+    )
+
+
+def _prior_factor(compiled: Compiled, v: int, prior: Callable[[int], FloatArray]) -> Factor:
+    """The factor of the prior marginal ``P(v)`` (made once per network version)."""
+    shared = compiled.factors
+    factor = shared.get(-1 - v)
+    if factor is None:
+        table = prior(v)
+        factor = Factor(v, table, perm=(0,), ev_pos=(), free=(v,), shape=table.shape)
+        shared[-1 - v] = factor
+    return factor
+
+
+def _observed_factor(
+    compiled: Compiled, v: int, seen_mask: int, ev_mask: int, ev_index: Mapping[int, int]
+) -> Factor:
+    """The CPT of ``v``, whose observed family members are ``seen_mask``, laid out for a
+    plan whose evidence (mask ``ev_mask``) has the positions ``ev_index`` (made once per
+    network version and layout)."""
+    key = (v, seen_mask)
+    layouts = compiled.layouts  # observed-first layouts of CPTs, by observed family members
+    layout = layouts.get(key)
+    if layout is None:
+        layout = layouts[key] = _layout(compiled, v, ev_mask)
+    array, perm, seen, free, made = layout
+    ev_pos = tuple([ev_index[u] for u in seen])
+    factor = made.get(ev_pos)
+    if factor is None:
+        shape = tuple(map(compiled.card.__getitem__, free))
+        factor = made[ev_pos] = Factor(v, array, perm, ev_pos, free, shape)
+    return factor
 
 
 def _layout(compiled: Compiled, v: int, ev_mask: int) -> Layout:
