@@ -307,17 +307,38 @@ def build(
                 removed |= anc[y]
             r_mask &= ~removed
             relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
-    parents = compiled.parents
-    family_masks = compiled.family_masks
     # the free variables of each relevant CPT (of a replaced variable's prior: itself)
-    scope_masks = list(map((~ev_mask).__and__, map(family_masks.__getitem__, relevant)))
+    scope_masks = list(map((~ev_mask).__and__, map(compiled.family_masks.__getitem__, relevant)))
     replaced_mask = 0
     for y in replaced:
         replaced_mask |= 1 << y
         scope_masks[relevant.index(y)] = 1 << y
     keep = -1 if keep_all_components else _component(scope_masks, t_mask)
+    return _plan(compiled, targets, ev, ev_mask, relevant, scope_masks, keep, replaced_mask, prior)
+
+
+def _plan(
+    compiled: Compiled,
+    targets: Sequence[int],
+    ev: tuple[int, ...],
+    ev_mask: int,
+    relevant: Sequence[int],
+    scope_masks: Sequence[int],
+    keep: int,
+    replaced_mask: int,
+    prior: Callable[[int], FloatArray] | None,
+) -> Plan:
+    """The plan made of the CPTs of ``relevant`` (in topological order; their free variables
+    ``scope_masks``): those in a component without a target (no variable in ``keep``) left
+    out, the others laid out for the evidence ``ev`` — each replaced variable's (bit set in
+    ``replaced_mask``) by its prior, each whose every variable is observed as a check
+    (``ev_mask`` masks ``ev``). Factors are made once per network version and shared by
+    every plan."""
     ev_index = {v: k for k, v in enumerate(ev)}
+    parents = compiled.parents
+    family_masks = compiled.family_masks
     shared = compiled.factors  # evidence-free factors, the same in every plan
+    layouts = compiled.layouts  # observed-first layouts of CPTs, by observed family members
     factors: list[Factor] = []
     checks: list[Factor] = []
     dropped = 0
@@ -327,7 +348,12 @@ def build(
             continue
         if (replaced_mask >> v) & 1:
             assert prior is not None
-            factors.append(_prior_factor(compiled, v, prior))
+            factor = shared.get(-1 - v)
+            if factor is None:
+                table = prior(v)
+                factor = Factor(v, table, perm=(0,), ev_pos=(), free=(v,), shape=table.shape)
+                shared[-1 - v] = factor
+            factors.append(factor)
             continue
         seen_mask = ev_mask & family_masks[v]
         if not seen_mask:
@@ -341,8 +367,17 @@ def build(
                 shared[v] = factor
             factors.append(factor)
             continue
-        factor = _observed_factor(compiled, v, seen_mask, ev_mask, ev_index)
-        (factors if factor.free else checks).append(factor)
+        key = (v, seen_mask)
+        layout = layouts.get(key)
+        if layout is None:
+            layout = layouts[key] = _layout(compiled, v, ev_mask)
+        array, perm, seen, free, made = layout
+        ev_pos = tuple([ev_index[u] for u in seen])
+        factor = made.get(ev_pos)
+        if factor is None:
+            shape = tuple(map(compiled.card.__getitem__, free))
+            factor = made[ev_pos] = Factor(v, array, perm, ev_pos, free, shape)
+        (factors if free else checks).append(factor)
     return Plan(
         targets=tuple(targets),
         evidence=ev,
@@ -368,56 +403,13 @@ def _prior_plan(
     the target and its ancestors, whose CPTs multiply to ``P(target)`` — and conversely, a
     shared ancestor links the target to some evidence through a factor that holds an
     observed variable. The evidence's own CPTs are the plan's checks (every variable
-    observed) or dropped (in a component without the target), as :func:`build` sorts them;
-    no pruning is needed.
+    observed) or dropped (in a component without the target), sorted by the same
+    :func:`_plan` as :func:`build`'s; no pruning is needed.
     """
-    ev_index = {v: k for k, v in enumerate(ev)}
-    checks: list[Factor] = []
-    dropped: list[int] = []
-    for v in sorted(ev, key=compiled.topo_pos.__getitem__):
-        family = compiled.family_masks[v]
-        if family & ~ev_mask:
-            dropped.append(v)
-        else:
-            checks.append(_observed_factor(compiled, v, family, ev_mask, ev_index))
-    return Plan(
-        targets=(target,),
-        evidence=ev,
-        factors=[_prior_factor(compiled, target, prior)],
-        checks=tuple(checks),
-        dropped=tuple(sorted(dropped)),
-    )
-
-
-def _prior_factor(compiled: Compiled, v: int, prior: Callable[[int], FloatArray]) -> Factor:
-    """The factor of the prior marginal ``P(v)`` (made once per network version)."""
-    shared = compiled.factors
-    factor = shared.get(-1 - v)
-    if factor is None:
-        table = prior(v)
-        factor = Factor(v, table, perm=(0,), ev_pos=(), free=(v,), shape=table.shape)
-        shared[-1 - v] = factor
-    return factor
-
-
-def _observed_factor(
-    compiled: Compiled, v: int, seen_mask: int, ev_mask: int, ev_index: Mapping[int, int]
-) -> Factor:
-    """The CPT of ``v``, whose observed family members are ``seen_mask``, laid out for a
-    plan whose evidence (mask ``ev_mask``) has the positions ``ev_index`` (made once per
-    network version and layout)."""
-    key = (v, seen_mask)
-    layouts = compiled.layouts  # observed-first layouts of CPTs, by observed family members
-    layout = layouts.get(key)
-    if layout is None:
-        layout = layouts[key] = _layout(compiled, v, ev_mask)
-    array, perm, seen, free, made = layout
-    ev_pos = tuple([ev_index[u] for u in seen])
-    factor = made.get(ev_pos)
-    if factor is None:
-        shape = tuple(map(compiled.card.__getitem__, free))
-        factor = made[ev_pos] = Factor(v, array, perm, ev_pos, free, shape)
-    return factor
+    relevant = sorted((target, *ev), key=compiled.topo_pos.__getitem__)
+    scope_masks = [compiled.family_masks[v] & ~ev_mask for v in relevant]
+    scope_masks[relevant.index(target)] = alone = 1 << target  # its prior
+    return _plan(compiled, (target,), ev, ev_mask, relevant, scope_masks, alone, alone, prior)
 
 
 def _layout(compiled: Compiled, v: int, ev_mask: int) -> Layout:
