@@ -37,7 +37,7 @@ import shapely
 
 from bayesmap._io import write_json
 from bayesmap._rng import RNGLike, as_generator
-from bayesmap._typing import FloatArray, Poses
+from bayesmap._typing import BoolArray, FloatArray, Poses
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.sim.tables_world import TablesWorld, build_mixed, rectangle_corners
 from bayesmap.sim.world_files import check_schema, read_document
@@ -213,12 +213,14 @@ class WorldFile:
         else:
             xs = np.linspace(margin, self.arena[0] - margin, count)
             ys = np.linspace(margin, self.arena[1] - margin, count)
-        rows = []
-        for row, y in enumerate(ys):
-            for x in xs if row % 2 == 0 else xs[::-1]:
-                if _position_free(float(x), float(y), self.tables):
-                    rows += [(x, y, k * 2 * math.pi / headings) for k in range(headings)]
-        return np.asarray(rows, dtype=np.float64).reshape(-1, 3)
+        tour = np.array(
+            [(x, y) for row, y in enumerate(ys) for x in (xs if row % 2 == 0 else xs[::-1])]
+        )
+        free = tour[_free_positions(tour, self.tables)]
+        turns = np.arange(headings) * 2 * math.pi / headings
+        return np.column_stack(
+            [np.repeat(free, headings, axis=0), np.tile(turns, len(free))]
+        ).reshape(-1, 3)
 
 
 def _table_polygons(tables: FloatArray) -> list[shapely.Polygon]:
@@ -245,13 +247,18 @@ def _leg_polygons(tables: FloatArray) -> list[shapely.Polygon]:
     return polygons
 
 
-def _position_free(x: float, y: float, tables: FloatArray) -> bool:
-    if not len(tables):
-        return True
-    point = shapely.Point(x, y)
-    if any(p.contains(point) for p in _table_polygons(tables)):
-        return False
-    return all(p.distance(point) >= POSE_CLEARANCE for p in _leg_polygons(tables))
+def _free_positions(xy: FloatArray, tables: FloatArray) -> BoolArray:
+    """Which ``(n, 2)`` positions the robot can stand on: outside every table and at least
+    :data:`POSE_CLEARANCE` from every leg (the polygons are built once for all of them)."""
+    free = np.ones(len(xy), dtype=bool)
+    if not len(tables) or not len(xy):
+        return free
+    points = shapely.points(xy)
+    for table in _table_polygons(tables):
+        free &= ~shapely.contains(table, points)
+    for leg in _leg_polygons(tables):
+        free &= shapely.distance(leg, points) >= POSE_CLEARANCE
+    return free
 
 
 def _fail(source: str, where: str, what: str) -> FormatError:
@@ -318,13 +325,11 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
         if outside.any() or not np.isfinite(poses).all():
             first = int(np.flatnonzero(outside | ~np.isfinite(poses).all(axis=1))[0])
             raise _fail(source, f"poses[{first}]", "a pose must be finite and inside the arena")
-        blocked = next(
-            (k for k, (x, y, _) in enumerate(poses) if not _position_free(x, y, tables)), None
-        )
-        if blocked is not None:
+        blocked = np.flatnonzero(~_free_positions(poses[:, :2], tables))
+        if len(blocked):
             raise _fail(
                 source,
-                f"poses[{blocked}]",
+                f"poses[{blocked[0]}]",
                 f"the robot cannot stand inside a table or within {POSE_CLEARANCE:g} m of a leg",
             )
     else:
