@@ -285,8 +285,6 @@ def map_command(
             chosen = replace(
                 chosen, acceptability=False, agreeability=False, trait_verification=False
             )
-        if topics is not None and poses is not None:
-            _usage("--poses is for text logs; a bag's poses come from --pose-topic")
         with progress_bar(_err, first=f"reading {log.name}", percent=True) as hook:
             if kind == "player" or geometry is None:
                 player = read_player_log(
@@ -397,6 +395,8 @@ def _log_kind(
     if topics is not None:
         if log_format != "auto":
             _usage(f"--format {log_format} is for log files; with --topics LOG is a ROS bag")
+        if poses is not None:
+            _usage("--poses is for text logs; a bag's poses come from --pose-topic")
         kind = "bag"
     elif log_format == "auto":
         kind = "player" if is_player_log(log) else "text"
