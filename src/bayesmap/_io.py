@@ -4,7 +4,9 @@ Reading
     :func:`read_input` opens only regular files (a FIFO, ``/dev/zero`` or a folder is refused
     without blocking), refuses files larger than a limit before reading them, and gunzips
     with the same cap on the decompressed bytes, so a small gzip cannot expand into
-    gigabytes. Every problem is a :class:`~bayesmap.errors.FormatError` naming the file.
+    gigabytes. :class:`LineReader` streams a text log line by line, gunzipping it on the
+    fly when its first bytes are gzip's. Every problem is a
+    :class:`~bayesmap.errors.FormatError` naming the file.
 Writing one file
     :func:`atomic_open` (and :func:`write_text`, :func:`write_bytes`, :func:`write_json`)
     write to a hidden temporary file beside the destination, ``.NAME.partial-XXXX.tmp``,
@@ -32,6 +34,7 @@ from __future__ import annotations
 
 import contextlib
 import faulthandler
+import gzip
 import hashlib
 import json
 import math
@@ -49,7 +52,7 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from types import FrameType
+from types import FrameType, TracebackType
 from typing import IO, Any
 
 from bayesmap import __version__
@@ -70,6 +73,11 @@ TERMINATE_GRACE = 30.0
 STALE_AFTER = 10.0
 """Seconds after which an unlocked temporary file or folder counts as abandoned [s]."""
 _CHUNK = 1 << 20
+GZIP_MAGIC = b"\x1f\x8b"
+"""The two bytes every gzip file starts with (RFC 1952, section 2.3.1)."""
+MAX_LINE_BYTES = 1 << 20
+"""The longest line :class:`LineReader` reads [bytes]: a log's lines are short, and a line
+without end (a gzip bomb of one byte repeated) must not fill the memory."""
 
 
 # ---------------------------------------------------------------------------- reading
@@ -108,6 +116,90 @@ def open_input(path: str | Path) -> tuple[IO[bytes], int]:
         raise
 
 
+class LineReader:
+    """The lines (bytes, newline kept) of the regular file ``path``, streamed.
+
+    A file whose first two bytes are :data:`GZIP_MAGIC` is gunzipped on the fly, whatever
+    its name: robot logs are often kept as ``run.log.gz`` or renamed. Use as a context
+    manager; iterate for the lines. :meth:`consumed` is how far into the file on disk
+    (compressed bytes for a gzip file) reading has got, for a progress bar whose total
+    is :attr:`size`.
+
+    Raises
+    ------
+    FormatError
+        The file cannot be opened (see :func:`open_input`), or its gzip stream is corrupt
+        or cut short: named with the line the stream broke in.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.name = str(path)
+        self._file, self.size = open_input(path)
+        self.compressed = self._file.peek(2)[:2] == GZIP_MAGIC  # type: ignore[attr-defined]
+        self._stream: IO[bytes] | gzip.GzipFile = self._file
+        if self.compressed:
+            self._stream = gzip.GzipFile(fileobj=self._file, mode="rb")
+        self._lines = 0
+
+    def __enter__(self) -> LineReader:
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        trace: TracebackType | None,
+    ) -> None:
+        self._stream.close()
+        self._file.close()
+
+    def __iter__(self) -> Iterator[bytes]:
+        while line := self.readline():
+            yield line
+
+    def readline(self, limit: int = MAX_LINE_BYTES + 1) -> bytes:
+        """The next line, ``b""`` at the end of the file; at most ``limit`` bytes are read,
+        and a line longer than :data:`MAX_LINE_BYTES` is an error."""
+        try:
+            line = self._stream.readline(min(limit, MAX_LINE_BYTES + 1))
+        except (EOFError, OSError, zlib.error) as error:
+            what = "cut short" if isinstance(error, EOFError) else f"corrupt ({error})"
+            raise FormatError(
+                f"the gzip stream is {what}", path=self.name, line=self._lines + 1
+            ) from None
+        self._lines += 1
+        if len(line) > MAX_LINE_BYTES:
+            raise FormatError(
+                f"the line is longer than {MAX_LINE_BYTES} bytes; not a log",
+                path=self.name,
+                line=self._lines,
+            )
+        return line
+
+    def consumed(self) -> int:
+        """Bytes of the file on disk read so far."""
+        return self._file.tell()
+
+
+def gunzip_bytes(data: bytes, max_bytes: int, name: str) -> bytes:
+    """Decompress every gzip member of ``data``, stopping as soon as output passes the cap
+    ``max_bytes``; ``name`` names the file in errors."""
+    out = bytearray()
+    rest = data
+    while True:
+        stream = zlib.decompressobj(wbits=31)
+        try:
+            out += stream.decompress(rest, max_bytes + 1 - len(out))
+        except zlib.error as error:
+            raise FormatError(f"not a valid gzip file ({error})", path=name) from None
+        check_size("bytes after gunzipping", len(out), max_bytes, "max_bytes", path=name)
+        if not stream.eof:
+            raise FormatError("the gzip stream ends early (truncated file)", path=name)
+        rest = stream.unused_data
+        if not rest.strip(b"\0"):
+            return bytes(out)
+
+
 def read_input(path: str | Path, *, max_bytes: int, gunzip: bool = False) -> bytes:
     """The bytes of the regular file ``path`` (gunzipped if ``gunzip``), at most ``max_bytes``.
 
@@ -128,7 +220,7 @@ def read_input(path: str | Path, *, max_bytes: int, gunzip: bool = False) -> byt
                 f"cannot read the file: {error.strerror or error}", path=name
             ) from None
     check_size("bytes in the file", len(data), max_bytes, "max_bytes", path=name)
-    return _gunzip(data, max_bytes, name) if gunzip else data
+    return gunzip_bytes(data, max_bytes, name) if gunzip else data
 
 
 def _read_at_most(handle: IO[bytes], limit: int, expected: int) -> bytes:
@@ -141,24 +233,6 @@ def _read_at_most(handle: IO[bytes], limit: int, expected: int) -> bytes:
         total += len(chunk)
         want = _CHUNK
     return b"".join(chunks)
-
-
-def _gunzip(data: bytes, max_bytes: int, name: str) -> bytes:
-    """Decompress every gzip member of ``data``, stopping as soon as output passes the cap."""
-    out = bytearray()
-    rest = data
-    while True:
-        stream = zlib.decompressobj(wbits=31)
-        try:
-            out += stream.decompress(rest, max_bytes + 1 - len(out))
-        except zlib.error as error:
-            raise FormatError(f"not a valid gzip file ({error})", path=name) from None
-        check_size("bytes after gunzipping", len(out), max_bytes, "max_bytes", path=name)
-        if not stream.eof:
-            raise FormatError("the gzip stream ends early (truncated file)", path=name)
-        rest = stream.unused_data
-        if not rest.strip(b"\0"):
-            return bytes(out)
 
 
 # ---------------------------------------------------------------------------- one file
@@ -525,6 +599,9 @@ __all__ = [
     "atomic_open",
     "check_own_folder",
     "make_folder",
+    "GZIP_MAGIC",
+    "LineReader",
+    "gunzip_bytes",
     "open_input",
     "read_input",
     "run_folder",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import json
 import math
 from pathlib import Path
@@ -80,6 +81,20 @@ def test_map_command_replays_a_log_with_a_fitted_calibration(tmp_path: Path) -> 
     in_cm = runner.invoke(app, [*args, *units, "--resolution", "50"])
     assert in_cm.exit_code == 1 and "Traceback" not in in_cm.output
     assert "--resolution is 50 m" in in_cm.output and "cm or mm" in in_cm.output
+
+
+def test_a_gzipped_log_reads_as_the_plain_one(tmp_path: Path) -> None:
+    _drive_log(tmp_path / "drive.csv", np.random.default_rng(4))
+    (tmp_path / "drive.csv.gz").write_bytes(gzip.compress((tmp_path / "drive.csv").read_bytes()))
+    plain = read_rover_log(tmp_path / "drive.csv", 3, position_unit="cm", heading_unit="deg")
+    packed = read_rover_log(tmp_path / "drive.csv.gz", 3, position_unit="cm", heading_unit="deg")
+    assert np.array_equal(plain.raw, packed.raw) and np.array_equal(plain.poses, packed.poses)
+    assert [(r.line, r.reason) for r in plain.skipped] == [
+        (r.line, r.reason) for r in packed.skipped
+    ]
+    (tmp_path / "cut.csv.gz").write_bytes(gzip.compress(b"t,x,y\n" * 50)[:20])
+    with pytest.raises(FormatError, match="cut.csv.gz.*gzip"):
+        read_rover_log(tmp_path / "cut.csv.gz", 3)
 
 
 def test_bad_logs_and_calibrations_are_format_errors(tmp_path: Path) -> None:

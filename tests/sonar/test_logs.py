@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import math
 import os
 from pathlib import Path
@@ -135,7 +136,7 @@ def test_write_then_read_round_trips(
     poses = np.array(
         data.draw(st.lists(st.tuples(finite, finite, finite), min_size=rows, max_size=rows))
     )
-    assume(not isolated_jumps(poses[:, :2] / 1000.0).any())  # a leap out and back is skipped
+    assume(not isolated_jumps(poses[:, :2]).any())  # SI metres: a leap out and back is skipped
     ranges = np.array(
         data.draw(
             st.lists(
@@ -273,3 +274,32 @@ def test_a_fifo_is_refused_without_blocking(tmp_path: Path) -> None:
     os.mkfifo(fifo)
     with pytest.raises(FormatError, match="not a regular file"):
         read_sonar_log(fifo, 2)
+
+
+def test_a_gzipped_log_reads_as_the_plain_one_whatever_its_name(tmp_path: Path) -> None:
+    plain = read_sonar_log(DATA / "example_log.txt", 16, units=MM)
+    packed = gzip.compress((DATA / "example_log.txt").read_bytes())
+    for name in ("log.txt.gz", "renamed.txt"):
+        (tmp_path / name).write_bytes(packed)
+        calls: list[tuple[str, int, int]] = []
+        log = read_sonar_log(tmp_path / name, 16, units=MM, progress=lambda *c: calls.append(c))  # noqa: B023
+        assert np.array_equal(log.ranges, plain.ranges, equal_nan=True)
+        assert np.array_equal(log.poses, plain.poses)
+        assert [(r.line, r.reason) for r in log.skipped] == [
+            (r.line, r.reason) for r in plain.skipped
+        ]
+        assert calls[-1] == (f"reading {name}", len(packed), len(packed))
+
+
+def test_a_gzipped_log_cut_short_names_the_file_and_line(tmp_path: Path) -> None:
+    rows = "".join(f"{t} 0 0 0 1.0 2.0\n" for t in range(20_000))
+    packed = gzip.compress(rows.encode())
+    (tmp_path / "cut.txt.gz").write_bytes(packed[: len(packed) // 2])
+    with pytest.raises(FormatError, match="gzip stream is cut short") as info:
+        read_sonar_log(tmp_path / "cut.txt.gz", 2)
+    assert "cut.txt.gz" in str(info.value) and info.value.line is not None
+    assert info.value.line > 1000
+    (tmp_path / "bomb.txt.gz").write_bytes(gzip.compress(b"1" * (64 << 20)))
+    with pytest.raises(FormatError, match="longer than") as info:
+        read_sonar_log(tmp_path / "bomb.txt.gz", 2)
+    assert info.value.line == 1

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import math
 from pathlib import Path
 
@@ -148,6 +149,16 @@ def test_detection_progress_and_settings(tmp_path: Path) -> None:
         read_player_log(path, max_pose_gap=-1.0)
     with pytest.raises(FormatError, match="not a regular file"):
         read_player_log(tmp_path)
+
+
+def test_a_gzipped_player_log_is_detected_and_read(tmp_path: Path) -> None:
+    path = write_player_log(tmp_path / "drive.log", player_lines(simulated_drive()))
+    packed = tmp_path / "drive.log.gz"
+    packed.write_bytes(gzip.compress(path.read_bytes()))
+    assert is_player_log(packed)
+    plain, unpacked = read_player_log(path).log, read_player_log(packed).log
+    assert np.array_equal(plain.ranges, unpacked.ranges)
+    assert np.array_equal(plain.poses, unpacked.poses)
 
 
 junk = st.one_of(

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayesmap._io import read_input
+from bayesmap._io import GZIP_MAGIC, gunzip_bytes, read_input
 from bayesmap._numbers import is_decimal
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError, InputError
@@ -52,7 +52,10 @@ class RoverLog:
 
 def _rows(path: Path) -> list[tuple[int, list[str]]]:
     """``(line number, fields)`` of the non-blank, non-comment lines of a CSV file."""
-    data = read_input(path, max_bytes=DEFAULT_LIMITS.max_bytes)  # a regular file, bounded
+    limit = DEFAULT_LIMITS.max_bytes
+    data = read_input(path, max_bytes=limit)  # a regular file, bounded
+    if data.startswith(GZIP_MAGIC):  # a compressed log, whatever its name
+        data = gunzip_bytes(data, limit, str(path))
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as error:

@@ -41,7 +41,7 @@ from typing import Literal, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from bayesmap._io import open_input, write_text
+from bayesmap._io import LineReader, write_text
 from bayesmap._numbers import is_decimal
 from bayesmap._typing import FloatArray, Poses, ProgressHook, Ranges
 from bayesmap.errors import FormatError, InputError
@@ -208,14 +208,11 @@ def _parse(
     progress: ProgressHook | None = None,
 ) -> _Table:
     """Stream ``path`` line by line into numpy blocks; bad rows go to ``skipped``."""
-    handle, size = open_input(path)
-    total = max(size, 1)
     parsed = RowBlocks(columns)
     rows = 0
-    done = 0
-    with handle:
+    with LineReader(path) as handle:
+        total = max(handle.size, 1)
         for number, raw in enumerate(handle, start=1):
-            done += len(raw)
             body = raw.decode("utf-8", errors="replace").strip().lstrip("\ufeff")
             if not body or body.startswith(_COMMENTS):
                 continue
@@ -228,7 +225,7 @@ def _parse(
                 report_skipped(path, number, outcome, skipped)
                 continue
             if parsed.add(number, outcome) and progress is not None:
-                progress(f"reading {path.name}", done, total)
+                progress(f"reading {path.name}", handle.consumed(), total)
     if progress is not None:
         progress(f"reading {path.name}", total, total)
     return in_order_rows(path, parsed.table(rows), skipped)

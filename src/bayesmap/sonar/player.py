@@ -34,7 +34,7 @@ import re
 from pathlib import Path
 from typing import Literal, NamedTuple
 
-from bayesmap._io import open_input
+from bayesmap._io import LineReader
 from bayesmap._numbers import is_decimal
 from bayesmap._typing import ProgressHook
 from bayesmap.errors import ConfigError, FormatError
@@ -100,11 +100,10 @@ _Role = Literal["ranges", "geometry", "geometry+ranges", "pose"]
 def is_player_log(path: str | Path) -> bool:
     """Whether ``path`` opens with the ``## Player version`` line ``writelog`` writes first."""
     try:
-        handle, _ = open_input(path)
+        with LineReader(path) as handle:
+            return _is_header(handle.readline(256))
     except FormatError:
         return False
-    with handle:
-        return _is_header(handle.readline(256))
 
 
 def _is_header(first: bytes) -> bool:
@@ -263,22 +262,19 @@ def _scan(
     progress: ProgressHook | None,
 ) -> _Scan:
     """Stream ``path`` line by line, gathering its sonar and odometry lines."""
-    handle, size = open_input(path)
-    total = max(size, 1)
     scan = _Scan(path, skipped)
     version: str | None = None
-    with handle:
+    with LineReader(path) as handle:
+        total = max(handle.size, 1)
         first = handle.readline()
         if not _is_header(first):
             raise FormatError(
                 f"not a Player log: its first line is not writelog's {_HEADER!r} header",
                 path=path,
             )
-        done = len(first)
         for number, raw in enumerate(handle, start=2):
-            done += len(raw)
             if number % CHUNK_ROWS == 0 and progress is not None:
-                progress(f"reading {path.name}", done, total)
+                progress(f"reading {path.name}", handle.consumed(), total)
             tokens = raw.decode("utf-8", errors="replace").split()
             if not tokens:
                 continue
