@@ -289,6 +289,11 @@ def test_run_names_a_bad_world_file_or_pipeline_in_one_line(tmp_path: Path) -> N
     args = ["sonar", "run", "--world", str(bad), "--out", str(out), "--pipeline", "best"]
     result = runner.invoke(app, args)
     assert result.exit_code == 2 and "unknown pipeline 'best'" in result.output
+    in_mm = {"outline": [[0, 0], [4e5, 0], [4e5, 3e5], [0, 3e5]], "waypoints": [[1, 1], [5, 5]]}
+    bad.write_text(json.dumps(in_mm))
+    result = runner.invoke(app, ["sonar", "run", "--world", str(bad), "--out", str(out)])
+    assert result.exit_code == 1 and not out.exists()
+    assert "world.json: a 400002 m x 300002 m grid" in result.output and "mm?" in result.output
 
 
 def _player_map(log: Path, out: Path, *extra: str) -> object:

@@ -30,6 +30,7 @@ from scipy.spatial import cKDTree
 from bayesmap._io import write_bytes, write_json, write_text
 from bayesmap._rng import spawn
 from bayesmap._typing import ProgressHook
+from bayesmap.errors import ConfigError, FormatError
 from bayesmap.experiments._common import (
     ExperimentConfig,
     ExperimentResult,
@@ -213,6 +214,23 @@ def make_ring(config: Config) -> SonarRing:
     )
 
 
+def _map_frame(w: PolygonWorld) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The maps' ``(width, height)`` and ``origin`` [m]: the world's bounds and 1 m around."""
+    xmin, ymin, xmax, ymax = w.bounds
+    pad = 1.0
+    return (xmax - xmin + 2 * pad, ymax - ymin + 2 * pad), (xmin - pad, ymin - pad)
+
+
+def _check_map_size(w: PolygonWorld, config: Config, source: str) -> None:
+    """:class:`FormatError` naming the world file ``source`` if ``w``'s map would have more
+    cells than the grid allows, before anything is simulated."""
+    size, _ = _map_frame(w)
+    try:
+        OccupancyGrid(*size, config.resolution)
+    except ConfigError as error:
+        raise FormatError(f"{error} (is the world in cm or mm?)", path=source) from None
+
+
 def score_world(
     config: Config, w: PolygonWorld, log: SimulatedLog, names: tuple[str, ...]
 ) -> tuple[dict[str, dict[str, float]], dict[str, np.ndarray], OccupancyGrid, np.ndarray]:
@@ -222,10 +240,7 @@ def score_world(
     and the truth.
     """
     geometry = ring_geometry(make_ring(config))
-    xmin, ymin, xmax, ymax = w.bounds
-    pad = 1.0
-    size = (xmax - xmin + 2 * pad, ymax - ymin + 2 * pad)
-    origin = (xmin - pad, ymin - pad)
+    size, origin = _map_frame(w)
     template = OccupancyGrid(*size, config.resolution, origin=origin)
     truth, wall = truth_layers(w, template, log.poses, config.max_range)
     driven = path_cells(template, log.odometry, config.footprint)
@@ -461,6 +476,7 @@ def run(
         worlds = [world(name) for name in config.worlds]
     else:
         worlds = [sonar_worlds.load_world(config.world)]
+        _check_map_size(worlds[0], config, str(config.world))
     return run_in_folder(
         "sonar",
         config,
