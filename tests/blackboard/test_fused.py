@@ -440,6 +440,9 @@ def test_bad_sweeps_raise_a_clear_error(pose: np.ndarray, sweeps: np.ndarray, wh
 def test_bad_catalogue_and_params_are_config_errors() -> None:
     with pytest.raises(ConfigError, match="catalogue"):
         FusedMapper((ObjectType("bad", 0.5, 0.8, 0.1),), ARENA)
+    with pytest.raises(ConfigError, match=r"2 × leg <= width"):
+        FusedMapper((ObjectType("legs overlap", 0.5, 0.5, 0.3),), ARENA)
+    FusedMapper((ObjectType("solid box", 0.5, 0.5, 0.25),), ARENA)  # legs that meet
     desk = ObjectType("desk", 1.2, 0.8, 0.05)
     with pytest.raises(ConfigError, match=r"catalogue\[1\] \(copy\) has the size of"):
         FusedMapper((desk, desk._replace(name="copy")), ARENA)
@@ -473,6 +476,31 @@ def test_fused_mapper_finds_both_types_and_says_which() -> None:
     assert found[:, 3].tolist() == [0.0, 1.0]
     assert (fused.existence > 0.9).all()
     assert [o["type"] for o in np.array(fused.objects())[order]] == ["desk", "stool"]
+
+
+@pytest.mark.slow
+def test_a_solid_box_in_the_catalogue_is_mapped_as_the_box_not_a_table() -> None:
+    """Clutter: a square type whose legs are half its width is a solid box. With it in the
+    catalogue the box beside a desk is mapped as the box, each object of its own type."""
+    box = ObjectType("box", 0.4, 0.4, 0.2)
+    truth = np.array([[1.6, 1.5, 0.3], [3.6, 2.6, 0.5]])
+    world = build_mixed(truth, np.array([[1.2, 0.8, 0.1], [0.4, 0.4, 0.2]]), np.full(2, 0.3), ARENA)
+    mapper = FusedMapper(
+        (DESK, box), ARENA, FusedParams(burn_in=300, explore=600, anneal=200, samples=600)
+    )
+    rng = np.random.default_rng(2)
+    for x in np.linspace(0.4, 4.6, 6):
+        for y in np.linspace(0.4, 3.6, 5):
+            if math.hypot(x - 3.6, y - 2.6) < 0.45:  # not on the box
+                continue
+            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+                pose = np.array([x, y, heading])
+                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
+    objects = sorted(mapper.finish(rng=rng).objects(), key=lambda o: o["x"])
+    assert [o["type"] for o in objects] == [DESK.name, "box"]
+    for found, true in zip(objects, truth, strict=True):
+        assert math.hypot(found["x"] - true[0], found["y"] - true[1]) < 0.03
+        assert found["existence_probability"] > 0.9
 
 
 def test_step_is_deterministic_for_a_seed() -> None:

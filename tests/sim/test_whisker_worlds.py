@@ -81,7 +81,7 @@ def test_a_world_without_poses_is_toured_like_the_paper() -> None:
             lambda w: w["tables"][1].update(x=1.7, y=0.7),
             r"tables\[1\]: the table overlaps tables\[0\]",
         ),
-        (lambda w: w["tables"][0].update(leg=0.5), r"tables\[0\]: each leg must be narrower"),
+        (lambda w: w["tables"][0].update(leg=0.5), r"tables\[0\]: each leg must be at most half"),
         (
             lambda w: w.update(poses=[[8.0, 1.0, 0.0]]),
             r"poses\[0\]: a pose must be finite and inside",
@@ -224,3 +224,26 @@ def test_every_sweep_is_reported_and_no_contact_lies_behind_the_root(name: str) 
         assert (turn <= 2 * sensor.sweep + 1e-9).all()
         assert np.allclose(sweeps[:, 2], sensor.whisker_length)
     assert math.isfinite(sweeps[:, 0].sum())
+
+
+def test_a_solid_box_is_touched_on_its_outline_only() -> None:
+    """Legs of half the width meet: the square is a solid box, and no whisker reaches into
+    it (every true contact point on it lies on its outline)."""
+    solid = dict(
+        EXAMPLE,
+        tables=[{"x": 3.5, "y": 3.5, "theta": 0.4, "length": 0.5, "width": 0.5, "leg": 0.25}],
+    )
+    world_file = parse_world(solid, "box.json")
+    assert [entry[1:] for entry in world_file.catalogue] == [(0.5, 0.5, 0.25)]
+    outline = _polygons(world_file.tables)[0]
+    world = world_file.world()
+    sensor = condition("noiseless", WhiskerParams())
+    rng = np.random.default_rng(0)
+    touched = 0
+    for pose in world_file.robot_poses():
+        contacts = observe(world, pose, sensor, rng=rng).contacts
+        on_box = contacts.hit & (shapely.distance(outline, shapely.points(contacts.point)) < 0.05)
+        points = shapely.points(contacts.point[on_box])
+        assert (shapely.distance(outline.exterior, points) < 1e-6).all()
+        touched += int(on_box.sum())
+    assert touched > 50

@@ -91,7 +91,8 @@ class ObjectType(NamedTuple):
     length, width
         Outer size [m]; the long side lies along the table's θ.
     leg
-        Side of its square legs [m], flush with the corners.
+        Side of its square legs [m], flush with the corners, at most half the width; legs of
+        half the width meet, and a square type is then a solid box or pillar.
     """
 
     name: str
@@ -110,9 +111,9 @@ def check_catalogue(catalogue: tuple[ObjectType, ...]) -> tuple[ObjectType, ...]
     if not catalogue:
         raise ConfigError("the catalogue of object types must hold at least one type")
     for k, t in enumerate(catalogue):
-        if not (0 < 2 * t.leg < t.width <= t.length):
+        if not (0 < 2 * t.leg <= t.width <= t.length):
             raise ConfigError(
-                f"catalogue[{k}] ({t.name}): need 0 < 2 × leg < width <= length, got "
+                f"catalogue[{k}] ({t.name}): need 0 < 2 × leg <= width <= length, got "
                 f"length={t.length}, width={t.width}, leg={t.leg}"
             )
         for j, other in enumerate(catalogue[:k]):

@@ -94,9 +94,9 @@ class WorldParams:
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ConfigError(f"WorldParams.{name} must be > 0, got {getattr(self, name)!r}")
-        if not 2 * self.leg_width < self.table_width <= self.table_length:
+        if not 2 * self.leg_width <= self.table_width <= self.table_length:
             raise ConfigError(
-                "WorldParams: need 2 × leg_width < table_width <= table_length, got "
+                "WorldParams: need 2 × leg_width <= table_width <= table_length, got "
                 f"leg_width={self.leg_width}, table_width={self.table_width}, "
                 f"table_length={self.table_length}"
             )

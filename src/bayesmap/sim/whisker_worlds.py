@@ -19,9 +19,11 @@ without it the catalogue is the distinct table sizes of the file. The mapper is 
 arena and the catalogue, never the tables.
 
 :data:`WORLD_SCHEMA` is the JSON Schema (draft 2020-12) checked by :func:`load_world`;
-geometric checks (tables inside the arena, not overlapping, legs narrower than half the
-table) follow it. Every failure is a :class:`~bayesmap.errors.FormatError` naming the file
-and the element.
+geometric checks (tables inside the arena, not overlapping, legs at most half the table's
+width) follow it. Every failure is a :class:`~bayesmap.errors.FormatError` naming the file
+and the element. Legs of exactly half the width meet: a square "table" whose legs fill it
+is a solid box or pillar (``"length": 0.3, "width": 0.3, "leg": 0.15``), the way to put
+clutter in a world; give its size a catalogue entry to let the mapper name it.
 """
 
 from __future__ import annotations
@@ -299,8 +301,8 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
                 f"width {row[4]:g} is more than length {row[3]:g}: length is the longer side "
                 "(swap them and turn theta by 90°)",
             )
-        if not 2 * row[5] < min(row[3], row[4]):
-            raise _fail(source, f"tables[{i}]", "each leg must be narrower than half the table")
+        if not 2 * row[5] <= min(row[3], row[4]):
+            raise _fail(source, f"tables[{i}]", "each leg must be at most half the table's width")
     polygons = _table_polygons(tables)
     box = shapely.box(0.0, 0.0, *arena)
     for i, polygon in enumerate(polygons):
@@ -359,11 +361,11 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
     if not catalogue:
         raise _fail(source, "catalogue", "a world without tables must list its catalogue")
     for k, (_, length, width, leg) in enumerate(catalogue):
-        if width > length or not 2 * leg < width:
+        if width > length or not 2 * leg <= width:
             raise _fail(
                 source,
                 f"catalogue[{k}]",
-                "length must be the longer side and each leg narrower than half the width",
+                "length must be the longer side and each leg at most half the width",
             )
         twin = next((j for j in range(k) if catalogue[j][1:] == (length, width, leg)), None)
         if twin is not None:
