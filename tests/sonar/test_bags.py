@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -13,13 +15,16 @@ from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
 from bayesmap.errors import FormatError
-from bayesmap.sonar.bags import read_sonar_bag
+from bayesmap.sonar.bags import _range, read_sonar_bag
 
 TOPICS = [f"/sonar/{k}" for k in range(4)]
 RINGS = 20
 
 
-def _messages(store: str, *, tf: bool = False) -> list[tuple[str, str, int, object]]:
+def _messages(
+    store: str, *, tf: bool = False, codes: tuple[float, ...] = ()
+) -> list[tuple[str, str, int, object]]:
+    """The drive's messages; ``codes``: transducer 0's readings of the first rings."""
     ts = get_typestore(Stores.ROS1_NOETIC if store == "ros1" else Stores.ROS2_HUMBLE)
     t = ts.types
     ros1 = store == "ros1"
@@ -37,6 +42,8 @@ def _messages(store: str, *, tf: bool = False) -> list[tuple[str, str, int, obje
         for k, topic in enumerate(TOPICS):
             ns = base + k * 5_000_000  # each transducer fires 5 ms after the last
             value = 9.9 if k == 3 else 1.0 + 0.1 * k  # transducer 3: a no-echo code
+            if k == 0 and i < len(codes):
+                value = codes[i]
             msg = t["sensor_msgs/msg/Range"](
                 header=header(ns, f"sonar{k}"),
                 radiation_type=0,
@@ -85,10 +92,10 @@ def _messages(store: str, *, tf: bool = False) -> list[tuple[str, str, int, obje
     return out
 
 
-def _write(tmp_path: Path, kind: str, *, tf: bool = False) -> Path:
+def _write(tmp_path: Path, kind: str, *, tf: bool = False, codes: tuple[float, ...] = ()) -> Path:
     store = "ros1" if kind == "ros1" else "ros2"
     ts = get_typestore(Stores.ROS1_NOETIC if store == "ros1" else Stores.ROS2_HUMBLE)
-    messages = sorted(_messages(store, tf=tf), key=lambda m: m[2])
+    messages = sorted(_messages(store, tf=tf, codes=codes), key=lambda m: m[2])
     if kind == "ros1":
         path = tmp_path / "log.bag"
         with Writer1(path) as writer:
@@ -166,3 +173,45 @@ def test_sonar_map_reads_a_bag(tmp_path: Path) -> None:
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
     assert (tmp_path / "out" / "map.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("reading", "low", "high", "read"),
+    [
+        (1.5, 0.1, 5.0, 1.5),
+        (math.inf, 0.1, 5.0, math.inf),  # REP 117: no echo
+        (7.0, 0.1, 5.0, math.inf),  # above the message's max: a no-echo code
+        (-math.inf, 0.1, 5.0, 0.0),  # REP 117: too close
+        (math.nan, 0.1, 5.0, 0.0),  # invalid
+        (0.05, 0.1, 5.0, 0.0),  # below the message's min
+        (-1.0, 0.0, 5.0, 0.0),
+        (0.0, 0.0, 5.0, 0.0),
+        (3.0, 0.1, 0.0, 3.0),  # max_range left unset by the driver: no bound
+        (3.0, 0.1, math.nan, 3.0),
+    ],
+)
+def test_range_messages_are_read_as_rep_117_says(
+    reading: float, low: float, high: float, read: float
+) -> None:
+    message = SimpleNamespace(range=reading, min_range=low, max_range=high)
+    assert _range(message) == read
+
+
+def test_too_close_and_invalid_readings_are_kept_and_never_mapped(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from bayesmap.cli import app
+
+    bag = _write(tmp_path, "ros2", codes=(-math.inf, math.nan, -2.0, 0.0))
+    log = read_sonar_bag(bag, TOPICS)
+    assert log.skipped[-1].line == RINGS and len(log.skipped) == 1  # only the ring past the poses
+    assert log.ranges[:4, 0].tolist() == [0.0] * 4
+    args = [
+        "sonar", "map", str(bag), "--topics", ",".join(TOPICS), "--angles-deg", "45,15,-15,-45",
+        "--max-range", "5", "--resolution", "0.1", "--out", str(tmp_path / "out"),
+    ]  # fmt: skip
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    assert "4 of 76 readings (5.3 %) are 0, negative or below" in result.output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["below_min_range"] == 4

@@ -239,6 +239,27 @@ def test_pipeline_filtered_map_is_deterministic_and_covers_the_path(corridor: Co
         map_log(poses, scan.ranges[:-1], ElfesMapper(grid_for_poses(poses, 5, 0.2), geometry))
 
 
+@pytest.mark.parametrize("name", ["default", "elfes", "ros"])
+def test_readings_that_measured_nothing_are_never_mapped(corridor: Corridor, name: str) -> None:
+    """A 0, a negative code or a reading below the min range is left out of the map: the
+    map is the one made from the log without them, and their stage says why."""
+    poses, scan, geometry = corridor
+    geometry = replace(geometry, min_range=0.1)
+    codes = scan.ranges.copy()
+    rng = np.random.default_rng(5)
+    hit = rng.random(codes.shape) < 0.2
+    codes[hit] = rng.choice([0.0, -1.0, 0.05], size=int(hit.sum()))
+    built = build_map(poses, codes, geometry, 0.2, pipeline=PIPELINES[name])
+    assert (built.run.stage[hit] == Stage.TOO_CLOSE).all() and not built.run.accepted[hit].any()
+    assert not (built.run.stage[~hit] == Stage.TOO_CLOSE).any()
+    if name != "default":  # no filter: the same map as without those readings
+        grid = grid_for_poses(poses, geometry.max_range + geometry.reach, 0.2)
+        mapper = PIPELINES[name].make_mapper(grid, geometry)
+        mapper.integrate_many(poses, np.where(hit, np.inf, scan.ranges), ~hit)
+        mapper.sync()
+        assert np.array_equal(mapper.probability(), built.mapper.probability())
+
+
 def _row_probability(mapper: ElfesMapper | RosRangeLayerMapper, y: float = 0.0) -> np.ndarray:
     grid = mapper.grid
     row = grid.world_to_cell(0.0, y)[0]

@@ -132,8 +132,17 @@ def _check_overrides(
             raise InputError(f"{name} must be a positive number, got {value}")
 
 
-def _check_ranges(data: SonarLog, geometry: SonarGeometry, range_unit: str) -> None:
-    """Warn when the ranges and the max range look like different units."""
+def _check_ranges(data: SonarLog, geometry: SonarGeometry, range_unit: str, log: Path) -> None:
+    """Warn when the ranges and the max range look like different units, and when readings
+    measured nothing (:func:`~bayesmap.sonar.pipeline.map_log` leaves them unmapped)."""
+    unmeasured = int(((data.ranges <= 0) | (data.ranges < geometry.min_range)).sum())
+    if unmeasured:
+        _say(
+            f"warning: {log}: {unmeasured} of {data.ranges.size} readings "
+            f"({100 * unmeasured / data.ranges.size:.1f} %) are 0, negative or below the "
+            f"ring's min range ({geometry.min_range:g} m): they measured nothing and are "
+            "not mapped"
+        )
     echo = geometry.echo(data.ranges)
     if echo.mean() < 0.05:
         _say(
@@ -320,7 +329,7 @@ def map_command(
                     max_pose_gap=max_pose_gap,
                     progress=hook,
                 )
-            _check_ranges(data, geometry, range_unit)
+            _check_ranges(data, geometry, range_unit, log)
             built = build_map(
                 data.poses,
                 data.ranges,
@@ -491,6 +500,7 @@ def _write_outputs(
     grid = built.mapper.grid
     probability = built.mapper.probability()
     observed = built.mapper.observed()
+    unmeasured = int((built.run.stage == Stage.TOO_CLOSE).sum())
     if not observed.any():
         _say("warning: no reading changed the map: every cell is unknown")
     elif not (probability[observed] > 0.5).any():
@@ -511,7 +521,11 @@ def _write_outputs(
         ),
     )
     stage = built.run.stage
-    rejected = {s.name.lower(): int((stage == s).sum()) for s in Stage if s != Stage.ACCEPTED}
+    rejected = {
+        s.name.lower(): int((stage == s).sum())
+        for s in Stage
+        if s not in (Stage.ACCEPTED, Stage.TOO_CLOSE)
+    }
     dropped = sum(row.path == str(log) for row in data.skipped)
     summary = {
         "log": str(log),
@@ -525,6 +539,7 @@ def _write_outputs(
         "readings": int(data.ranges.size),
         "repeated_rings": int(built.run.repeat.sum()),
         "rejected": rejected,
+        "below_min_range": unmeasured,
         "skipped": [
             {"file": row.path, "line": row.line, "reason": row.reason} for row in data.skipped
         ],
@@ -542,7 +557,8 @@ def _write_outputs(
     typer.echo(
         f"{data.rows} rows ({skips}), {data.ranges.size} readings, "
         f"{int(built.run.repeat.sum())} repeated rings merged, "
-        f"rejected {sum(rejected.values())} "
+        + (f"{unmeasured} below the min range not mapped, " if unmeasured else "")
+        + f"rejected {sum(rejected.values())} "
         f"({', '.join(f'{k} {v}' for k, v in rejected.items())}); "
         f"wrote {folder.target}: map.png, {yaml_path.name}, {pgm_path.name}, summary.json"
     )

@@ -8,8 +8,12 @@ silent for that long is skipped and reported, like a bad row of a text log. Pose
 ``nav_msgs/Odometry`` (``pose.pose``) or from ``tf2_msgs/TFMessage`` transforms between two
 named frames, and are joined to the rings as in :func:`bayesmap.sonar.logs.read_sonar_log`
 (interpolation across gaps up to ``max_pose_gap``, else the nearest pose within
-``time_tolerance``). Ranges are in metres (ROS convention, REP 103); a reading above the
-message's ``max_range`` or ``inf`` is no echo.
+``time_tolerance``). Ranges are in metres (ROS convention, REP 103) and read as REP 117
+says: ``+inf`` or a reading above the message's ``max_range`` is no echo; ``-inf`` (too
+close), NaN (invalid) and a reading below the message's ``min_range`` measured nothing,
+kept as 0 m, which :func:`~bayesmap.sonar.pipeline.map_log` never maps. A message whose
+``max_range`` is not above its ``min_range`` (a driver that left it unset) sets no bound:
+the ring's max range applies.
 """
 
 from __future__ import annotations
@@ -30,6 +34,19 @@ from bayesmap.sonar.logs import SkippedRow, SonarLog, join_poses
 __all__ = ["read_sonar_bag"]
 
 logger = logging.getLogger(__name__)
+
+
+def _range(message: Any) -> float:
+    """A ``sensor_msgs/Range`` reading [m] as the module docstring says: ``inf`` for no
+    echo, 0 for a reading that measured nothing."""
+    r = float(message.range)
+    low, high = float(message.min_range), float(message.max_range)
+    bounded = high > max(low, 0.0)  # an unset max_range (0, NaN) bounds nothing
+    if math.isnan(r) or r < low or r <= 0.0:
+        return 0.0
+    if r == math.inf or (bounded and r > high):
+        return math.inf
+    return r
 
 
 def _stamp(message: Any, fallback_ns: int) -> float:
@@ -103,9 +120,7 @@ def read_sonar_bag(
             for connection, timestamp, raw in reader.messages(connections=wanted):
                 message: Any = reader.deserialize(raw, connection.msgtype)
                 if connection.topic in readings:
-                    r = float(message.range)
-                    if not r <= float(message.max_range):
-                        r = math.inf  # above the max (a no-echo code) or inf: no echo
+                    r = _range(message)
                     readings[connection.topic].append((_stamp(message, timestamp), r))
                 elif connection.msgtype.endswith("Odometry"):
                     pose = message.pose.pose

@@ -47,6 +47,9 @@ class Stage(IntEnum):
     TRAIT_VERIFICATION = 3
     MAP_VERDICT = 4
     """After the pass, by the map of the whole log (:mod:`bayesmap.sonar.map_verdict`)."""
+    TOO_CLOSE = 5
+    """Below the ring's min range (0, a negative code, REP 117's −inf): never mapped
+    (:func:`bayesmap.sonar.pipeline.map_log`)."""
 
 
 _STAGE_REASONS = {

@@ -21,7 +21,7 @@ import numpy.typing as npt
 from bayesmap._typing import BoolArray, FloatArray, Grid, IntArray, Poses, ProgressHook, Ranges
 from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
-from bayesmap.sonar.filter import SpecularFilter
+from bayesmap.sonar.filter import SpecularFilter, Stage
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.map_verdict import MapJudge, MapVerdict
 from bayesmap.sonar.mapping import ElfesMapper, NoEcho, RosRangeLayerMapper, ThrunMapper
@@ -170,6 +170,10 @@ def map_log(
         ``(n_rings, 3)`` robot poses ``(x [m], y [m], heading [rad])``.
     ranges
         ``(n_rings, n)`` ranges [m]; at or above the max range (or ``inf``) means no echo.
+        A range of 0 or less, or below the ring's min range, measured nothing (a driver's
+        code for "too close" or "no reading", REP 117's −inf): it is never mapped, its stage
+        is :attr:`~bayesmap.sonar.filter.Stage.TOO_CLOSE`, and the filter's neighbour tests
+        see it as no echo.
     mapper
         Any :class:`RingMapper`; it is synced into its grid at the end.
     filt
@@ -194,11 +198,14 @@ def map_log(
         raise InputError(
             f"need (n, 3) poses and (n, k) ranges of equal n, got {p.shape} and {r.shape}"
         )
-    # One byte a reading for the outcomes while the log runs (stage codes fit in int8).
-    accepted = np.ones(r.shape, dtype=bool)
-    stage = np.zeros(r.shape, dtype=np.int8)
-    repeat = np.zeros(len(p), dtype=bool)
     geometry: SonarGeometry | None = getattr(mapper, "geometry", None)
+    too_close = (r <= 0.0) | (r < (0.0 if geometry is None else geometry.min_range))
+    if too_close.any():
+        r = np.where(too_close, np.inf, r)
+    # One byte a reading for the outcomes while the log runs (stage codes fit in int8).
+    accepted = ~too_close
+    stage = np.where(too_close, int(Stage.TOO_CLOSE), int(Stage.ACCEPTED)).astype(np.int8)
+    repeat = np.zeros(len(p), dtype=bool)
     integrate_many: Callable[..., None] | None = getattr(mapper, "integrate_many", None)
     if map_verdict is not None and geometry is None:
         raise ConfigError("the map's verdict needs a mapper with the ring's geometry")
@@ -223,8 +230,9 @@ def map_log(
             free_limit = np.full((len(fresh), r.shape[1]), np.inf)
             if filt is not None:
                 verdict = filt.process_many(p[fresh], r[fresh])
-                accepted[fresh] = verdict.accepted
-                stage[fresh] = verdict.stage
+                measured = ~too_close[fresh]
+                accepted[fresh] = verdict.accepted & measured
+                stage[fresh] = np.where(measured, verdict.stage, int(Stage.TOO_CLOSE))
                 free_limit = verdict.free_limit
             # Only a filter that stops free space (keep_supported_echoes) sets a limit.
             limited = bool(np.isfinite(free_limit).any())
@@ -246,7 +254,7 @@ def map_log(
         if progress is not None:
             progress("mapping", stop, len(p))
     if map_verdict is not None and geometry is not None:
-        _judge_by_map(p, r, mapper, geometry, map_verdict, accepted, stage, repeat)
+        _judge_by_map(p, r, mapper, geometry, map_verdict, accepted, stage, repeat, too_close)
     mapper.sync()
     return MapRun(accepted=accepted, stage=stage.astype(np.int64), repeat=repeat)
 
@@ -260,8 +268,10 @@ def _judge_by_map(
     accepted: BoolArray,
     stage: npt.NDArray[np.int8],
     repeat: BoolArray,
+    too_close: BoolArray,
 ) -> None:
-    """Replace (in place) the verdicts of a mapped log by the map's (see :func:`map_log`).
+    """Replace (in place) the verdicts of a mapped log by the map's (see :func:`map_log`);
+    readings ``too_close`` stay unmapped whatever the map says.
 
     The judging map is the one the pipeline ends with: a mapper that refines the whole log
     (``forward_sweeps``) refines first, unless ``remap`` is to feed the verdict to that
@@ -277,6 +287,7 @@ def _judge_by_map(
     # A repeat takes the verdict of the last ring mapped before it.
     last = np.maximum.accumulate(np.where(fresh, np.arange(len(fresh)), 0))
     accepted[:], stage[:] = accepted[last], stage[last]
+    accepted[too_close], stage[too_close] = False, int(Stage.TOO_CLOSE)
     remask: Callable[[BoolArray], None] | None = getattr(mapper, "remask", None)
     if verdict.remap and remask is not None:
         remask(accepted[fresh])
