@@ -92,9 +92,12 @@ def test_a_gzipped_log_reads_as_the_plain_one(tmp_path: Path) -> None:
     assert [(r.line, r.reason) for r in plain.skipped] == [
         (r.line, r.reason) for r in packed.skipped
     ]
-    (tmp_path / "cut.csv.gz").write_bytes(gzip.compress(b"t,x,y\n" * 50)[:20])
-    with pytest.raises(FormatError, match="cut.csv.gz.*gzip"):
+    rows = b"x,y,heading,ir_0,ir_1,ir_2\n" + b"1.0,2.0,0.5,10,20,30\n" * 50_000
+    packed = gzip.compress(rows)
+    (tmp_path / "cut.csv.gz").write_bytes(packed[: len(packed) // 2])
+    with pytest.raises(FormatError, match="cut.csv.gz.*gzip stream is cut short") as info:
         read_rover_log(tmp_path / "cut.csv.gz", 3)
+    assert info.value.line is not None and info.value.line > 1000
 
 
 def test_bad_logs_and_calibrations_are_format_errors(tmp_path: Path) -> None:
@@ -163,3 +166,32 @@ def test_fields_padded_with_control_whitespace_are_read(tmp_path: Path) -> None:
     assert len(read_calibration(tmp_path / "c.csv")) == 3
     (tmp_path / "a.csv").write_text("x,y,heading,ir_0\n1,2,0,\x1f40\n")
     assert read_rover_log(tmp_path / "a.csv", 1).raw.tolist() == [[40.0]]
+
+
+def test_bytes_that_are_not_utf8_cost_only_their_row(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    lines = [b"# logged by the r\xf6ver (Latin-1)", b"x,y,heading,ir_0,ir_1,ir_2"]
+    lines += [b"%d.0,1.0,0.5,10,20,30" % k for k in range(30)]
+    lines[10] = b"8.0,1.0,0.5,1\xb00,20,30"
+    (tmp_path / "drive.csv").write_bytes(b"\n".join(lines) + b"\n")
+    calls: list[tuple[str, int, int]] = []
+    with caplog.at_level("WARNING", logger="bayesmap.rover.logs"):
+        log = read_rover_log(tmp_path / "drive.csv", 3, progress=lambda *c: calls.append(c))
+    assert [row.line for row in log.skipped] == [11] and len(log.poses) == 29
+    assert calls[-1] == ("reading drive.csv", 1, 1)
+    assert "headings reach" not in caplog.text
+
+
+def test_headings_in_degrees_read_as_radians_get_a_hint(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    rows = ["x,y,heading,ir_0,ir_1,ir_2"] + [f"{0.1 * k},1.0,{3 * k},10,20,30" for k in range(60)]
+    (tmp_path / "drive.csv").write_text("\n".join(rows) + "\n")
+    with caplog.at_level("WARNING", logger="bayesmap.rover.logs"):
+        read_rover_log(tmp_path / "drive.csv", 3)
+    assert "headings reach 177 rad: if they are in degrees, give --heading-unit deg" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="bayesmap.rover.logs"):
+        read_rover_log(tmp_path / "drive.csv", 3, heading_unit="deg")
+    assert not caplog.records

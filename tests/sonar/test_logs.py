@@ -5,6 +5,7 @@ from __future__ import annotations
 import gzip
 import math
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,13 @@ from hypothesis import strategies as st
 
 from bayesmap.errors import FormatError, InputError
 from bayesmap.geometry import isolated_jumps
-from bayesmap.sonar.logs import LogUnits, SonarLog, read_sonar_log, write_sonar_log
+from bayesmap.sonar.logs import (
+    SHOWN_SKIPS,
+    LogUnits,
+    SonarLog,
+    read_sonar_log,
+    write_sonar_log,
+)
 
 DATA = Path(__file__).parent / "data"
 MM = LogUnits(range_unit="mm", position_unit="mm", heading_unit="deg")
@@ -303,3 +310,42 @@ def test_a_gzipped_log_cut_short_names_the_file_and_line(tmp_path: Path) -> None
     with pytest.raises(FormatError, match="longer than") as info:
         read_sonar_log(tmp_path / "bomb.txt.gz", 2)
     assert info.value.line == 1
+
+
+def test_a_log_of_bad_rows_names_a_few_and_counts_the_rest(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    rows = [f"{t} 0 0 0 1.0 2.0" if t % 2 else f"{t} 0 0 0 1.0 oops" for t in range(200)]
+    (tmp_path / "log.txt").write_text("\n".join(rows) + "\n")
+    with caplog.at_level("WARNING", logger="bayesmap.sonar.logs"):
+        log = read_sonar_log(tmp_path / "log.txt", 2)
+    assert len(log.skipped) == 100 and len(caplog.records) == SHOWN_SKIPS + 1
+    assert "100 of 200 rows skipped (50.0 %); the first 10 are named above" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="bayesmap.sonar.logs"):
+        with pytest.raises(FormatError) as info:
+            read_sonar_log(tmp_path / "log.txt", 2, strict=True)
+    assert info.value.line == 1 and not caplog.records  # stopped at once, nothing printed
+
+
+def test_the_summary_names_the_file_whose_rows_were_skipped(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    (tmp_path / "ranges.txt").write_text("".join(f"{t} 1.0 2.0\n" for t in range(10)))
+    poses = "t x y heading\n" + "".join(f"{t} 0 0 0\n" for t in range(10))
+    (tmp_path / "poses.txt").write_text(poses)
+    with caplog.at_level("WARNING", logger="bayesmap.sonar.logs"):
+        log = read_sonar_log(tmp_path / "ranges.txt", 2, poses_path=tmp_path / "poses.txt")
+    assert [(Path(row.path).name, row.line) for row in log.skipped] == [("poses.txt", 1)]
+    summary = caplog.records[-1].getMessage()
+    assert "poses.txt: 1 rows skipped" in summary and "ranges.txt" not in summary
+
+
+def test_headings_in_degrees_read_as_radians_get_a_hint(caplog: pytest.LogCaptureFixture) -> None:
+    with caplog.at_level("WARNING", logger="bayesmap.sonar.logs"):
+        read_sonar_log(DATA / "example_log.txt", 16, units=replace(MM, heading_unit="rad"))
+    assert "if they are in degrees, give --heading-unit deg" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="bayesmap.sonar.logs"):
+        read_sonar_log(DATA / "example_log.txt", 16, units=MM)
+    assert "headings reach" not in caplog.text

@@ -114,16 +114,18 @@ def map_command(
     from bayesmap.experiments import rover_log
 
     try:
-        summary = rover_log.map_log(
-            log,
-            out,
-            calibration=calibration,
-            distance_unit=distance_unit,
-            position_unit=position_unit,
-            heading_unit=heading_unit,
-            resolution=resolution,
-            strict=strict,
-        )
+        with progress_bar(_console, first=f"reading {log.name}", percent=True) as hook:
+            summary = rover_log.map_log(
+                log,
+                out,
+                calibration=calibration,
+                distance_unit=distance_unit,
+                position_unit=position_unit,
+                heading_unit=heading_unit,
+                resolution=resolution,
+                strict=strict,
+                progress=hook,
+            )
     except BayesmapError as error:
         raise _fail(error) from None
     typer.echo(

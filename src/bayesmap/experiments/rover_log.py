@@ -14,7 +14,9 @@ from typing import Any
 import numpy as np
 
 from bayesmap._io import write_bytes, write_json
+from bayesmap._typing import ProgressHook
 from bayesmap.errors import InputError
+from bayesmap.experiments._common import no_progress
 from bayesmap.grid import OccupancyGrid
 from bayesmap.grid.ros import write_ros_map
 from bayesmap.limits import cell_side_problem
@@ -27,6 +29,10 @@ from bayesmap.viz.rover import maps_pair_figure
 __all__ = ["map_log"]
 
 
+_PROGRESS_ROWS = 1000
+"""Rows mapped between two calls of the progress hook."""
+
+
 def map_log(
     log: Path,
     out: Path,
@@ -37,8 +43,11 @@ def map_log(
     heading_unit: str = "rad",
     resolution: float = 0.5,
     strict: bool = False,
+    progress: ProgressHook = no_progress,
 ) -> dict[str, Any]:
-    """Replay ``log`` into maps under ``out``; return the summary written to summary.json."""
+    """Replay ``log`` into maps under ``out``; return the summary written to summary.json.
+
+    ``progress`` is called while the log is read (bytes) and mapped (rows)."""
     problem = cell_side_problem(resolution)
     if problem is not None:
         raise InputError(f"--resolution {problem}")
@@ -54,6 +63,7 @@ def map_log(
         position_unit=position_unit,
         heading_unit=heading_unit,
         strict=strict,
+        progress=progress,
     )
     reach = params.r_max + params.sensor_offset + 3.0 * params.sigma_xy
     low = np.floor((data.poses[:, :2].min(axis=0) - reach) / resolution) * resolution
@@ -63,8 +73,10 @@ def map_log(
         width, height, resolution, origin=(float(low[0]), float(low[1])), prior=params.prior
     )
     mapper = IRMapper(grid, params)
-    for raw, pose in zip(data.raw, data.poses, strict=True):
+    for row, (raw, pose) in enumerate(zip(data.raw, data.poses, strict=True), start=1):
         mapper.update(raw, pose)
+        if row % _PROGRESS_ROWS == 0 or row == len(data.poses):
+            progress("mapping", row, len(data.poses))
     out = Path(out)
     grid.save_npz(out / "map.npz")
     yaml_path, _ = write_ros_map(

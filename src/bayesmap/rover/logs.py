@@ -4,8 +4,9 @@ A drive log is a CSV file with a header naming its columns: ``x``, ``y``, ``head
 one column per ranger, ``ir_0``, ``ir_1``, … (8-bit ADC readings, in the order of
 ``RoverParams.sensor_angles``); other columns (a timestamp, say) are ignored. Units of the
 pose columns are given by the caller (:data:`~bayesmap.sonar.logs.LENGTH_UNITS`,
-:data:`~bayesmap.sonar.logs.ANGLE_UNITS`) and converted to SI here, once. Blank lines and
-lines starting with ``#`` are skipped. A bad row (wrong number of fields, a field that is
+:data:`~bayesmap.sonar.logs.ANGLE_UNITS`) and converted to SI here, once. The file may be
+gzip-compressed. Blank lines and lines starting with ``#`` are skipped; bytes that are not
+UTF-8 cost only the row they are in. A bad row (wrong number of fields, a field that is
 not a finite number, a reading outside 0..255) is reported with its line number and left
 out, or, with ``strict=True``, aborts the read with a :class:`~bayesmap.errors.FormatError`.
 
@@ -21,19 +22,26 @@ import csv
 import json
 import logging
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from bayesmap._io import GZIP_MAGIC, gunzip_bytes, read_input
+from bayesmap._io import LineReader
 from bayesmap._numbers import is_decimal
-from bayesmap._typing import FloatArray
+from bayesmap._typing import FloatArray, ProgressHook
 from bayesmap.errors import FormatError, InputError
 from bayesmap.geometry import MAX_POSE_JUMP, isolated_jumps
-from bayesmap.limits import DEFAULT_LIMITS
 from bayesmap.sensing.ir import Calibration, calibration_problem, fit_calibration
-from bayesmap.sonar.logs import ANGLE_UNITS, LENGTH_UNITS, SkippedRow
+from bayesmap.sonar.logs import (
+    ANGLE_UNITS,
+    LENGTH_UNITS,
+    SHOWN_SKIPS,
+    RowBlocks,
+    SkippedRow,
+    heading_unit_hint,
+)
 
 __all__ = ["RoverLog", "read_calibration", "read_rover_log"]
 
@@ -50,23 +58,13 @@ class RoverLog:
     skipped: tuple[SkippedRow, ...]
 
 
-def _rows(path: Path) -> list[tuple[int, list[str]]]:
-    """``(line number, fields)`` of the non-blank, non-comment lines of a CSV file."""
-    limit = DEFAULT_LIMITS.max_bytes
-    data = read_input(path, max_bytes=limit)  # a regular file, bounded
-    if data.startswith(GZIP_MAGIC):  # a compressed log, whatever its name
-        data = gunzip_bytes(data, limit, str(path))
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as error:
-        raise FormatError(f"the file is not UTF-8 text ({error})", path=path) from None
-    rows = []
-    for number, line in enumerate(text.splitlines(), start=1):
+def _csv_rows(handle: LineReader) -> Iterator[tuple[int, list[str]]]:
+    """``(line number, fields)`` of the non-blank, non-comment lines of a CSV file; a byte
+    that is not UTF-8 becomes U+FFFD (a bad number costs its row; a comment is skipped)."""
+    for number, raw in enumerate(handle, start=1):
+        line = raw.decode("utf-8", errors="replace").lstrip("\ufeff").rstrip("\r\n")
         if line.strip() and not line.lstrip().startswith("#"):
-            rows.append((number, next(csv.reader([line]))))
-    if not rows:
-        raise FormatError("the file holds no header and no rows", path=path)
-    return rows
+            yield number, next(csv.reader([line]))
 
 
 def _columns(path: Path, header: list[str], line: int, wanted: list[str]) -> list[int]:
@@ -88,51 +86,60 @@ def read_rover_log(
     position_unit: str = "m",
     heading_unit: str = "rad",
     strict: bool = False,
+    progress: ProgressHook | None = None,
 ) -> RoverLog:
-    """Read a drive log (see the module docstring) into SI poses and raw readings."""
+    """Read a drive log (see the module docstring) into SI poses and raw readings.
+
+    The file is streamed line by line (gunzipped on the fly if compressed) into numpy
+    blocks, so memory stays near the size of the numbers; ``progress`` is called as
+    ``progress("reading NAME", bytes_read, bytes_total)`` every
+    :data:`~bayesmap.sonar.logs.CHUNK_ROWS` rows and at the end.
+    """
     file = Path(path)
     if position_unit not in LENGTH_UNITS or heading_unit not in ANGLE_UNITS:
         raise InputError(
             f"units must be one of {list(LENGTH_UNITS)} and {list(ANGLE_UNITS)}, got "
             f"{position_unit!r}, {heading_unit!r}"
         )
-    (header_line, header), *rows = _rows(file)
     wanted = ["x", "y", "heading", *(f"ir_{k}" for k in range(n_rangers))]
-    index = _columns(file, header, header_line, wanted)
-    values: list[list[float]] = []
-    lines: list[int] = []
     skipped: list[SkippedRow] = []
 
     def skip(number: int, reason: str) -> None:
         if strict:
             raise FormatError(reason, path=file, line=number)
-        logger.warning("%s, line %d: %s; row skipped", file, number, reason)
+        if len(skipped) < SHOWN_SKIPS:
+            logger.warning("%s, line %d: %s; row skipped", file, number, reason)
         skipped.append(SkippedRow(str(file), number, reason))
 
-    for number, fields in rows:
-        reason = None
-        if len(fields) != len(header):
-            reason = f"{len(fields)} fields, the header has {len(header)}"
-        else:
-            wanted = [fields[k].strip() for k in index]
-            plain = all(is_decimal(field) for field in wanted)
-            row = [float(field) for field in wanted] if plain else []
-            if not plain or not all(math.isfinite(v) for v in row):
-                reason = "a field is not a finite plain decimal number"
-            elif not all(0.0 <= v <= 255.0 for v in row[3:]):
-                reason = "an IR reading outside 0..255"
-        if reason is not None:
-            skip(number, reason)
-            continue
-        values.append(row)
-        lines.append(number)
-    if not values:
+    blocks = RowBlocks(len(wanted))
+    header: list[str] | None = None
+    index: list[int] = []
+    rows = 0
+    with LineReader(file) as handle:
+        for number, fields in _csv_rows(handle):
+            if header is None:
+                header = fields
+                index = _columns(file, header, number, wanted)
+                continue
+            rows += 1
+            reason = _row_problem(fields, len(header), index)
+            if isinstance(reason, str):
+                skip(number, reason)
+                continue
+            if blocks.add(number, reason) and progress is not None:
+                progress(f"reading {file.name}", handle.consumed(), max(handle.size, 1))
+    if progress is not None:
+        progress(f"reading {file.name}", 1, 1)
+    if header is None:
+        raise FormatError("the file holds no header and no rows", path=file)
+    found = blocks.table(rows)
+    if not len(found.values):
         raise FormatError("no usable rows", path=file)
-    table = np.asarray(values, dtype=np.float64)
+    table, lines = found.values, found.lines
     xy = table[:, :2] * LENGTH_UNITS[position_unit]
     glitches = isolated_jumps(xy)
     for k in np.flatnonzero(glitches).tolist():
-        skip(lines[k], f"the position leaps over {MAX_POSE_JUMP:g} m away and back")
+        skip(int(lines[k]), f"the position leaps over {MAX_POSE_JUMP:g} m away and back")
     table, xy = table[~glitches], xy[~glitches]
     steps = np.hypot(*np.diff(xy, axis=0).T)
     if steps.size and float(np.median(steps)) > MAX_POSE_JUMP:
@@ -142,9 +149,35 @@ def read_rover_log(
             file,
             float(np.median(steps)),
         )
+    hint = heading_unit_hint(table[:, 2], heading_unit)
+    if hint is not None:
+        logger.warning("%s: %s", file, hint)
+    if len(skipped) > SHOWN_SKIPS:
+        logger.warning(
+            "%s: %d of %d rows skipped; the first %d are named above, all in summary.json",
+            file,
+            len(skipped),
+            rows,
+            SHOWN_SKIPS,
+        )
     poses = np.column_stack([xy, table[:, 2] * ANGLE_UNITS[heading_unit]])
     skipped.sort(key=lambda row: row.line)
     return RoverLog(poses, table[:, 3:], tuple(skipped))
+
+
+def _row_problem(fields: list[str], columns: int, index: list[int]) -> list[float] | str:
+    """The wanted numbers of a data row, or why the row is bad."""
+    if len(fields) != columns:
+        return f"{len(fields)} fields, the header has {columns}"
+    wanted = [fields[k].strip() for k in index]
+    if not all(is_decimal(field) for field in wanted):
+        return "a field is not a finite plain decimal number"
+    row = [float(field) for field in wanted]
+    if not all(math.isfinite(v) for v in row):
+        return "a field is not a finite plain decimal number"
+    if not all(0.0 <= v <= 255.0 for v in row[3:]):
+        return "an IR reading outside 0..255"
+    return row
 
 
 MAX_CALIBRATION_DISTANCE = 10.0
@@ -177,7 +210,11 @@ def read_calibration(path: str | Path, *, distance_unit: str = "m") -> Calibrati
         raise InputError(
             f"distance unit must be one of {list(LENGTH_UNITS)}, got {distance_unit!r}"
         )
-    (header_line, header), *rows = _rows(file)
+    with LineReader(file) as handle:
+        rows = list(_csv_rows(handle))
+    if not rows:
+        raise FormatError("the file holds no header and no rows", path=file)
+    (header_line, header), *rows = rows
     raw_col, distance_col = _columns(file, header, header_line, ["raw", "distance"])
     pairs = []
     for number, fields in rows:

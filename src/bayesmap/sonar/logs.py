@@ -33,6 +33,7 @@ import bisect
 import logging
 import math
 import re
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,8 +53,10 @@ __all__ = [
     "LENGTH_UNITS",
     "join_poses",
     "LogUnits",
+    "SHOWN_SKIPS",
     "SkippedRow",
     "SonarLog",
+    "heading_unit_hint",
     "read_sonar_log",
     "write_sonar_log",
 ]
@@ -66,6 +69,21 @@ ANGLE_UNITS: dict[str, float] = {"rad": 1.0, "deg": math.pi / 180.0, "decideg": 
 """Radians per unit of angle."""
 
 _COMMENTS = ("#", "%", "//", ";")
+
+
+def heading_unit_hint(headings: FloatArray, unit: str) -> str | None:
+    """A hint when ``headings`` as logged, in ``unit``, look like degrees read as radians:
+    some beyond ±(2π + 0.1). (Headings unwrapped over whole turns can be that large too,
+    so this is a hint, not an error.)"""
+    if unit != "rad" or not len(headings):
+        return None
+    largest = float(np.max(np.abs(headings)))
+    if largest <= 2.0 * math.pi + 0.1:
+        return None
+    return (
+        f"headings reach {largest:.4g} rad: if they are in degrees, give --heading-unit deg "
+        "(decideg for tenths)"
+    )
 
 
 @dataclass(frozen=True)
@@ -133,9 +151,18 @@ CHUNK_ROWS = 20_000
 """Rows parsed into one numpy block: memory stays near the size of the numbers themselves."""
 
 
+SHOWN_SKIPS = 10
+"""Skipped rows named one warning each; the rest are counted in the summary warning
+(:func:`finish_log`) and all are listed in ``SonarLog.skipped`` (``summary.json``), so a
+log whose every row is bad prints a dozen lines, not one per row."""
+
+
 def report_skipped(path: Path, number: int, reason: str, skipped: list[SkippedRow]) -> None:
+    """Add a skipped row to ``skipped``, with a warning for each of the first
+    :data:`SHOWN_SKIPS`."""
     skipped.append(SkippedRow(str(path), number, reason))
-    logger.warning("%s, line %d: %s; row skipped", path, number, reason)
+    if len(skipped) <= SHOWN_SKIPS:
+        logger.warning("%s, line %d: %s; row skipped", path, number, reason)
 
 
 def row_values(fields: list[str], columns: int, n_ranges: int) -> list[float] | str:
@@ -206,8 +233,12 @@ def _parse(
     n_ranges: int,
     skipped: list[SkippedRow],
     progress: ProgressHook | None = None,
+    *,
+    strict: bool = False,
 ) -> _Table:
-    """Stream ``path`` line by line into numpy blocks; bad rows go to ``skipped``."""
+    """Stream ``path`` line by line into numpy blocks; bad rows go to ``skipped``. With
+    ``strict``, reading stops at the first bad row (the rows before it are still checked
+    for order, so the caller can name the first bad line whatever its fault)."""
     parsed = RowBlocks(columns)
     rows = 0
     with LineReader(path) as handle:
@@ -222,6 +253,9 @@ def _parse(
             rows += 1
             outcome = row_values(_SPLIT.split(body), columns, n_ranges)
             if isinstance(outcome, str):
+                if strict:
+                    skipped.append(SkippedRow(str(path), number, outcome))
+                    break
                 report_skipped(path, number, outcome, skipped)
                 continue
             if parsed.add(number, outcome) and progress is not None:
@@ -336,20 +370,23 @@ def read_sonar_log(
     length = LENGTH_UNITS[units.position_unit]
     angle = ANGLE_UNITS[units.heading_unit]
     if poses_path is None:
-        table = _parse(main, 4 + n_ranges, n_ranges, skipped, progress)
+        table = _parse(main, 4 + n_ranges, n_ranges, skipped, progress, strict=strict)
         _abort_if_strict(strict, skipped)
         data = table.values
         glitches = isolated_jumps(data[:, 1:3] * length)
         _report_glitches(main, table.lines[glitches], skipped)
         _abort_if_strict(strict, skipped)
         data = data[~glitches]
+        _warn_heading_unit(main, data[:, 3], units.heading_unit)
         # A copy: a view would keep the whole parsed table alive beside the log.
         times, range_raw = data[:, 0].copy(), data[:, 4:]
         poses = np.column_stack([data[:, 1:3] * length, data[:, 3] * angle])
     else:
         pose_file = Path(poses_path)
-        pose_table = _parse(pose_file, 4, 0, skipped)
-        table = _parse(main, 1 + n_ranges, n_ranges, skipped, progress)
+        pose_table = _parse(pose_file, 4, 0, skipped, strict=strict)
+        _abort_if_strict(strict, skipped)
+        table = _parse(main, 1 + n_ranges, n_ranges, skipped, progress, strict=strict)
+        _warn_heading_unit(pose_file, pose_table.values[:, 3], units.heading_unit)
         pose_si = pose_table.values * np.array([1.0, length, length, angle])
         times, range_raw, poses = posed_rows(
             (main, table),
@@ -419,16 +456,24 @@ def finish_log(
     if len(times) == 0:
         raise FormatError(f"no usable rows ({len(skipped)} skipped; {hint})", path=main)
     skipped.sort(key=lambda row: (row.path != str(main), row.line))
-    if skipped:
-        dropped = sum(row.path == str(main) for row in skipped)
-        logger.warning(
-            "%s: %d of %d rows skipped (%.1f %%); see the warnings above or summary.json",
-            main,
-            dropped,
-            rows,
-            100.0 * dropped / max(rows, 1),
-        )
+    where = (
+        "see the warnings above or summary.json"
+        if len(skipped) <= SHOWN_SKIPS
+        else f"the first {SHOWN_SKIPS} are named above, all in summary.json"
+    )
+    for name, count in Counter(row.path for row in skipped).items():
+        if name == str(main):
+            share = f"{count} of {rows} rows skipped ({100.0 * count / max(rows, 1):.1f} %)"
+        else:
+            share = f"{count} rows skipped"
+        logger.warning("%s: %s; %s", name, share, where)
     return SonarLog(times, poses, ranges, rows, tuple(skipped))
+
+
+def _warn_heading_unit(path: Path, headings: FloatArray, unit: str) -> None:
+    hint = heading_unit_hint(headings, unit)
+    if hint is not None:
+        logger.warning("%s: %s", path, hint)
 
 
 def _report_glitches(path: Path, lines: npt.NDArray[np.int64], skipped: list[SkippedRow]) -> None:
