@@ -324,7 +324,8 @@ def test_a_player_log_is_mapped_with_the_ring_it_describes(tmp_path: Path) -> No
     ("extra", "words"),
     [
         (["--poses", "p.txt"], "--poses is for text logs; a Player log holds its own odometry"),
-        (["--range-unit", "mm"], "a Player log is in metres and radians"),
+        (["--range-unit", "mm"], "a Player log is in metres, radians and seconds"),
+        (["--time-unit", "ns"], "a Player log is in metres, radians and seconds"),
         (["--format", "text", "--sonar-index", "1"], "--sonar-index is for Player logs"),
         (["--format", "player", "--topics", "/a,/b"], "--format player is for log files"),
     ],

@@ -15,7 +15,7 @@ from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
 from bayesmap.errors import FormatError
-from bayesmap.sonar.bags import _range, read_sonar_bag
+from bayesmap.sonar.bags import _range, bag_kind, read_sonar_bag
 
 TOPICS = [f"/sonar/{k}" for k in range(4)]
 RINGS = 20
@@ -215,3 +215,19 @@ def test_too_close_and_invalid_readings_are_kept_and_never_mapped(tmp_path: Path
     assert "4 of 76 readings (5.3 %) are 0, negative or below" in result.output
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["below_min_range"] == 4
+
+
+@pytest.mark.parametrize(
+    ("kind", "said"), [("ros1", "a ROS 1 bag"), ("ros2", "a ROS 2 bag folder")]
+)
+def test_a_bag_given_without_topics_is_named_as_a_bag(tmp_path: Path, kind: str, said: str) -> None:
+    from typer.testing import CliRunner
+
+    from bayesmap.cli import app
+
+    bag = _write(tmp_path, kind)
+    args = ["sonar", "map", str(bag), "--ring", "pioneer16", "--out", str(tmp_path / "out")]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2, result.output
+    assert f"is {said}: give --topics" in result.output and result.output.count("\n") <= 2
+    assert bag_kind(tmp_path) is None and bag_kind(tmp_path / "missing") is None

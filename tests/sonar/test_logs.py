@@ -349,3 +349,20 @@ def test_headings_in_degrees_read_as_radians_get_a_hint(caplog: pytest.LogCaptur
     with caplog.at_level("WARNING", logger="bayesmap.sonar.logs"):
         read_sonar_log(DATA / "example_log.txt", 16, units=MM)
     assert "headings reach" not in caplog.text
+
+
+def test_timestamps_in_nanoseconds_join_with_the_time_unit(tmp_path: Path) -> None:
+    """Two files stamped in ns (as ``rostopic echo -p`` writes): read as seconds every row
+    is dropped, and the error says to give the unit; with it the log joins."""
+    ns = replace(LogUnits(), time_unit="ns")
+    t = 1.7e9 + 0.1 * np.arange(40)
+    poses = np.column_stack([0.05 * np.arange(40), np.zeros(40), np.zeros(40)])
+    ranges = write_sonar_log(tmp_path / "r.txt", t, np.full((40, 2), 1.5), units=ns)
+    pose_file = write_sonar_log(tmp_path / "p.txt", t + 0.001, np.zeros((40, 0)), poses, units=ns)
+    with pytest.raises(FormatError, match="give --time-unit"):
+        read_sonar_log(ranges, 2, poses_path=pose_file)
+    log = read_sonar_log(ranges, 2, poses_path=pose_file, units=ns)
+    assert len(log.timestamps) == 40 and np.allclose(log.timestamps, t, atol=1e-6)
+    assert np.allclose(log.poses[:, 0], poses[:, 0], atol=1e-3)
+    with pytest.raises(InputError, match="unknown time unit 'fortnight'"):
+        LogUnits(time_unit="fortnight")  # type: ignore[arg-type]

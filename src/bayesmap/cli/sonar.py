@@ -23,6 +23,7 @@ from bayesmap._io import RunFolder, run_folder, write_bytes, write_json
 from bayesmap.cli._console import USAGE, console, headline_text, print_note, progress_bar
 from bayesmap.errors import BayesmapError, InputError
 from bayesmap.limits import cell_side_problem
+from bayesmap.sonar.bags import bag_kind
 from bayesmap.sonar.filter import Stage
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.logs import LENGTH_UNITS, LogUnits, SonarLog, read_sonar_log
@@ -43,6 +44,7 @@ app = typer.Typer(
 
 LengthUnit = Literal["mm", "cm", "m"]
 AngleUnit = Literal["rad", "deg", "decideg"]
+TimeUnit = Literal["s", "ms", "us", "ns"]
 LogFormat = Literal["auto", "text", "player"]
 _err = console(stderr=True)
 
@@ -198,6 +200,9 @@ def map_command(
     range_unit: Annotated[LengthUnit, typer.Option("--range-unit")] = "m",
     position_unit: Annotated[LengthUnit, typer.Option("--position-unit")] = "m",
     heading_unit: Annotated[AngleUnit, typer.Option("--heading-unit")] = "rad",
+    time_unit: Annotated[
+        TimeUnit, typer.Option("--time-unit", help="Unit of the timestamps (text logs).")
+    ] = "s",
     beam_width_deg: Annotated[
         float | None, typer.Option("--beam-width-deg", help="Full cone width (deg).")
     ] = None,
@@ -272,7 +277,7 @@ def map_command(
             topics,
             poses,
             (sonar_index, position_index),
-            (range_unit, position_unit, heading_unit),
+            (range_unit, position_unit, heading_unit, time_unit),
         )
         if pipeline not in PIPELINES:
             _usage(f"--pipeline {pipeline!r} is not one of: {', '.join(PIPELINES)}")
@@ -287,7 +292,10 @@ def map_command(
         else:
             geometry = _geometry(ring, angles_deg, max_range, beam_width_deg, sigma, range_unit)
         units = LogUnits(
-            range_unit=range_unit, position_unit=position_unit, heading_unit=heading_unit
+            range_unit=range_unit,
+            position_unit=position_unit,
+            heading_unit=heading_unit,
+            time_unit=time_unit,
         )
         chosen = PIPELINES[pipeline]
         if no_filter:
@@ -395,7 +403,7 @@ def _log_kind(
     topics: str | None,
     poses: Path | None,
     indices: tuple[int | None, int | None],
-    units: tuple[str, str, str],
+    units: tuple[str, str, str, str],
 ) -> Literal["text", "player", "bag"]:
     """How to read LOG: a bag (``--topics``), a Player log or text rows (``--format``, or the
     ``## Player version`` line Player's writelog opens its logs with). Options that do not go
@@ -407,6 +415,8 @@ def _log_kind(
         if poses is not None:
             _usage("--poses is for text logs; a bag's poses come from --pose-topic")
         kind = "bag"
+    elif (bag := bag_kind(log)) is not None:
+        _usage(f"{log} is {bag}: give --topics, one sensor_msgs/Range topic per transducer")
     elif log_format == "auto":
         kind = "player" if is_player_log(log) else "text"
     else:
@@ -414,10 +424,10 @@ def _log_kind(
     if kind == "player":
         if poses is not None:
             _usage("--poses is for text logs; a Player log holds its own odometry")
-        if units != ("m", "m", "rad"):
+        if units != ("m", "m", "rad", "s"):
             _usage(
-                "a Player log is in metres and radians: drop --range-unit, --position-unit "
-                "and --heading-unit"
+                "a Player log is in metres, radians and seconds: drop --range-unit, "
+                "--position-unit, --heading-unit and --time-unit"
             )
     else:
         for name, value in zip(("--sonar-index", "--position-index"), indices, strict=True):

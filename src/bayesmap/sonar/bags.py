@@ -27,13 +27,37 @@ from typing import Any
 
 import numpy as np
 
+from bayesmap._io import open_input
 from bayesmap._typing import FloatArray
 from bayesmap.errors import FormatError, InputError
 from bayesmap.sonar.logs import SkippedRow, SonarLog, join_poses
 
-__all__ = ["read_sonar_bag"]
+__all__ = ["bag_kind", "read_sonar_bag"]
 
 logger = logging.getLogger(__name__)
+
+
+_BAG_MAGIC = {
+    b"#ROSBAG": "a ROS 1 bag",
+    b"\x89MCAP": "an MCAP file",
+    b"SQLite format 3\x00": "a ROS 2 bag (sqlite3)",
+}
+"""How each bag storage begins (the ROS 1 bag format 2.0, the MCAP spec, SQLite's header)."""
+
+
+def bag_kind(path: str | Path) -> str | None:
+    """What kind of ROS bag ``path`` is (``"a ROS 1 bag"``, ...), or ``None`` if none: a
+    folder holding a ``metadata.yaml``, or a file that opens with a bag's magic bytes."""
+    where = Path(path)
+    if where.is_dir():
+        return "a ROS 2 bag folder" if (where / "metadata.yaml").is_file() else None
+    try:
+        handle, _ = open_input(where)
+    except FormatError:
+        return None
+    with handle:
+        head = handle.read(16)
+    return next((kind for magic, kind in _BAG_MAGIC.items() if head.startswith(magic)), None)
 
 
 def _range(message: Any) -> float:

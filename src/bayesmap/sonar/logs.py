@@ -56,6 +56,7 @@ __all__ = [
     "SHOWN_SKIPS",
     "SkippedRow",
     "SonarLog",
+    "TIME_UNITS",
     "heading_unit_hint",
     "read_sonar_log",
     "write_sonar_log",
@@ -67,6 +68,8 @@ LENGTH_UNITS: dict[str, float] = {"mm": 1e-3, "cm": 1e-2, "m": 1.0}
 """Metres per unit of length."""
 ANGLE_UNITS: dict[str, float] = {"rad": 1.0, "deg": math.pi / 180.0, "decideg": math.pi / 1800.0}
 """Radians per unit of angle."""
+TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+"""Seconds per unit of time (``rostopic echo -p`` writes nanoseconds)."""
 
 _COMMENTS = ("#", "%", "//", ";")
 
@@ -90,18 +93,21 @@ def heading_unit_hint(headings: FloatArray, unit: str) -> str | None:
 class LogUnits:
     """Units of a log's columns.
 
-    Ranges and positions in ``mm``, ``cm`` or ``m``; heading in ``rad``, ``deg`` or ``decideg``.
+    Ranges and positions in ``mm``, ``cm`` or ``m``; heading in ``rad``, ``deg`` or
+    ``decideg``; timestamps in ``s``, ``ms``, ``us`` or ``ns``.
     """
 
     range_unit: Literal["mm", "cm", "m"] = "m"
     position_unit: Literal["mm", "cm", "m"] = "m"
     heading_unit: Literal["rad", "deg", "decideg"] = "rad"
+    time_unit: Literal["s", "ms", "us", "ns"] = "s"
 
     def __post_init__(self) -> None:
         for name, value, table in (
             ("range unit", self.range_unit, LENGTH_UNITS),
             ("position unit", self.position_unit, LENGTH_UNITS),
             ("heading unit", self.heading_unit, ANGLE_UNITS),
+            ("time unit", self.time_unit, TIME_UNITS),
         ):
             if value not in table:
                 raise InputError(f"unknown {name} {value!r}; choose from: {', '.join(table)}")
@@ -369,6 +375,8 @@ def read_sonar_log(
     skipped: list[SkippedRow] = []
     length = LENGTH_UNITS[units.position_unit]
     angle = ANGLE_UNITS[units.heading_unit]
+    seconds = TIME_UNITS[units.time_unit]
+    hint = f"expected {n_ranges} ranges per row"
     if poses_path is None:
         table = _parse(main, 4 + n_ranges, n_ranges, skipped, progress, strict=strict)
         _abort_if_strict(strict, skipped)
@@ -379,7 +387,7 @@ def read_sonar_log(
         data = data[~glitches]
         _warn_heading_unit(main, data[:, 3], units.heading_unit)
         # A copy: a view would keep the whole parsed table alive beside the log.
-        times, range_raw = data[:, 0].copy(), data[:, 4:]
+        times, range_raw = data[:, 0] * seconds, data[:, 4:]
         poses = np.column_stack([data[:, 1:3] * length, data[:, 3] * angle])
     else:
         pose_file = Path(poses_path)
@@ -387,7 +395,8 @@ def read_sonar_log(
         _abort_if_strict(strict, skipped)
         table = _parse(main, 1 + n_ranges, n_ranges, skipped, progress, strict=strict)
         _warn_heading_unit(pose_file, pose_table.values[:, 3], units.heading_unit)
-        pose_si = pose_table.values * np.array([1.0, length, length, angle])
+        pose_si = pose_table.values * np.array([seconds, length, length, angle])
+        table.values[:, 0] *= seconds
         times, range_raw, poses = posed_rows(
             (main, table),
             (pose_file, _Table(pose_table.lines, pose_si, pose_table.rows)),
@@ -396,10 +405,10 @@ def read_sonar_log(
             time_tolerance,
             max_pose_gap,
         )
+        if len(table.values) and not len(times) and units.time_unit == "s":
+            hint += "; if the timestamps are not in seconds, give --time-unit (ms, us or ns)"
     ranges = range_raw * LENGTH_UNITS[units.range_unit]
-    return finish_log(
-        main, times, poses, ranges, table.rows, skipped, f"expected {n_ranges} ranges per row"
-    )
+    return finish_log(main, times, poses, ranges, table.rows, skipped, hint)
 
 
 def check_join_settings(time_tolerance: float, max_pose_gap: float) -> None:
@@ -559,7 +568,7 @@ def write_sonar_log(
     With ``poses`` the rows are ``t x y heading r_1..r_N``; without, ``t r_1..r_N``; with
     ``ranges`` of zero columns and ``poses`` given, a pose file ``t x y heading``.
     """
-    t = np.asarray(timestamps, dtype=np.float64).reshape(-1, 1)
+    t = np.asarray(timestamps, dtype=np.float64).reshape(-1, 1) / TIME_UNITS[units.time_unit]
     r = np.asarray(ranges, dtype=np.float64).reshape(len(t), -1) / LENGTH_UNITS[units.range_unit]
     columns = [t]
     if poses is not None:
@@ -569,5 +578,10 @@ def write_sonar_log(
     columns.append(r)
     table = np.hstack(columns)
     header = "".join(f"# {line}\n" for line in comments)
-    body = "\n".join(delimiter.join(f"{float(v):.10g}" for v in row) for row in table)
+    # Timestamps exactly (shortest round trip: epoch stamps need all their digits), the
+    # rest to 10 significant digits.
+    body = "\n".join(
+        delimiter.join([repr(float(row[0])), *(f"{float(v):.10g}" for v in row[1:])])
+        for row in table
+    )
     return write_text(path, header + body + "\n")
