@@ -137,3 +137,16 @@ def test_a_bare_command_group_shows_its_help_on_stderr(args, monkeypatch, capsys
         " ".join([*args, "[OPTIONS] COMMAND [ARGS]..."])
     )
     assert "\nCommands:\n" in err and "error:" not in err
+
+
+def test_no_progress_bar_is_printed_off_a_terminal() -> None:
+    import io
+
+    from rich.console import Console
+
+    from bayesmap.cli._console import progress_bar
+
+    sink = io.StringIO()
+    with progress_bar(Console(file=sink, force_terminal=False), first="reading") as hook:
+        hook("reading", 5, 10)
+    assert sink.getvalue() == ""

@@ -125,8 +125,13 @@ def progress_bar(
     time spent and left when asked. The hook takes ``(description, completed, total)``,
     as every experiment and library loop reports (:data:`bayesmap._typing.ProgressHook`);
     a negative ``total`` means not known yet. A ``transient`` bar is gone when the block
-    ends, so that an error or the result is printed without a bar above it.
+    ends, so that an error or the result is printed without a bar above it. On a console
+    that is not a terminal (output to a file or a pipe) there is no bar, and nothing is
+    printed for it.
     """
+    if not out.is_terminal:
+        yield lambda description, completed, total: None
+        return
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
