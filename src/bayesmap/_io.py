@@ -163,10 +163,13 @@ class LineReader:
         try:
             line = self._stream.readline(min(limit, MAX_LINE_BYTES + 1))
         except (EOFError, OSError, zlib.error) as error:
-            what = "cut short" if isinstance(error, EOFError) else f"corrupt ({error})"
-            raise FormatError(
-                f"the gzip stream is {what}", path=self.name, line=self._lines + 1
-            ) from None
+            if not self.compressed:
+                what = f"cannot read the file: {getattr(error, 'strerror', None) or error}"
+            elif isinstance(error, EOFError):
+                what = "the gzip stream is cut short"
+            else:
+                what = f"the gzip stream is corrupt ({error})"
+            raise FormatError(what, path=self.name, line=self._lines + 1) from None
         self._lines += 1
         if len(line) > MAX_LINE_BYTES:
             raise FormatError(
@@ -181,7 +184,7 @@ class LineReader:
         return self._file.tell()
 
 
-def gunzip_bytes(data: bytes, max_bytes: int, name: str) -> bytes:
+def _gunzip(data: bytes, max_bytes: int, name: str) -> bytes:
     """Decompress every gzip member of ``data``, stopping as soon as output passes the cap
     ``max_bytes``; ``name`` names the file in errors."""
     out = bytearray()
@@ -220,7 +223,7 @@ def read_input(path: str | Path, *, max_bytes: int, gunzip: bool = False) -> byt
                 f"cannot read the file: {error.strerror or error}", path=name
             ) from None
     check_size("bytes in the file", len(data), max_bytes, "max_bytes", path=name)
-    return gunzip_bytes(data, max_bytes, name) if gunzip else data
+    return _gunzip(data, max_bytes, name) if gunzip else data
 
 
 def _read_at_most(handle: IO[bytes], limit: int, expected: int) -> bytes:
@@ -601,7 +604,6 @@ __all__ = [
     "make_folder",
     "GZIP_MAGIC",
     "LineReader",
-    "gunzip_bytes",
     "open_input",
     "read_input",
     "run_folder",

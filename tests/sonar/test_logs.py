@@ -306,6 +306,12 @@ def test_a_gzipped_log_cut_short_names_the_file_and_line(tmp_path: Path) -> None
         read_sonar_log(tmp_path / "cut.txt.gz", 2)
     assert "cut.txt.gz" in str(info.value) and info.value.line is not None
     assert info.value.line > 1000
+    damaged = bytearray(packed)
+    damaged[len(packed) // 2 : len(packed) // 2 + 64] = bytes(64)
+    (tmp_path / "damaged.txt.gz").write_bytes(bytes(damaged))
+    with pytest.raises(FormatError, match="gzip stream is corrupt") as info:
+        read_sonar_log(tmp_path / "damaged.txt.gz", 2)
+    assert info.value.line is not None and "\n" not in str(info.value)
     (tmp_path / "bomb.txt.gz").write_bytes(gzip.compress(b"1" * (64 << 20)))
     with pytest.raises(FormatError, match="longer than") as info:
         read_sonar_log(tmp_path / "bomb.txt.gz", 2)
