@@ -344,7 +344,7 @@ def test_the_summary_names_the_file_whose_rows_were_skipped(
         log = read_sonar_log(tmp_path / "ranges.txt", 2, poses_path=tmp_path / "poses.txt")
     assert [(Path(row.path).name, row.line) for row in log.skipped] == [("poses.txt", 1)]
     summary = caplog.records[-1].getMessage()
-    assert "poses.txt: 1 rows skipped" in summary and "ranges.txt" not in summary
+    assert "poses.txt: 1 row skipped" in summary and "ranges.txt" not in summary
 
 
 def test_headings_in_degrees_read_as_radians_get_a_hint(caplog: pytest.LogCaptureFixture) -> None:

@@ -474,7 +474,7 @@ def finish_log(
         if name == str(main):
             share = f"{count} of {rows} rows skipped ({100.0 * count / max(rows, 1):.1f} %)"
         else:
-            share = f"{count} rows skipped"
+            share = f"{count} row{'s' if count != 1 else ''} skipped"
         logger.warning("%s: %s; %s", name, share, where)
     return SonarLog(times, poses, ranges, rows, tuple(skipped))
 
