@@ -101,3 +101,17 @@ def test_world_command_writes_a_loadable_world(tmp_path: Path) -> None:
     result = runner.invoke(app, ["blackboard", "world", str(tmp_path / "w.json"), "--seed", "3"])
     assert result.exit_code == 0, result.output
     assert 4 <= len(load_world(tmp_path / "w.json").tables) <= 10
+
+
+def test_paper_mode_maps_with_the_catalogues_largest_type(tmp_path: Path) -> None:
+    """The paper's one-size model gets the catalogue's largest type, not sizes read off
+    the true tables (a 1.1 x 0.75 m table here, off the catalogue)."""
+    room = dict(ROOM, tables=[dict(ROOM["tables"][0], length=1.1, width=0.75, leg=0.09)])
+    world = tmp_path / "room.json"
+    world.write_text(json.dumps(room))
+    out = tmp_path / "out"
+    args = ["blackboard", "run", "--world", str(world), "--out", str(out), "--mode", "paper"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    objects = json.loads((out / "map.json").read_text())["objects"]
+    assert objects and {(o["length"], o["width"], o["leg"]) for o in objects} == {(1.2, 0.8, 0.1)}

@@ -32,7 +32,14 @@ import numpy.typing as npt
 
 from bayesmap._typing import BoolArray, FloatArray, IntArray
 
-__all__ = ["cast_on_boxes", "cast_on_segments", "to_robot", "to_world", "wrap_angle"]
+__all__ = [
+    "cast_on_boxes",
+    "cast_on_segments",
+    "rectangle_fit_problem",
+    "to_robot",
+    "to_world",
+    "wrap_angle",
+]
 
 _TWO_PI = 2.0 * math.pi
 _CHUNK = 2_000_000
@@ -49,6 +56,18 @@ def wrap_angle(angle: npt.ArrayLike, period: float = _TWO_PI) -> FloatArray:
     """
     half = 0.5 * period
     return np.asarray((np.asarray(angle, dtype=np.float64) + half) % period - half)
+
+
+def rectangle_fit_problem(length: float, width: float, area: tuple[float, float]) -> str | None:
+    """Why no ``length × width`` [m] rectangle could stand in a rectangular ``area`` (width,
+    height) [m]: wider than the area's shorter side or longer than its diagonal; ``None``
+    when it may fit (a bound, not an exact test of every angle)."""
+    if width > min(area) or length > math.hypot(*area):
+        return (
+            f"{length:g} x {width:g} m does not fit in the {area[0]:g} x {area[1]:g} m arena "
+            "(are its sizes in cm or mm?)"
+        )
+    return None
 
 
 def to_world(pose: npt.ArrayLike, points: npt.ArrayLike) -> FloatArray:

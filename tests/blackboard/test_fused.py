@@ -443,6 +443,10 @@ def test_bad_catalogue_and_params_are_config_errors() -> None:
     with pytest.raises(ConfigError, match=r"2 × leg <= width"):
         FusedMapper((ObjectType("legs overlap", 0.5, 0.5, 0.3),), ARENA)
     FusedMapper((ObjectType("solid box", 0.5, 0.5, 0.25),), ARENA)  # legs that meet
+    with pytest.raises(ConfigError, match=r"catalogue\[1\] \(hall\): 30 x 20 m does not fit"):
+        FusedMapper((DESK, ObjectType("hall", 30.0, 20.0, 0.1)), ARENA)
+    with pytest.raises(ConfigError, match=r"catalogue\[1\] has the name of catalogue\[0\]"):
+        FusedMapper((DESK, STOOL._replace(name=DESK.name)), ARENA)
     desk = ObjectType("desk", 1.2, 0.8, 0.05)
     with pytest.raises(ConfigError, match=r"catalogue\[1\] \(copy\) has the size of"):
         FusedMapper((desk, desk._replace(name="copy")), ARENA)

@@ -98,6 +98,19 @@ def test_a_world_without_poses_is_toured_like_the_paper() -> None:
             r"catalogue\[0\]: length must be the longer side",
         ),
         (
+            lambda w: w.update(catalogue=[{"length": 1200, "width": 800, "leg": 100}]),
+            r"catalogue\[0\]: 1200 x 800 m does not fit in the 7 x 7 m arena .*cm or mm",
+        ),
+        (
+            lambda w: w.update(
+                catalogue=[
+                    {"name": "desk", "length": 1.2, "width": 0.8, "leg": 0.1},
+                    {"name": "desk", "length": 0.8, "width": 0.8, "leg": 0.08},
+                ]
+            ),
+            r"catalogue\[1\]: has the name of catalogue\[0\] \('desk'\)",
+        ),
+        (
             lambda w: w.update(
                 catalogue=[
                     {"name": "a", "length": 1.2, "width": 0.8, "leg": 0.05},
@@ -247,3 +260,10 @@ def test_a_solid_box_is_touched_on_its_outline_only() -> None:
         assert (shapely.distance(outline.exterior, points) < 1e-6).all()
         touched += int(on_box.sum())
     assert touched > 50
+
+
+def test_listed_headings_are_wrapped_into_one_turn() -> None:
+    listed = dict(EXAMPLE, poses=[[3.0, 2.0, 1e300], [3.0, 3.0, -7.0], [3.0, 4.0, 0.5]])
+    headings = parse_world(listed, "w.json").robot_poses()[:, 2]
+    assert ((headings >= 0) & (headings < 2 * math.pi)).all()
+    assert headings[1:].tolist() == pytest.approx([2 * math.pi - 7.0 + 2 * math.pi, 0.5])

@@ -327,10 +327,10 @@ class FusedMapper:
         arena: tuple[float, float],
         params: FusedParams = FusedParams(),
     ) -> None:
-        self.catalogue = check_catalogue(tuple(catalogue))
         if not (len(arena) == 2 and min(arena) > 0 and all(math.isfinite(v) for v in arena)):
             raise ConfigError(f"arena must be (width, height) > 0 [m], got {arena!r}")
         self.arena = (float(arena[0]), float(arena[1]))
+        self.catalogue = check_catalogue(tuple(catalogue), self.arena)
         self.params = params
         self.model = SweepModel(
             params.sigma_r,

@@ -51,7 +51,7 @@ import numpy as np
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.blackboard.densities import rectangles_overlap, rectangles_overlap_scalar
 from bayesmap.errors import ConfigError
-from bayesmap.geometry import wrap_angle
+from bayesmap.geometry import rectangle_fit_problem, wrap_angle
 
 __all__ = [
     "ACROSS_CUT",
@@ -59,6 +59,7 @@ __all__ = [
     "ObjectType",
     "SweepModel",
     "arena_contains",
+    "check_catalogue",
     "contact_cutoff",
     "into_arena",
     "leg_centres",
@@ -106,11 +107,23 @@ class ObjectType(NamedTuple):
         return 0.5 * (self.length - self.leg), 0.5 * (self.width - self.leg)
 
 
-def check_catalogue(catalogue: tuple[ObjectType, ...]) -> tuple[ObjectType, ...]:
-    """Validate a catalogue of object types; :class:`ConfigError` names the bad one."""
+def check_catalogue(
+    catalogue: tuple[ObjectType, ...], arena: tuple[float, float] | None = None
+) -> tuple[ObjectType, ...]:
+    """Validate a catalogue of object types (and, given the ``arena`` (width, height) [m],
+    that each type could stand in it); :class:`ConfigError` names the bad one."""
     if not catalogue:
         raise ConfigError("the catalogue of object types must hold at least one type")
     for k, t in enumerate(catalogue):
+        problem = None if arena is None else rectangle_fit_problem(t.length, t.width, arena)
+        if problem is not None:
+            raise ConfigError(f"catalogue[{k}] ({t.name}): {problem}")
+        twin = next((j for j, other in enumerate(catalogue[:k]) if other.name == t.name), None)
+        if twin is not None:
+            raise ConfigError(
+                f"catalogue[{k}] has the name of catalogue[{twin}] ({t.name!r}): the map could "
+                "not tell their objects apart"
+            )
         if not (0 < 2 * t.leg <= t.width <= t.length):
             raise ConfigError(
                 f"catalogue[{k}] ({t.name}): need 0 < 2 × leg <= width <= length, got "

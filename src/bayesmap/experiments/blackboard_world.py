@@ -16,6 +16,7 @@ below 1/2, left off the map, as records of the same form) and ``map.png``.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -190,7 +191,13 @@ def _run(
         doubtful = fused.objects(doubtful=True)
     else:
         doubtful = []
-        params = paper.paper_params(world, sensor)
+        largest = max(catalogue, key=lambda kind: kind.length * kind.width)
+        params = replace(
+            paper.paper_params(world, sensor),
+            table_length=largest.length,
+            table_width=largest.width,
+            leg_width=largest.leg,
+        )
         result = paper.run_paper(
             world,
             poses,

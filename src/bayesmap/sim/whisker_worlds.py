@@ -41,6 +41,7 @@ from bayesmap._io import write_json
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import BoolArray, FloatArray, Poses
 from bayesmap.errors import ConfigError, FormatError
+from bayesmap.geometry import rectangle_fit_problem
 from bayesmap.sim.tables_world import TablesWorld, build_mixed, rectangle_corners
 from bayesmap.sim.world_files import check_schema, read_document
 
@@ -327,6 +328,7 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
         if outside.any() or not np.isfinite(poses).all():
             first = int(np.flatnonzero(outside | ~np.isfinite(poses).all(axis=1))[0])
             raise _fail(source, f"poses[{first}]", "a pose must be finite and inside the arena")
+        poses[:, 2] = np.mod(poses[:, 2], 2.0 * math.pi)  # any number of whole turns
         blocked = np.flatnonzero(~_free_positions(poses[:, :2], tables))
         if len(blocked):
             raise _fail(
@@ -367,12 +369,23 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
                 f"catalogue[{k}]",
                 "length must be the longer side and each leg at most half the width",
             )
+        problem = rectangle_fit_problem(length, width, arena)
+        if problem is not None:
+            raise _fail(source, f"catalogue[{k}]", problem)
         twin = next((j for j in range(k) if catalogue[j][1:] == (length, width, leg)), None)
         if twin is not None:
             raise _fail(
                 source,
                 f"catalogue[{k}]",
                 f"has the size of catalogue[{twin}]: the mapper could not tell them apart",
+            )
+        twin = next((j for j in range(k) if catalogue[j][0] == catalogue[k][0]), None)
+        if twin is not None:
+            raise _fail(
+                source,
+                f"catalogue[{k}]",
+                f"has the name of catalogue[{twin}] ({catalogue[k][0]!r}): the map could not "
+                "tell their objects apart",
             )
     known = {entry[1:] for entry in catalogue}
     strangers = [i for i, row in enumerate(tables) if tuple(map(float, row[3:6])) not in known]
@@ -381,7 +394,7 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
         more = f" and {len(strangers) - 5} more" if len(strangers) > 5 else ""
         logger.warning(
             "%s: no catalogue type has the size of %s%s, so the mapper can report such a "
-            "table only as one of its types, or not at all",
+            "table only as one of its types (or as two, or not at all)",
             source,
             named,
             more,
