@@ -372,3 +372,15 @@ def test_timestamps_in_nanoseconds_join_with_the_time_unit(tmp_path: Path) -> No
     assert np.allclose(log.poses[:, 0], poses[:, 0], atol=1e-3)
     with pytest.raises(InputError, match="unknown time unit 'fortnight'"):
         LogUnits(time_unit="fortnight")  # type: ignore[arg-type]
+
+
+def test_semicolons_separate_fields_as_commas_do(tmp_path: Path) -> None:
+    rows = [f"{t};{0.1 * t:.1f};0;0;1.0;2.0" for t in range(8)]
+    (tmp_path / "semi.csv").write_text("\n".join(rows) + "\n")
+    (tmp_path / "comma.csv").write_text("\n".join(r.replace(";", ", ") for r in rows) + "\n")
+    semi, comma = (
+        read_sonar_log(tmp_path / "semi.csv", 2),
+        read_sonar_log(tmp_path / "comma.csv", 2),
+    )
+    assert semi.skipped == () and np.array_equal(semi.ranges, comma.ranges)
+    assert np.array_equal(semi.poses, comma.poses)

@@ -1,7 +1,7 @@
 """Plain-text sonar logs of real robots: read (tolerantly or strictly) and write.
 
-A log holds one row per ring: ``timestamp x y heading r_1 ... r_N``, separated by commas or
-by whitespace. Alternatively the ranges (``timestamp r_1 ... r_N``) and the poses
+A log holds one row per ring: ``timestamp x y heading r_1 ... r_N``, separated by commas,
+semicolons or whitespace. Alternatively the ranges (``timestamp r_1 ... r_N``) and the poses
 (``timestamp x y heading``) sit in two files joined by timestamp: each ranges row gets the
 pose interpolated between the pose rows around it (linear in position, shortest arc in
 heading) when they are at most ``max_pose_gap`` apart, else the nearest pose within
@@ -152,7 +152,7 @@ class _Table(NamedTuple):
     rows: int
 
 
-_SPLIT = re.compile(r"\s*,\s*|\s+")
+_SPLIT = re.compile(r"\s*[,;]\s*|\s+")
 CHUNK_ROWS = 20_000
 """Rows parsed into one numpy block: memory stays near the size of the numbers themselves."""
 
