@@ -366,3 +366,17 @@ def test_walls_beside_the_rover_are_not_ahead_however_the_nearest_cell_falls() -
     across = np.array([[0.75, y] for y in np.arange(-2.0, 2.01, 0.5)])
     safety = footprint_safety((0.0, 0.0, 0.0), THETA, across, 0.5, np.zeros((0, 2)), FIELD, PARAMS)
     assert safety.ahead
+
+
+def test_a_hazard_beneath_the_body_never_opens_a_retreat_through_a_wall() -> None:
+    """The rover stands on a hazard cell (a start cell still at the prior beside a wall's
+    cell): its clearance is at its floor, which every path matched, so a retreat straight
+    through the wall was allowed. Measured against the hazards not beneath it, a retreat
+    may head away from the wall, never into it, and a reading ahead keeps binding."""
+    under, wall = (0.0, 0.0), [(0.5, y) for y in (-0.5, 0.0, 0.5)]
+    safety = _safety([under, *wall])
+    assert safety.retreat and safety.here == pytest.approx(-PARAMS.footprint_radius)
+    into, away = 0, int(np.argmin(np.abs(THETA - math.pi)))
+    assert not safety.safe[into] and safety.safe[away]
+    hits = np.array([[-0.6, 0.0]])  # something read behind, within the margin of the path
+    assert not _safety([under, *wall], hits=hits).safe[away]

@@ -65,6 +65,21 @@ def test_an_obstacle_outside_the_area_is_kept_with_a_warning(
     assert "obstacles[0]" not in caplog.text
 
 
+def test_an_area_of_no_whole_number_of_cells_gets_a_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    path = tmp_path / "w.json"
+    path.write_text(json.dumps({**ISSUE_EXAMPLE, "size": [30.0, 1.2], "obstacles": []}))
+    load_world(path)
+    assert "the 30 x 1.2 m area is not a whole number of 0.5 m cells" in caplog.text
+    assert "the map covers only 30 x 1 m of it" in caplog.text
+    caplog.clear()
+    for size in ([20.0, 20.0], [20.0, 20.3]):  # whole cells; a map a little larger
+        path.write_text(json.dumps({**ISSUE_EXAMPLE, "size": size}))
+        load_world(path)
+    assert not caplog.records
+
+
 def test_generated_worlds_refuse_a_cell_side_the_planner_cannot_afford() -> None:
     with pytest.raises(ConfigError, match="0.05 m, finer than"):
         generate_world(0, size=20.0, resolution=0.05)

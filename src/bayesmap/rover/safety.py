@@ -390,9 +390,23 @@ def footprint_safety(
     # never brings the body closer to a hazard than it is now.
     retreat = here < params.safety_margin and not safe.any()
     if retreat:
+        # Hazards beneath the body cannot be kept away from, and with the centre inside one
+        # the gap is at its floor (minus the radius), which every path matches: measured
+        # against them a retreat could drive straight through a wall (a start cell still at
+        # the prior beside a wall's cell). A retreat is measured against the other hazards
+        # and the current readings, and comes no closer to them than the margin or than
+        # they are now.
+        radius = params.footprint_radius
+        beside = square_distance(pose[0], pose[1], cells[:, 0], cells[:, 1], resolution / 2)
+        away = functools.partial(
+            check,
+            cells=cells[beside >= radius],
+            hits=hits[np.hypot(hits[:, 0] - pose[0], hits[:, 1] - pose[1]) >= radius],
+        )
         straight = straight_centres(pose, headings, params)
-        _, clearance, allowed = check(*shared_start_points(straight))
-        safe = (clearance >= here - _ROUNDING) & allowed
+        gap, clearance, allowed = away(*shared_start_points(straight))
+        floor = min(float(gap[0, 0]), params.safety_margin)
+        safe = (clearance >= floor - _ROUNDING) & allowed
     step = params.speed * params.dt
     back = np.array(
         [pose[:2], (pose[0] - step * math.cos(pose[2]), pose[1] - step * math.sin(pose[2]))]

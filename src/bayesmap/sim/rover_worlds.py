@@ -202,6 +202,17 @@ def load_world(path: str | Path) -> WorldSpec:
     problem = rover_cell_side_problem(resolution)
     if problem is not None:
         raise FormatError(f"the cell side {problem}", path=file, element="resolution")
+    mapped = [max(round(side / resolution), 1) * resolution for side in (width, height)]
+    if any(m < side - 1e-6 for m, side in zip(mapped, (width, height), strict=True)):
+        logger.warning(
+            "%s: the %g x %g m area is not a whole number of %g m cells; the map covers "
+            "only %g x %g m of it (the rest is never mapped)",
+            file,
+            width,
+            height,
+            resolution,
+            *mapped,
+        )
     for k, obstacle in enumerate(obstacles):
         x0, y0, x1, y1 = _bounds(obstacle)
         if x1 < 0.0 or y1 < 0.0 or x0 > width or y0 > height:
