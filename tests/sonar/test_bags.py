@@ -13,7 +13,9 @@ from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
+from typer.testing import CliRunner, Result
 
+from bayesmap.cli import app
 from bayesmap.errors import FormatError
 from bayesmap.sonar.bags import _range, bag_kind, read_sonar_bag
 
@@ -160,17 +162,18 @@ def test_damaged_bags_are_one_error(tmp_path: Path) -> None:
         read_sonar_bag(header_only, TOPICS)
 
 
-def test_sonar_map_reads_a_bag(tmp_path: Path) -> None:
-    from typer.testing import CliRunner
-
-    from bayesmap.cli import app
-
-    bag = _write(tmp_path, "mcap")
+def _map_bag(bag: Path, out: Path) -> Result:
+    """``bayesmap sonar map`` on a bag of the four-transducer drive."""
     args = [
         "sonar", "map", str(bag), "--topics", ",".join(TOPICS), "--angles-deg", "45,15,-15,-45",
-        "--max-range", "5", "--resolution", "0.1", "--out", str(tmp_path / "out"),
+        "--max-range", "5", "--resolution", "0.1", "--out", str(out),
     ]  # fmt: skip
-    result = CliRunner().invoke(app, args)
+    return CliRunner().invoke(app, args)
+
+
+def test_sonar_map_reads_a_bag(tmp_path: Path) -> None:
+    bag = _write(tmp_path, "mcap")
+    result = _map_bag(bag, tmp_path / "out")
     assert result.exit_code == 0, result.output
     assert (tmp_path / "out" / "map.png").exists()
 
@@ -198,19 +201,11 @@ def test_range_messages_are_read_as_rep_117_says(
 
 
 def test_too_close_and_invalid_readings_are_kept_and_never_mapped(tmp_path: Path) -> None:
-    from typer.testing import CliRunner
-
-    from bayesmap.cli import app
-
     bag = _write(tmp_path, "ros2", codes=(-math.inf, math.nan, -2.0, 0.0))
     log = read_sonar_bag(bag, TOPICS)
     assert log.skipped[-1].line == RINGS and len(log.skipped) == 1  # only the ring past the poses
     assert log.ranges[:4, 0].tolist() == [0.0] * 4
-    args = [
-        "sonar", "map", str(bag), "--topics", ",".join(TOPICS), "--angles-deg", "45,15,-15,-45",
-        "--max-range", "5", "--resolution", "0.1", "--out", str(tmp_path / "out"),
-    ]  # fmt: skip
-    result = CliRunner().invoke(app, args)
+    result = _map_bag(bag, tmp_path / "out")
     assert result.exit_code == 0, result.output
     assert "4 of 76 readings (5.3 %) are 0, negative or below" in result.output
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
@@ -221,10 +216,6 @@ def test_too_close_and_invalid_readings_are_kept_and_never_mapped(tmp_path: Path
     ("kind", "said"), [("ros1", "a ROS 1 bag"), ("ros2", "a ROS 2 bag folder")]
 )
 def test_a_bag_given_without_topics_is_named_as_a_bag(tmp_path: Path, kind: str, said: str) -> None:
-    from typer.testing import CliRunner
-
-    from bayesmap.cli import app
-
     bag = _write(tmp_path, kind)
     args = ["sonar", "map", str(bag), "--ring", "pioneer16", "--out", str(tmp_path / "out")]
     result = CliRunner().invoke(app, args)
