@@ -137,7 +137,7 @@ def _check_overrides(
 def _check_ranges(data: SonarLog, geometry: SonarGeometry, range_unit: str, log: Path) -> None:
     """Warn when the ranges and the max range look like different units, and when readings
     measured nothing (:func:`~bayesmap.sonar.pipeline.map_log` leaves them unmapped)."""
-    unmeasured = int(((data.ranges <= 0) | (data.ranges < geometry.min_range)).sum())
+    unmeasured = int(geometry.measured_nothing(data.ranges).sum())
     if unmeasured:
         _say(
             f"warning: {log}: {unmeasured} of {data.ranges.size} readings "

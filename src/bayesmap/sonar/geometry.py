@@ -156,6 +156,12 @@ class SonarGeometry:
         r = np.asarray(ranges, dtype=np.float64)
         return np.asarray(np.isfinite(r) & (r < self.max_range))
 
+    def measured_nothing(self, ranges: FloatArray) -> np.ndarray:
+        """``True`` where a reading is 0, negative or below the min range: a driver's code for
+        "too close" or "no reading" (REP 117's −inf), which no map takes as evidence."""
+        r = np.asarray(ranges, dtype=np.float64)
+        return np.asarray((r <= 0.0) | (r < self.min_range))
+
 
 class ConeCells(NamedTuple):
     """Grid cells inside beam cones, flattened over the readings of one ring.

@@ -199,7 +199,7 @@ def map_log(
             f"need (n, 3) poses and (n, k) ranges of equal n, got {p.shape} and {r.shape}"
         )
     geometry: SonarGeometry | None = getattr(mapper, "geometry", None)
-    too_close = (r <= 0.0) | (r < (0.0 if geometry is None else geometry.min_range))
+    too_close = r <= 0.0 if geometry is None else geometry.measured_nothing(r)
     if too_close.any():
         r = np.where(too_close, np.inf, r)
     # One byte a reading for the outcomes while the log runs (stage codes fit in int8).
