@@ -32,7 +32,7 @@ FUZZ = settings(
 TOKENS = [
     b"nan", b"inf", b"-Infinity", b"1_0", "\u0661".encode(), b"1e999", b"-1", b"\x00", b"\xff",
     b'"', b"{", b"}", b"(", b")", b";", b",", b"|", b"=", b"/*", b"*/", b"//", b"<", b">",
-    b"&e;", b"<!ENTITY e 'x'>", b"]]>", b"<!--", b"default", b"table", b"\n", b"\r\n",
+    b"&e;", b"<!ENTITY e 'x'>", b"]]>", b"<!--", b"default", b"table", b"\n", b"\r\n", b"\r",
     b"P5", b"65535", b"99999 99999", b"PK\x03\x04", b"mode: raw", b"negate: 1", b"[/x]",
 ]  # fmt: skip
 

@@ -117,7 +117,8 @@ def open_input(path: str | Path) -> tuple[IO[bytes], int]:
 
 
 class LineReader:
-    """The lines (bytes, newline kept) of the regular file ``path``, streamed.
+    """The lines (bytes, newline kept) of the regular file ``path``, streamed; a line ends
+    at ``\\n``, ``\\r\\n`` or a lone ``\\r``, as in text mode's universal newlines.
 
     A file whose first two bytes are :data:`GZIP_MAGIC` is gunzipped on the fly, whatever
     its name: robot logs are often kept as ``run.log.gz`` or renamed. Use as a context
@@ -154,8 +155,13 @@ class LineReader:
         self._file.close()
 
     def __iter__(self) -> Iterator[bytes]:
-        while line := self.readline():
-            yield line
+        while chunk := self.readline():
+            if b"\r" not in chunk:
+                yield chunk
+                continue
+            lines = chunk.splitlines(keepends=True)  # bytes split only at \n, \r\n and \r
+            self._lines += len(lines) - 1
+            yield from lines
 
     def readline(self, limit: int = MAX_LINE_BYTES + 1) -> bytes:
         """The next line, ``b""`` at the end of the file; at most ``limit`` bytes are read,

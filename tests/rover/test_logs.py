@@ -168,6 +168,20 @@ def test_fields_padded_with_control_whitespace_are_read(tmp_path: Path) -> None:
     assert read_rover_log(tmp_path / "a.csv", 1).raw.tolist() == [[40.0]]
 
 
+def test_a_lone_carriage_return_ends_a_line(tmp_path: Path) -> None:
+    """Found by fuzzing: ``\\r`` ends a line as in text mode, so a file saved with old Mac
+    line ends or a stray ``\\r`` reads as its lines instead of stopping the csv parser."""
+    (tmp_path / "c.csv").write_bytes(b"\raw,distance\n120,0.1\n80,0.2\n50,0.35\n30,0.6\n")
+    with pytest.raises(FormatError, match="c.csv, line 2: .*lacks the column"):
+        read_calibration(tmp_path / "c.csv")
+    (tmp_path / "mac.csv").write_bytes(b"raw,distance\r120,0.1\r80,0.2\r\n50,0.35\r30,0.6\r")
+    (tmp_path / "unix.csv").write_bytes(b"raw,distance\n120,0.1\n80,0.2\n50,0.35\n30,0.6\n")
+    assert read_calibration(tmp_path / "mac.csv") == read_calibration(tmp_path / "unix.csv")
+    (tmp_path / "a.csv").write_bytes(b"x,y,heading,ir_0\r1,2,0,40\r\r# note\r1,2,0,\r")
+    log = read_rover_log(tmp_path / "a.csv", 1)
+    assert log.raw.tolist() == [[40.0]] and [row.line for row in log.skipped] == [5]
+
+
 def test_bytes_that_are_not_utf8_cost_only_their_row(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
