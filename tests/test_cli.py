@@ -1,3 +1,5 @@
+import subprocess
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -40,6 +42,17 @@ def test_reproduce_rejects_an_unknown_experiment(tmp_path):
 def test_version():
     result = runner.invoke(app, ["--version"])
     assert result.exit_code == 0 and result.output.startswith("bayesmap ")
+
+
+def test_python_dash_m_runs_the_command_line_under_its_name():
+    done = subprocess.run(
+        [sys.executable, "-m", "bayesmap", "rover", "run", "--bogus"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2 and "bayesmap rover run" in done.stderr
+    assert "__main__" not in done.stderr
 
 
 def test_reproduce_summary_names_folders_and_headlines_in_a_narrow_terminal():

@@ -35,6 +35,7 @@ from bayesmap._typing import BoolArray, FloatArray, IntArray
 __all__ = [
     "cast_on_boxes",
     "cast_on_segments",
+    "is_solid_square",
     "rectangle_fit_problem",
     "to_robot",
     "to_world",
@@ -56,6 +57,13 @@ def wrap_angle(angle: npt.ArrayLike, period: float = _TWO_PI) -> FloatArray:
     """
     half = 0.5 * period
     return np.asarray((np.asarray(angle, dtype=np.float64) + half) % period - half)
+
+
+def is_solid_square(length: float, width: float, leg: float) -> bool:
+    """Whether a four-legged ``length × width`` object with square legs of side ``leg`` [m]
+    flush with its corners is one solid square (a box or pillar): square, its legs half
+    its side, so they meet."""
+    return math.isclose(length, width) and 2.0 * leg >= width - 1e-12
 
 
 def rectangle_fit_problem(length: float, width: float, area: tuple[float, float]) -> str | None:

@@ -10,6 +10,7 @@ from scipy import optimize
 from bayesmap.blackboard.data_driven import (
     LegVotes,
     _supported_corners,
+    fit_to_corner_bearings,
     place_on_legs,
     polish_leg,
     polish_legs,
@@ -26,6 +27,7 @@ from bayesmap.blackboard.sweep_model import (
     wall_contact_density,
 )
 from bayesmap.experiments.fused_run import fused_params
+from bayesmap.sim.tables_world import build_mixed
 from bayesmap.sim.whisker_worlds import StressOptions, WorldFile, generate_world
 from bayesmap.sim.whiskers import condition, observe
 
@@ -368,3 +370,50 @@ def test_polishing_many_candidates_in_lockstep_is_polishing_each_alone() -> None
         assert np.array_equal(got, alone)
     assert np.array_equal(together[-1], legs[-1])  # no contacts: the start
     assert not np.array_equal(together[0], legs[0])
+
+
+def _box_contacts(box: np.ndarray, side: float, sensor_name: str, seed: int) -> np.ndarray:
+    """Contacts ``root x, root y, bearing, r̂, length`` of a tour around one solid box."""
+    world = build_mixed(
+        box[None, :3], np.array([[side, side, 0.5 * side]]), np.array([0.3]), (6.0, 6.0)
+    )
+    sensor, rng = condition(sensor_name), np.random.default_rng(seed)
+    rows = []
+    for angle in np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False):
+        for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+            pose = np.array(
+                [*(box[:2] + 0.9 * np.array([math.cos(angle), math.sin(angle)])), heading]
+            )
+            sweeps = observe(world, pose, sensor, rng=rng).sweeps
+            hit = np.isfinite(sweeps[:, 3])
+            rows.append(
+                np.column_stack([np.tile(pose[:2], (hit.sum(), 1)), sweeps[hit][:, [1, 3, 2]]])
+            )
+    return np.concatenate(rows)
+
+
+def test_a_solid_box_is_fitted_onto_its_corners_bearings() -> None:
+    """Started a centimetre and a few degrees off, the fit puts the box where its corner
+    contacts' bearings cross, to a tenth of a millimetre, though the ranges carry σ_r and
+    contacts that stopped on a face or another object (here: made-up ones) are mixed in."""
+    box = np.array([3.0, 3.0, 0.4, 0.0])
+    contacts = _box_contacts(box, 0.5, "normal", 1)
+    rng = np.random.default_rng(0)
+    strays = np.column_stack(
+        [
+            rng.uniform(2.0, 4.0, (20, 2)),
+            rng.uniform(-math.pi, math.pi, 20),
+            rng.uniform(0.2, 0.9, 20),
+            np.ones(20),
+        ]
+    )
+    contacts = np.vstack([contacts, strays])
+    start = box + np.array([0.008, -0.006, 0.04, 0.0])
+    fitted = fit_to_corner_bearings(start, contacts, np.ones(len(contacts)), 0.25, 0.02)
+    assert np.abs(fitted[:2] - box[:2]).max() < 1e-4
+    assert abs(math.remainder(fitted[2] - box[2], 0.5 * math.pi)) < 1e-3
+    assert fitted[3] == 0.0
+    # too few contacts to pin it: returned as it was
+    assert np.array_equal(
+        fit_to_corner_bearings(start, contacts[:2], np.ones(2), 0.25, 0.02), start
+    )

@@ -9,20 +9,28 @@ import numpy as np
 import pytest
 from shapely.geometry import Polygon
 
+from bayesmap.blackboard.evidence import EvidenceStore
+from bayesmap.blackboard.fused import FusedMapper
 from bayesmap.blackboard.sweep_model import (
     ACROSS_CUT,
     ObjectType,
     SweepModel,
     arena_contains,
     contact_cutoff,
+    contact_squares,
     into_arena,
+    leg_centres,
     leg_contact_density,
     leg_contact_density_pairs,
     legs_swept,
     legs_swept_pairs,
+    log_posterior,
     tables_overlap,
     wall_contact_density,
 )
+from bayesmap.experiments.fused_run import fused_params
+from bayesmap.sim.tables_world import build_mixed
+from bayesmap.sim.whiskers import condition, observe
 
 CATALOGUE = (ObjectType("desk", 1.2, 0.8, 0.1), ObjectType("stool", 0.8, 0.8, 0.08))
 ARENA = (5.0, 4.0)
@@ -251,3 +259,39 @@ def test_a_whisker_touching_with_its_tip_is_within_reach(reach: float) -> None:
         root, np.zeros(1), one, np.array([math.pi]), leg, np.zeros(1), model
     )
     assert density.shape == (1, 1) and density[0, 0] > 0
+
+
+def test_a_solid_box_is_one_square_with_no_seams() -> None:
+    """Whiskers touch a square type whose legs are half its side on one square, the
+    object: its four legs would have corners at the seams, mid-face, where no whisker
+    stops. With them, two boxes half a side apart (their seams on the true corners)
+    explained a box's contacts better than the box itself; now the box scores higher."""
+    box = ObjectType("box", 0.5, 0.5, 0.25)
+    assert box.solid and not ObjectType("stool", 0.8, 0.8, 0.08).solid
+    assert box.contact_half_side == 0.25
+    at = np.array([[2.0, 2.0, 0.3, 0.0]])
+    assert contact_squares(at, (box,))[0].tolist() == [[2.0, 2.0, 0.25]] * 4
+    assert leg_centres(at, (box,))[0, :, 2].tolist() == [0.125] * 4  # F3's four quarters
+    sensor = condition("normal")
+    model = FusedMapper((box,), (4.0, 4.0), fused_params(sensor)).model
+    margins = []
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        truth = np.array([2.0, 2.0, rng.uniform(0.0, 0.5 * math.pi), 0.0])
+        world = build_mixed(
+            truth[None, :3], np.array([[0.5, 0.5, 0.25]]), np.array([0.3]), (4.0, 4.0)
+        )
+        store = EvidenceStore()
+        for angle in np.linspace(0.0, 2.0 * math.pi, 10, endpoint=False):
+            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+                pose = np.array(
+                    [2.0 + 0.85 * math.cos(angle), 2.0 + 0.85 * math.sin(angle), heading]
+                )
+                store.add(pose, observe(world, pose, sensor, rng=rng).sweeps)
+        half = 0.25 * np.array([math.cos(truth[2]), math.sin(truth[2]), 0.0, 0.0])
+        pair = np.vstack([truth - half, truth + half])
+        margins.append(
+            log_posterior(truth[None], (box,), model, store.rows_, store.counts_)
+            - log_posterior(pair, (box,), model, store.rows_, store.counts_)
+        )
+    assert min(margins) > 10.0, margins

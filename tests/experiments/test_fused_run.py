@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bayesmap.experiments.blackboard_world import fused_world_run
-from bayesmap.sim.whisker_worlds import WorldFile, generate_world
+from bayesmap.sim.whisker_worlds import StressOptions, WorldFile, generate_world
 
 
 @pytest.mark.slow
@@ -46,3 +46,19 @@ def test_fused_map_of_tables_pressed_into_corners_against_two_walls() -> None:
     assert metrics["fused_precision"] >= 0.97
     assert metrics["fused_recall"] >= 0.97
     assert metrics["fused_wall_phantoms"] == 0
+
+
+@pytest.mark.slow
+def test_a_room_of_solid_boxes_is_mapped_box_for_box() -> None:
+    """Seven 0.5 m boxes, the box in the catalogue, `normal` sensor. Each box is found on
+    its own vote grid and fitted onto its corners' bearings; before, most were mapped as two
+    boxes half a side apart (precision 0.71, recall 0.71 on this world and seed)."""
+    options = StressOptions(
+        arena_range=(5.0, 7.0), tables_range=(6, 9), sizes=((0.5, 0.5, 0.25),), area_per_table=2.5
+    )
+    world = generate_world(2312, options)
+    assert len(world.tables) == 7
+    _, _, metrics = fused_world_run(world, "normal", 1)
+    assert metrics["fused_recall"] == 1.0
+    assert metrics["fused_precision"] == 1.0
+    assert metrics["fused_position_error_mean"] < 0.02

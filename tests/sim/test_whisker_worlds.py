@@ -14,7 +14,11 @@ from hypothesis import strategies as st
 from bayesmap.errors import FormatError
 from bayesmap.sim.tables_world import rectangle_corners
 from bayesmap.sim.whisker_worlds import (
+    POSE_CLEARANCE,
+    TOUR_SPACING,
     StressOptions,
+    TourGrid,
+    default_tour,
     generate_world,
     load_world,
     parse_world,
@@ -64,11 +68,35 @@ def test_the_documented_example_loads_and_round_trips(tmp_path) -> None:
         assert not any(polygon.contains(shapely.Point(x, y)) for x, y in poses[:, :2])
 
 
-def test_a_world_without_poses_is_toured_like_the_paper() -> None:
+def test_the_default_tour_keeps_the_papers_density_on_any_arena() -> None:
+    """The paper's 10 × 10 in its 6 m arena; a larger room gets more positions, never more
+    than TOUR_SPACING apart, and a corridor's short side fewer (not 10 within 0.3 m)."""
+    assert default_tour((6.0, 6.0), margin=0.48) == TourGrid(10, 10, 0.48, 4)
+    assert default_tour((4.0, 5.0))[:2] == (10, 10)
+    rng = np.random.default_rng(7)
+    for side in rng.uniform(1.0, 40.0, size=(60, 2)):
+        columns, rows, margin, _ = default_tour((side[0], side[1]))
+        for length, count in zip(side, (columns, rows), strict=True):
+            usable = length - 2 * margin
+            assert usable / (count - 1) <= TOUR_SPACING + 1e-9
+            assert count >= 10 or usable < 9 * POSE_CLEARANCE
+            assert count <= 10 or usable > 9 * TOUR_SPACING
+
+
+def test_a_world_without_a_grid_gets_the_default_tour_and_says_it_in_its_file(tmp_path) -> None:
     bare = {key: value for key, value in EXAMPLE.items() if key != "poses"}
-    assert np.array_equal(
-        parse_world(bare, "bare.json").robot_poses(), parse_world(EXAMPLE, "w.json").robot_poses()
-    )
+    world = parse_world(bare, "bare.json")
+    assert world.tour() == default_tour((7.0, 7.0)) == TourGrid(12, 12, 0.45, 4)
+    assert world.to_json()["poses"] == {"grid": 12, "margin": 0.45, "headings": 4}
+    poses = world.robot_poses()
+    assert np.isclose(np.diff(np.unique(poses[:, 0])).max(), 6.1 / 11)
+    spaced = parse_world({**bare, "poses": {"spacing": 1.0, "headings": 2}}, "spaced.json")
+    assert spaced.tour() == TourGrid(8, 8, 0.45, 2)
+    strip = parse_world({**bare, "poses": {"grid": [12, 3], "margin": 0.5}}, "strip.json")
+    assert strip.tour() == TourGrid(12, 3, 0.5, 4)
+    assert strip.to_json()["poses"]["grid"] == [12, 3]
+    save_world(strip, tmp_path / "strip.json")
+    assert np.array_equal(load_world(tmp_path / "strip.json").robot_poses(), strip.robot_poses())
 
 
 @pytest.mark.parametrize(
@@ -126,6 +154,22 @@ def test_a_world_without_poses_is_toured_like_the_paper() -> None:
         (
             lambda w: w.update(poses={"grid": 100000}),
             r"poses\.grid: a 100,000 x 100,000 grid of 4 headings is 40,000,000,000 poses",
+        ),
+        (
+            lambda w: w.update(poses={"grid": [10, 0]}),
+            r"poses\.grid\[1\]: 0 is less than the minimum of 1",
+        ),
+        (
+            lambda w: w.update(poses={"grid": 10, "spacing": 0.5}),
+            r"poses: give grid or spacing, not both",
+        ),
+        (
+            lambda w: w.update(poses={"spacing": 0.01}),
+            r"poses\.spacing: a 611 x 611 grid of 4 headings is 1,493,284 poses",
+        ),
+        (
+            lambda w: (w.pop("poses"), w["arena"].update(width=100.0, height=100.0)),
+            r"poses: a 167 x 167 grid .*; give poses\.grid or a wider poses\.spacing",
         ),
         (
             lambda w: w.update(poses=[[1.0, 1.0, 0.0]] * 100_001),

@@ -55,6 +55,7 @@ from bayesmap.blackboard.lockstep import minimise_together
 from bayesmap.blackboard.sweep_model import (
     ObjectType,
     SweepModel,
+    contact_squares,
     into_arena,
     leg_centres,
     leg_contact_density_pairs,
@@ -67,6 +68,7 @@ __all__ = [
     "birth_density",
     "draw_birth",
     "draw_near",
+    "fit_to_corner_bearings",
     "near_density",
     "place_on_legs",
     "polish_leg",
@@ -194,12 +196,15 @@ def table_candidates(
     arena: tuple[float, float],
     spacing_tol: float,
     support_gain: float = 2.0,
+    unpaired: frozenset[int] = frozenset(),
 ) -> tuple[FloatArray, FloatArray]:
     """Tables ``(c, 4)`` ``x, y, θ, k`` implied by pairs of candidate legs, and their weights.
 
     See the module docstring. A table that crosses a wall (zero prior) is moved inside when
     that takes at most ``spacing_tol`` (legs found a centimetre or two off put a table
-    pressed against a wall across it), else dropped.
+    pressed against a wall across it), else dropped. Types ``unpaired`` (indices into the
+    catalogue) get no candidates here: solid boxes with candidates of their own, which
+    pairs of the quarters' peaks would offer half a side off.
     """
     if len(legs) < 2:
         return np.zeros((0, 4)), np.zeros(0)
@@ -212,6 +217,8 @@ def table_candidates(
     normal = np.column_stack([-np.sin(angle), np.cos(angle)])
     found = []
     for k, kind in enumerate(catalogue):
+        if k in unpaired:
+            continue
         a, b = kind.half_spacing
         diag = math.hypot(a, b)
         for spacing, offset, turn in ((2 * a, b, 0.0), (2 * b, a, 0.5 * math.pi)):
@@ -528,7 +535,7 @@ def polish_tables(
     def negative(v: FloatArray, problems: IntArray, scaled: SweepModel) -> FloatArray:
         table = placed(v, problems)
         theta = np.repeat(table[:, 2:3], 4, axis=1)
-        return batch.negative(problems, leg_centres(table, catalogue), theta, scaled)
+        return batch.negative(problems, contact_squares(table, catalogue), theta, scaled)
 
     every = np.arange(len(run))
     climbed = _climb(
@@ -618,6 +625,68 @@ def polish_legs(
     found[:, 2] %= 0.5 * math.pi
     out[run] = _better_of(negative, found, starts[run], model)
     return out
+
+
+def fit_to_corner_bearings(
+    solid: FloatArray,
+    contacts: FloatArray,
+    counts: FloatArray,
+    half_side: float,
+    sigma_r: float,
+    *,
+    gap: float = 0.03,
+    rounds: int = 4,
+    iterations: int = 3,
+) -> FloatArray:
+    """A solid square ``(4,)`` ``x, y, θ, k`` (a box or pillar of half side ``half_side``)
+    moved so that its corners lie on the bearings of the contacts that stopped at them.
+
+    A rotating whisker first meets a box at the corner nearest in its sweep and stops on
+    that corner's bearing, as exactly as the sensor reads angles, while its range r̂ says
+    where along the bearing only to σ_r. So the likelihood of a box's corner contacts peaks
+    where every touched corner lies on its contacts' bearing lines: a needle (in the normal
+    condition a box 0.6 mm off that place scores 300 nats below it) that a Nelder–Mead
+    polish from a few millimetres off does not find. ``contacts`` (m, 5) are ``root x,
+    root y, bearing, r̂, whisker length`` with ``counts`` (m,): a contact is assigned to
+    the corner closest to its bearing line, if that is within ``gap`` [m] across it and
+    3 σ_r along it, and not touched by the whisker's tip (r̂ within 2 σ_r of its length:
+    the tip meets a face, not a corner). Gauss–Newton on ``x, y, θ`` minimises the
+    count-weighted squared distances of the assigned corners from their lines, the
+    assignment made again at each of ``iterations`` steps of each of ``rounds`` rounds,
+    ``gap`` shrinking threefold a round: a contact that did not stop at a corner (a tip
+    short of its length, another object's) lies millimetres to centimetres off every
+    corner's line and drops out as the corners settle on theirs. Returned as it is from
+    the step where fewer than three contacts on bearings apart by 0.1 rad are assigned.
+    """
+    pose = np.asarray(solid, dtype=np.float64).copy()
+    c, sn = np.cos(contacts[:, 2]), np.sin(contacts[:, 2])
+    usable = contacts[:, 3] < contacts[:, 4] - 2.0 * sigma_r
+    signs = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
+    for within in np.repeat(gap / 3.0 ** np.arange(rounds), iterations):
+        ct, st = math.cos(pose[2]), math.sin(pose[2])
+        offsets = half_side * np.column_stack(
+            [ct * signs[:, 0] - st * signs[:, 1], st * signs[:, 0] + ct * signs[:, 1]]
+        )
+        dx = pose[0] + offsets[None, :, 0] - contacts[:, :1]
+        dy = pose[1] + offsets[None, :, 1] - contacts[:, 1:2]
+        across = c[:, None] * dy - sn[:, None] * dx
+        along = c[:, None] * dx + sn[:, None] * dy
+        near = (np.abs(across) <= within) & (np.abs(along - contacts[:, 3:4]) <= 3.0 * sigma_r)
+        corner = np.where(near, np.abs(across), np.inf).argmin(axis=1)
+        used = usable & near[np.arange(len(contacts)), corner]
+        if used.sum() < 3 or np.ptp(np.mod(contacts[used, 2], math.pi)) < 0.1:
+            break
+        o = offsets[corner[used]]
+        jac = np.column_stack([-sn[used], c[used], c[used] * o[:, 0] + sn[used] * o[:, 1]])
+        residual = across[used, corner[used]]
+        w = counts[used]
+        normal = jac.T @ (w[:, None] * jac)
+        if np.linalg.cond(normal) > 1e12:
+            break
+        step = np.linalg.solve(normal, -jac.T @ (w * residual))
+        pose[:3] += step
+    pose[2] %= 0.5 * math.pi
+    return pose
 
 
 def _better_of(

@@ -60,6 +60,7 @@ from bayesmap.blackboard.sweep_model import (
     SweepModel,
     arena_contains,
     contact_cutoff,
+    contact_squares,
     leg_centres,
     leg_contact_density,
     leg_contact_density_pairs,
@@ -148,7 +149,7 @@ class Context:
         self.model = model
         self.store = store
         self.half_diagonal = max(0.5 * math.hypot(t.length, t.width) for t in catalogue)
-        half_leg = max(0.5 * t.leg for t in catalogue)
+        half_leg = max(t.contact_half_side for t in catalogue)
         self.contact_radius = self.half_diagonal + contact_cutoff(half_leg, model)
         """Contact points farther than this [m] from a table's centre get no ρ from it."""
         self.reach = 1.0
@@ -219,7 +220,7 @@ class Context:
         """:meth:`table_contacts` of ``tables`` (n, 4), each over its candidate contacts."""
         sizes = [len(found) for found in ids]
         rows = self.store.rows_[np.repeat(np.concatenate(ids), 4)]
-        legs = leg_centres(tables, self.catalogue)[np.repeat(np.arange(len(tables)), sizes)]
+        legs = contact_squares(tables, self.catalogue)[np.repeat(np.arange(len(tables)), sizes)]
         theta = np.repeat(tables[:, 2], 4 * np.asarray(sizes, dtype=np.int64))
         density = (
             leg_contact_density_pairs(
@@ -263,7 +264,7 @@ class Context:
         if not len(ids):
             return np.zeros(0)
         rows = self.store.rows_[ids]
-        legs = leg_centres(table, self.catalogue)[0]
+        legs = contact_squares(table, self.catalogue)[0]
         density = leg_contact_density(
             rows[:, :2], rows[:, 3], rows[:, 5], rows[:, 6], legs, np.full(4, table[2]), self.model
         )

@@ -51,7 +51,7 @@ import numpy as np
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.blackboard.densities import rectangles_overlap, rectangles_overlap_scalar
 from bayesmap.errors import ConfigError
-from bayesmap.geometry import rectangle_fit_problem, wrap_angle
+from bayesmap.geometry import is_solid_square, rectangle_fit_problem, wrap_angle
 
 __all__ = [
     "ACROSS_CUT",
@@ -62,6 +62,7 @@ __all__ = [
     "check_catalogue",
     "contact_cutoff",
     "into_arena",
+    "contact_squares",
     "leg_centres",
     "leg_contact_density",
     "leg_contact_density_pairs",
@@ -102,9 +103,28 @@ class ObjectType(NamedTuple):
     leg: float
 
     @property
+    def solid(self) -> bool:
+        """Whether the type is a solid square, a box or pillar: square, legs half its side.
+
+        Whiskers touch such a type on its outline, one square, the whole object
+        (:func:`contact_squares`): its four legs meet, and their corners at the seams,
+        mid-face, are corners no whisker stops at (a rotating shaft meets a box first at
+        an outer corner). Modelled as four legs, two boxes half a side apart put their seams
+        on a true box's corners and explained its contacts better than the box itself. The
+        free-space term still counts the four quarters a sweep passed over (:func:`leg_centres`):
+        the smaller squares lie wholly inside more sweeps than the whole one."""
+        return is_solid_square(self.length, self.width, self.leg)
+
+    @property
     def half_spacing(self) -> tuple[float, float]:
         """``(a, b)`` [m]: leg centres sit at ``(±a, ±b)`` in the table's frame."""
         return 0.5 * (self.length - self.leg), 0.5 * (self.width - self.leg)
+
+    @property
+    def contact_half_side(self) -> float:
+        """Half the side [m] of the squares a whisker touches: a leg's, or the whole
+        object's for a :attr:`solid` type."""
+        return 0.5 * (self.width if self.solid else self.leg)
 
 
 def check_catalogue(
@@ -199,14 +219,42 @@ def _sizes(catalogue: tuple[ObjectType, ...]) -> FloatArray:
     return sizes
 
 
+@functools.lru_cache(maxsize=16)
+def _contact_sizes(catalogue: tuple[ObjectType, ...]) -> FloatArray:
+    """``(k, 3)`` per type: offsets ``a, b`` and half side of the squares a whisker touches
+    (the legs; the whole object, at the centre, for a solid type)."""
+    sizes = np.array([_contact_row(t) for t in catalogue])
+    sizes.flags.writeable = False
+    return sizes
+
+
+def _contact_row(kind: ObjectType) -> tuple[float, float, float]:
+    if kind.solid:
+        return 0.0, 0.0, kind.contact_half_side
+    return (*kind.half_spacing, 0.5 * kind.leg)
+
+
+def contact_squares(tables: FloatArray, catalogue: tuple[ObjectType, ...]) -> FloatArray:
+    """``(n, 4, 3)`` squares ``x, y, half side`` whose faces the whiskers touch on ``(n, 4)``
+    tables ``x, y, θ, k``: the legs (:func:`leg_centres`), except that a solid type's four
+    rows are all its whole outline (see :attr:`ObjectType.solid`)."""
+    return _squares(tables, _contact_sizes(catalogue))
+
+
 def leg_centres(tables: FloatArray, catalogue: tuple[ObjectType, ...]) -> FloatArray:
     """``(n, 4, 3)`` legs ``x, y, half side`` of ``(n, 4)`` tables ``x, y, θ, k``.
 
     Corner order: (+a, +b), (−a, +b), (−a, −b), (+a, −b), counter-clockwise.
     """
+    return _squares(tables, _sizes(catalogue)[:, :3])
+
+
+def _squares(tables: FloatArray, sizes: FloatArray) -> FloatArray:
+    """``(n, 4, 3)`` squares at ``(±a, ±b)`` in each table's frame, ``sizes`` (k, 3) rows
+    ``a, b, half side`` per type."""
     tables = np.asarray(tables, dtype=np.float64).reshape(-1, 4)
     kinds = tables[:, 3].astype(np.int64)
-    spacing = _sizes(catalogue)[kinds, :3]
+    spacing = sizes[kinds]
     lx = spacing[:, :1] * _SIGNS[:, 0]
     ly = spacing[:, 1:2] * _SIGNS[:, 1]
     c, s = np.cos(tables[:, 2:3]), np.sin(tables[:, 2:3])
@@ -650,10 +698,17 @@ def log_posterior(
     legs = leg_centres(tables, catalogue).reshape(-1, 3)
     theta = np.repeat(tables[:, 2], 4)
     if len(legs):
+        squares = contact_squares(tables, catalogue).reshape(-1, 3)
         explained = np.maximum(
             explained,
             leg_contact_density(
-                contacts[:, :2], contacts[:, 3], contacts[:, 5], contacts[:, 6], legs, theta, model
+                contacts[:, :2],
+                contacts[:, 3],
+                contacts[:, 5],
+                contacts[:, 6],
+                squares,
+                theta,
+                model,
             ).max(axis=1),
         )
         swept = legs_swept(legs, sweeps[:, :2], sweeps[:, 2], sweeps[:, 3], sweeps[:, 4])

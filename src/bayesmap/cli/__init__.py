@@ -155,14 +155,14 @@ def _root(
 
 
 def main() -> None:
-    """Entry point of the ``bayesmap`` console script.
+    """Entry point of the ``bayesmap`` console script and of ``python -m bayesmap``.
 
     Every error is one line on stderr: a usage mistake (unknown option, missing argument,
     a value of the wrong type) exits with code 2, a failed command with code 1.
     """
     try:
         with terminate_as_exit():
-            code = app(standalone_mode=False)
+            code = app(standalone_mode=False, prog_name="bayesmap")
     except typer.Abort:
         print_error("aborted")
         raise SystemExit(130) from None

@@ -10,10 +10,12 @@ with its own size, so rooms can mix desks and stools) and where the robot stops:
 
 ``x, y`` are a table's centre [m], ``theta`` its long side's angle from the x axis [rad],
 ``leg`` the side of its square legs [m] (flush with the corners). The walls are the
-arena's four sides. ``poses`` is a grid (``grid`` × ``grid`` positions ``margin`` [m] from
-the walls, visited row by row in serpentine order, ``headings`` equally spaced headings
-from east, counter-clockwise) or a list of ``[x, y, heading]``; grid positions inside a
-table or closer than :data:`POSE_CLEARANCE` to a leg are skipped. An optional
+arena's four sides. ``poses`` is a grid (``grid`` × ``grid`` positions, or ``[columns,
+rows]``, ``margin`` [m] from the walls, visited row by row in serpentine order, ``headings``
+equally spaced headings from east, counter-clockwise; ``spacing`` instead of ``grid`` puts
+the positions at most that far apart, and without either the tour is
+:func:`default_tour`'s) or a list of ``[x, y, heading]``; grid positions inside a table or
+closer than :data:`POSE_CLEARANCE` to a leg are skipped. An optional
 ``catalogue`` lists the object types the mapper may use (``name, length, width, leg``);
 without it the catalogue is the distinct table sizes of the file. The mapper is told the
 arena and the catalogue, never the tables.
@@ -32,7 +34,7 @@ import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import shapely
@@ -51,8 +53,11 @@ __all__ = [
     "MAX_POSES",
     "POSE_CLEARANCE",
     "WORLD_SCHEMA",
+    "TOUR_SPACING",
     "StressOptions",
+    "TourGrid",
     "WorldFile",
+    "default_tour",
     "generate_world",
     "load_world",
     "parse_world",
@@ -62,19 +67,25 @@ __all__ = [
 POSE_CLEARANCE = 0.15
 """Grid positions closer than this [m] to a leg's outline (or inside a table) are skipped."""
 
+TOUR_SPACING = 0.6
+"""Farthest apart [m] the positions of :func:`default_tour` stand. The paper's tour (10 × 10
+positions in its 6 m arena, 0.48 m from the walls) has them 0.56 m apart, so that no point
+of the floor is more than 0.4 m from a position, well within a whisker's 1 m reach."""
+
 MAX_ARENA_SIDE = 100.0
 """Longest arena side [m] a world file may give. A whisker robot maps a room a few metres
 across; the contact-vote grid of a 100 m square at its 2.5 cm cells already holds 16
 million cells, and a longer side is most likely written in cm or mm."""
 
 MAX_POSES = 100_000
-"""Most robot poses a world file may ask for, listed or as a grid (``grid`` × ``grid`` ×
-``headings``). The fused mapper takes about 20–35 ms of CPU a pose (docs/benchmarks.md),
+"""Most robot poses a world file may ask for, listed or as a grid (columns × rows ×
+headings). The fused mapper takes about 20–35 ms of CPU a pose (docs/benchmarks.md),
 so this many already run for about an hour; a grid of tens of thousands a side is most
 likely a typo."""
 
 _NUMBER = {"type": "number"}
 _POSITIVE = {"type": "number", "exclusiveMinimum": 0}
+_COUNT = {"type": "integer", "minimum": 1}
 WORLD_SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "bayesmap whisker tables world",
@@ -110,16 +121,21 @@ WORLD_SCHEMA: dict[str, Any] = {
             },
         },
         "poses": {
-            "default": {"grid": 10},
+            "default": {},
             "oneOf": [
                 {
                     "type": "object",
-                    "required": ["grid"],
                     "additionalProperties": False,
                     "properties": {
-                        "grid": {"type": "integer", "minimum": 1},
+                        "grid": {
+                            "oneOf": [
+                                _COUNT,
+                                {"type": "array", "items": _COUNT, "minItems": 2, "maxItems": 2},
+                            ]
+                        },
+                        "spacing": _POSITIVE,
                         "margin": _POSITIVE,
-                        "headings": {"type": "integer", "minimum": 1},
+                        "headings": _COUNT,
                     },
                 },
                 {
@@ -151,6 +167,38 @@ WORLD_SCHEMA: dict[str, Any] = {
 _DEFAULT_TEXTURE = 0.3
 
 
+class TourGrid(NamedTuple):
+    """A grid tour: ``columns`` × ``rows`` positions ``margin`` [m] from the walls, each
+    visited at ``headings`` equally spaced headings."""
+
+    columns: int
+    rows: int
+    margin: float = 0.45
+    headings: int = 4
+
+
+def default_tour(
+    arena: tuple[float, float],
+    margin: float = 0.45,
+    headings: int = 4,
+    spacing: float | None = None,
+) -> TourGrid:
+    """The grid tour of a world file that gives no ``poses.grid``.
+
+    With ``spacing``: on each side as few positions as stand at most ``spacing`` [m] apart.
+    Without: the paper's 10 positions a side, but on a side too long for 10 positions
+    :data:`TOUR_SPACING` apart as many as that spacing needs (a 12 m room gets 20, where 10
+    would stand 1.23 m apart and leave tables between them to a whisker's very tip), and on
+    a side too short for 10 positions :data:`POSE_CLEARANCE` apart (a corridor) fewer.
+    """
+    counts = []
+    for side in arena:
+        usable = side - 2.0 * margin
+        step = spacing or min(max(usable / 9.0, POSE_CLEARANCE), TOUR_SPACING)
+        counts.append(math.ceil(usable / step - 1e-9) + 1)
+    return TourGrid(counts[0], counts[1], margin, headings)
+
+
 @dataclass(frozen=True)
 class WorldFile:
     """A world file's content.
@@ -164,7 +212,7 @@ class WorldFile:
     poses
         ``(n, 3)`` robot poses ``x, y, heading``, or ``None`` for a grid.
     grid
-        ``(grid, margin, headings)`` of a pose grid (ignored when ``poses`` is given).
+        The grid tour when ``poses`` is ``None``; ``None``: :func:`default_tour`.
     catalogue
         Object types ``(name, length, width, leg)`` the mapper may use.
     wall_texture
@@ -174,18 +222,18 @@ class WorldFile:
     arena: tuple[float, float]
     tables: FloatArray
     poses: Poses | None = None
-    grid: tuple[int, float, int] = (10, 0.45, 4)
+    grid: TourGrid | None = None
     catalogue: tuple[tuple[str, float, float, float], ...] = ()
     wall_texture: float = _DEFAULT_TEXTURE
 
     def to_json(self) -> dict[str, Any]:
         """The file's JSON object (the inverse of :func:`parse_world`)."""
         keys = ("x", "y", "theta", "length", "width", "leg", "texture")
-        poses: Any = (
-            {"grid": self.grid[0], "margin": self.grid[1], "headings": self.grid[2]}
-            if self.poses is None
-            else np.asarray(self.poses).tolist()
-        )
+        poses: Any = np.asarray(self.poses).tolist() if self.poses is not None else None
+        if poses is None:
+            grid = self.tour()
+            counts = grid.columns if grid.columns == grid.rows else [grid.columns, grid.rows]
+            poses = {"grid": counts, "margin": grid.margin, "headings": grid.headings}
         return {
             "arena": {
                 "width": self.arena[0],
@@ -206,16 +254,20 @@ class WorldFile:
             t[:, :3], t[:, 3:6], t[:, 6], self.arena, wall_texture=self.wall_texture, name=name
         )
 
+    def tour(self) -> TourGrid:
+        """The grid tour (when ``poses`` is ``None``)."""
+        return self.grid or default_tour(self.arena)
+
     def robot_poses(self) -> Poses:
         """The robot's poses: the given list, or the grid without blocked positions."""
         if self.poses is not None:
             return np.asarray(self.poses, dtype=np.float64)
-        count, margin, headings = self.grid
-        if count == 1:  # one position: the middle of the arena, not a corner
-            xs, ys = np.array([self.arena[0] / 2]), np.array([self.arena[1] / 2])
-        else:
-            xs = np.linspace(margin, self.arena[0] - margin, count)
-            ys = np.linspace(margin, self.arena[1] - margin, count)
+        columns, rows, margin, headings = self.tour()
+        # one position on a side: its middle, not a corner
+        xs, ys = (
+            np.linspace(margin, side - margin, count) if count > 1 else np.array([side / 2])
+            for side, count in ((self.arena[0], columns), (self.arena[1], rows))
+        )
         tour = np.array(
             [(x, y) for row, y in enumerate(ys) for x in (xs if row % 2 == 0 else xs[::-1])]
         )
@@ -312,9 +364,9 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
         for j in range(i):
             if polygon.intersects(polygons[j]):
                 raise _fail(source, f"tables[{i}]", f"the table overlaps tables[{j}]")
-    poses_obj = obj.get("poses", {"grid": 10})
+    poses_obj = obj.get("poses", {})
     poses: Poses | None = None
-    grid = (10, 0.45, 4)
+    grid: TourGrid | None = None
     if isinstance(poses_obj, list):
         if len(poses_obj) > MAX_POSES:
             raise _fail(
@@ -337,20 +389,30 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
                 f"the robot cannot stand inside a table or within {POSE_CLEARANCE:g} m of a leg",
             )
     else:
-        grid = (
-            int(poses_obj["grid"]),
-            float(poses_obj.get("margin", 0.45)),
-            int(poses_obj.get("headings", 4)),
-        )
-        if 2 * grid[1] >= min(arena):
+        margin = float(poses_obj.get("margin", 0.45))
+        headings = int(poses_obj.get("headings", 4))
+        if 2 * margin >= min(arena):
             raise _fail(source, "poses.margin", "must be below half the arena's smaller side")
-        if grid[0] ** 2 * grid[2] > MAX_POSES:
+        counts = poses_obj.get("grid")
+        if counts is not None and "spacing" in poses_obj:
+            raise _fail(source, "poses", "give grid or spacing, not both")
+        if counts is None:
+            spacing = poses_obj.get("spacing")
+            grid = default_tour(
+                arena, margin, headings, None if spacing is None else float(spacing)
+            )
+        else:
+            across, up = (counts, counts) if isinstance(counts, int) else counts
+            grid = TourGrid(int(across), int(up), margin, headings)
+        total = grid.columns * grid.rows * grid.headings
+        if total > MAX_POSES:
+            key = "grid" if counts is not None else "spacing" if "spacing" in poses_obj else ""
             raise _fail(
                 source,
-                "poses.grid",
-                f"a {grid[0]:,} x {grid[0]:,} grid of {grid[2]:,} headings is "
-                f"{grid[0] ** 2 * grid[2]:,} poses, more than a run takes ({MAX_POSES:,}, "
-                "about an hour of mapping)",
+                f"poses.{key}".rstrip("."),
+                f"a {grid.columns:,} x {grid.rows:,} grid of {grid.headings:,} headings is "
+                f"{total:,} poses, more than a run takes ({MAX_POSES:,}, about an hour of mapping)"
+                + ("" if key else "; give poses.grid or a wider poses.spacing"),
             )
     if "catalogue" in obj:
         catalogue = tuple(
@@ -522,7 +584,7 @@ def generate_world(
         polygons.append(polygon)
     tables = np.round(np.asarray(rows, dtype=np.float64).reshape(-1, 7), 4)
     catalogue = tuple((f"{a:g}x{b:g}", a, b, c) for a, b, c in options.sizes)
-    return WorldFile(arena, tables, None, (grid, 0.45, 4), catalogue)
+    return WorldFile(arena, tables, None, TourGrid(grid, grid), catalogue)
 
 
 def _against_wall(

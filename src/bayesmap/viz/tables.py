@@ -22,6 +22,7 @@ from matplotlib.patches import Patch
 from PIL import Image
 
 from bayesmap._typing import FloatArray
+from bayesmap.geometry import is_solid_square
 from bayesmap.viz.render import figure_png
 
 __all__ = [
@@ -95,11 +96,14 @@ def draw_tables(
     filled: bool = True,
     linewidth: float = 0.8,
 ) -> None:
-    """Draw tables (outline or translucent fill) with their four legs."""
+    """Draw tables (outline or translucent fill) with their four legs; a solid box or
+    pillar (legs that meet) as its outline alone, filled darker."""
     if not np.size(tables):
         return
     tops = _rectangles(tables, shape.length, shape.width)
     legs = _rectangles(_legs_of(tables, shape), shape.leg_width, shape.leg_width)
+    if is_solid_square(shape.length, shape.width, shape.leg_width):
+        tops, legs = tops[:0], tops  # the legs meet: one square, drawn as a leg is
     if filled:
         ax.add_collection(
             PolyCollection(list(tops), facecolors=color, edgecolors="none", alpha=alpha)
