@@ -121,7 +121,8 @@ def test_devices_are_chosen_by_index(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("text", "words"),
     [
-        ("0 0 0 0 1.5 1.5\n1 0 0 0 1.5 1.5\n", "not a Player log: its first line"),
+        ("0 0 0 0 1.5 1.5\n1 0 0 0 1.5 1.5\n", "not a Player log: writelog's .* header"),
+        ("# a note\n" * 21 + "## Player version 3.0.2 \n", "not a Player log"),
         ("", "not a Player log"),
         ("## Player version 1.5 \n## File version 0.0.0 \n1 h 1 position 00 1 0 0 0\n", "0.0.0"),
         ("## Player version 3.0.2 \n1 0 6665 sonar 00 001 001 2 1 1\n", "no '## File version'"),
@@ -136,6 +137,21 @@ def test_other_files_are_one_line_errors_naming_the_file(
         read_player_log(path)
     assert "other.log" in str(info.value) and "\n" not in str(info.value)
     assert not is_player_log(path) or text.startswith("## Player")
+
+
+def test_comments_before_the_header_are_read_past(tmp_path: Path) -> None:
+    """A note added by hand above writelog's header: the log is still detected and read
+    the same, and bad lines are named by their line in the file as it is."""
+    lines = player_lines(simulated_drive())
+    plain = read_player_log(write_player_log(tmp_path / "plain.log", lines)).log
+    sonar = next(i for i, line in enumerate(lines) if " sonar 00 001 001 " in line)
+    lines[sonar] = " ".join(lines[sonar].split()[:12])  # cut short
+    path = write_player_log(tmp_path / "noted.log", ["# recorded in the east corridor", "", *lines])
+    assert is_player_log(path)
+    noted = read_player_log(path).log
+    assert np.array_equal(noted.timestamps, plain.timestamps[1:])  # the first ring cut short
+    assert np.array_equal(noted.ranges, plain.ranges[1:])
+    assert [row.line for row in noted.skipped] == [sonar + 3]
 
 
 def test_detection_progress_and_settings(tmp_path: Path) -> None:

@@ -97,18 +97,33 @@ class _Message(NamedTuple):
 _Role = Literal["ranges", "geometry", "geometry+ranges", "pose"]
 
 
+HEADER_SEARCH_LINES = 20
+"""Blank or comment lines a Player log may hold before its ``## Player version`` header (a
+note added by hand, a tool's banner)."""
+
+
 def is_player_log(path: str | Path) -> bool:
-    """Whether ``path`` opens with the ``## Player version`` line ``writelog`` writes first."""
+    """Whether ``path`` opens with the ``## Player version`` line ``writelog`` writes first
+    (after at most :data:`HEADER_SEARCH_LINES` blank or comment lines)."""
     try:
         with LineReader(path) as handle:
-            return _is_header(handle.readline(256))
+            return _header_line(handle) is not None
     except FormatError:
         return False
 
 
-def _is_header(first: bytes) -> bool:
-    """Whether ``first``, a file's first line, is the header ``writelog`` writes."""
-    return first.decode("utf-8", errors="replace").lstrip("\ufeff").startswith(_HEADER)
+def _header_line(handle: LineReader) -> int | None:
+    """Read ``handle`` up to and including writelog's header; its line number, or ``None``
+    when a line that is neither blank nor a comment, or the end of the file, or
+    :data:`HEADER_SEARCH_LINES` lines come first."""
+    for number in range(1, HEADER_SEARCH_LINES + 1):
+        raw = handle.readline(4096)
+        line = raw.decode("utf-8", errors="replace").lstrip("\ufeff").strip()
+        if line.startswith(_HEADER):
+            return number
+        if not raw or (line and not line.startswith("#")):
+            return None
+    return None
 
 
 def _message(tokens: list[str], version: str) -> _Message | str:
@@ -266,13 +281,13 @@ def _scan(
     version: str | None = None
     with LineReader(path) as handle:
         total = max(handle.size, 1)
-        first = handle.readline()
-        if not _is_header(first):
+        header = _header_line(handle)
+        if header is None:
             raise FormatError(
-                f"not a Player log: its first line is not writelog's {_HEADER!r} header",
+                f"not a Player log: writelog's {_HEADER!r} header does not open it",
                 path=path,
             )
-        for number, raw in enumerate(handle, start=2):
+        for number, raw in enumerate(handle, start=header + 1):
             if number % CHUNK_ROWS == 0 and progress is not None:
                 progress(f"reading {path.name}", handle.consumed(), total)
             tokens = raw.decode("utf-8", errors="replace").split()
