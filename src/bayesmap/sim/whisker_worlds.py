@@ -406,13 +406,13 @@ def parse_world(obj: Any, source: str = "world") -> WorldFile:
             grid = TourGrid(int(across), int(up), margin, headings)
         total = grid.columns * grid.rows * grid.headings
         if total > MAX_POSES:
-            key = "grid" if counts is not None else "spacing" if "spacing" in poses_obj else ""
+            asked = next((key for key in ("grid", "spacing") if key in poses_obj), None)
             raise _fail(
                 source,
-                f"poses.{key}".rstrip("."),
+                "poses" if asked is None else f"poses.{asked}",
                 f"a {grid.columns:,} x {grid.rows:,} grid of {grid.headings:,} headings is "
                 f"{total:,} poses, more than a run takes ({MAX_POSES:,}, about an hour of mapping)"
-                + ("" if key else "; give poses.grid or a wider poses.spacing"),
+                + ("; give poses.grid or a wider poses.spacing" if asked is None else ""),
             )
     if "catalogue" in obj:
         catalogue = tuple(
