@@ -16,7 +16,7 @@ from rosbags.typesys import Stores, get_typestore
 from typer.testing import CliRunner, Result
 
 from bayesmap.cli import app
-from bayesmap.errors import FormatError
+from bayesmap.errors import FormatError, InputError
 from bayesmap.sonar.bags import _range, bag_kind, read_sonar_bag
 
 TOPICS = [f"/sonar/{k}" for k in range(4)]
@@ -24,9 +24,11 @@ RINGS = 20
 
 
 def _messages(
-    store: str, *, tf: bool = False, codes: tuple[float, ...] = ()
+    store: str, *, tf: bool = False, codes: tuple[float, ...] = (), shared: str | None = None
 ) -> list[tuple[str, str, int, object]]:
-    """The drive's messages; ``codes``: transducer 0's readings of the first rings."""
+    """The drive's messages; ``codes``: transducer 0's readings of the first rings;
+    ``shared``: one topic for the whole ring (transducer k's frame ``sonark``), plus a
+    fifth sensor's messages (frame ``bumper_ir``) on it."""
     ts = get_typestore(Stores.ROS1_NOETIC if store == "ros1" else Stores.ROS2_HUMBLE)
     t = ts.types
     ros1 = store == "ros1"
@@ -41,13 +43,15 @@ def _messages(
     out: list[tuple[str, str, int, object]] = []
     for i in range(RINGS):
         base = 10**9 + i * 100_000_000  # 10 Hz
-        for k, topic in enumerate(TOPICS):
+        frames = [f"sonar{k}" for k in range(len(TOPICS))] + (["bumper_ir"] if shared else [])
+        for k, frame in enumerate(frames):
+            topic = shared or TOPICS[k]
             ns = base + k * 5_000_000  # each transducer fires 5 ms after the last
             value = 9.9 if k == 3 else 1.0 + 0.1 * k  # transducer 3: a no-echo code
             if k == 0 and i < len(codes):
                 value = codes[i]
             msg = t["sensor_msgs/msg/Range"](
-                header=header(ns, f"sonar{k}"),
+                header=header(ns, frame),
                 radiation_type=0,
                 field_of_view=0.44,
                 min_range=0.1,
@@ -94,10 +98,17 @@ def _messages(
     return out
 
 
-def _write(tmp_path: Path, kind: str, *, tf: bool = False, codes: tuple[float, ...] = ()) -> Path:
+def _write(
+    tmp_path: Path,
+    kind: str,
+    *,
+    tf: bool = False,
+    codes: tuple[float, ...] = (),
+    shared: str | None = None,
+) -> Path:
     store = "ros1" if kind == "ros1" else "ros2"
     ts = get_typestore(Stores.ROS1_NOETIC if store == "ros1" else Stores.ROS2_HUMBLE)
-    messages = sorted(_messages(store, tf=tf, codes=codes), key=lambda m: m[2])
+    messages = sorted(_messages(store, tf=tf, codes=codes, shared=shared), key=lambda m: m[2])
     if kind == "ros1":
         path = tmp_path / "log.bag"
         with Writer1(path) as writer:
@@ -222,3 +233,50 @@ def test_a_bag_given_without_topics_is_named_as_a_bag(tmp_path: Path, kind: str,
     assert result.exit_code == 2, result.output
     assert f"is {said}: give --topics" in result.output and result.output.count("\n") <= 2
     assert bag_kind(tmp_path) is None and bag_kind(tmp_path / "missing") is None
+
+
+FRAMES = [f"sonar{k}" for k in range(4)]
+
+
+@pytest.mark.parametrize("kind", ["ros1", "mcap"])
+def test_a_ring_on_one_topic_is_told_apart_by_frame(
+    tmp_path: Path, kind: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    per_topic = read_sonar_bag(_write(tmp_path / "a", kind), TOPICS)
+    shared = _write(tmp_path / "b", kind, shared="/sonar")
+    log = read_sonar_bag(shared, ["/sonar"], frames=FRAMES)
+    assert np.array_equal(log.ranges, per_topic.ranges)
+    assert np.array_equal(log.poses, per_topic.poses)
+    assert "20 Range messages from frames not in the ring (bumper_ir: 20) left out" in caplog.text
+    backwards = read_sonar_bag(shared, ["/sonar"], frames=["/" + f for f in FRAMES[::-1]])
+    assert np.array_equal(backwards.ranges, per_topic.ranges[:, ::-1])  # ring order = frame order
+
+
+def test_a_frame_the_bag_lacks_is_named_with_the_frames_it_has(tmp_path: Path) -> None:
+    shared = _write(tmp_path, "ros2", shared="/sonar")
+    said = "frame.s. sonar9 on /sonar; frames seen: bumper_ir, sonar0"
+    with pytest.raises(FormatError, match=said):
+        read_sonar_bag(shared, ["/sonar"], frames=["sonar0", "sonar9"])
+    with pytest.raises(InputError, match="frame sonar0 is named twice"):
+        read_sonar_bag(shared, ["/sonar"], frames=["sonar0", "sonar0"])
+
+
+def test_sonar_map_reads_a_ring_on_one_topic(tmp_path: Path) -> None:
+    bag = _write(tmp_path, "mcap", shared="/sonar")
+    base = [
+        "sonar", "map", str(bag), "--angles-deg", "45,15,-15,-45", "--max-range", "5",
+        "--resolution", "0.1", "--out", str(tmp_path / "out"),
+    ]  # fmt: skip
+    result = CliRunner().invoke(app, [*base, "--topics", "/sonar", "--frames", ",".join(FRAMES)])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "out" / "map.png").exists()
+    for extra, said in [
+        (["--frames", ",".join(FRAMES)], "--frames is for ROS bags: give --topics"),
+        (["--topics", "/sonar", "--frames", "sonar0,sonar1"], "--frames names 2 transducers"),
+        (["--topics", "/sonar", "--frames", "sonar0,sonar1,sonar0,sonar3"], "sonar0 twice"),
+    ]:
+        result = CliRunner().invoke(app, [*base, *extra])
+        assert result.exit_code == 2, result.output
+        assert said in result.output and result.output.count("\n") <= 2

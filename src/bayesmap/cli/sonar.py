@@ -244,6 +244,14 @@ def map_command(
             "per transducer in ring order, comma-separated.",
         ),
     ] = None,
+    frames: Annotated[
+        str | None,
+        typer.Option(
+            "--frames",
+            help="Bag whose transducers share Range topics: their header frame_ids, in ring "
+            "order, comma-separated (--topics then names the shared topic or topics).",
+        ),
+    ] = None,
     pose_topic: Annotated[
         str, typer.Option("--pose-topic", help="Bag: nav_msgs/Odometry topic, or /tf.")
     ] = "/odom",
@@ -271,6 +279,8 @@ def map_command(
 ) -> None:
     """Build map.png, map.yaml + map.pgm (ROS map_server) and summary.json from a sonar log."""
     with _user_errors():
+        if frames is not None and topics is None:
+            _usage("--frames is for ROS bags: give --topics, the Range topic(s) the frames share")
         kind = _log_kind(
             log,
             log_format,
@@ -319,6 +329,7 @@ def map_command(
                 data = _read_bag(
                     log,
                     topics,
+                    frames,
                     pose_topic,
                     tf_frames,
                     geometry,
@@ -465,6 +476,7 @@ def _player_ring(
 def _read_bag(
     log: Path,
     topics: str,
+    frames: str | None,
     pose_topic: str,
     tf_frames: str,
     geometry: SonarGeometry,
@@ -472,14 +484,14 @@ def _read_bag(
     pose_tolerance: float,
     max_pose_gap: float,
 ) -> SonarLog:
-    names = [t.strip() for t in topics.split(",") if t.strip()]
-    if len(names) != geometry.n:
-        _usage(f"--topics names {len(names)} topics for a ring of {geometry.n}")
-    repeated = sorted({name for name in names if names.count(name) > 1})
-    if repeated:
-        _usage(f"--topics names {repeated[0]} twice; each transducer has its own topic")
-    frames = tuple(f.strip() for f in tf_frames.split(","))
-    if len(frames) != 2 or not all(frames):
+    names = _listed("--topics", topics)
+    ring_frames = None if frames is None else _listed("--frames", frames)
+    transducers = names if ring_frames is None else ring_frames
+    option = "--topics" if ring_frames is None else "--frames"
+    if len(transducers) != geometry.n:
+        _usage(f"{option} names {len(transducers)} transducers for a ring of {geometry.n}")
+    tf_pair = tuple(f.strip() for f in tf_frames.split(","))
+    if len(tf_pair) != 2 or not all(tf_pair):
         _usage(f"--tf-frames needs 'parent,child', got {tf_frames!r}")
     from bayesmap.sonar.bags import read_sonar_bag  # rosbags loads only for bags
 
@@ -487,11 +499,21 @@ def _read_bag(
         log,
         names,
         pose_topic=pose_topic,
-        tf_frames=(frames[0], frames[1]),
+        tf_frames=(tf_pair[0], tf_pair[1]),
         strict=strict,
         time_tolerance=pose_tolerance,
         max_pose_gap=max_pose_gap,
+        frames=ring_frames,
     )
+
+
+def _listed(option: str, text: str) -> list[str]:
+    """The comma-separated names of ``option``; a name given twice is a usage error."""
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        _usage(f"{option} names {repeated[0]} twice; each transducer has its own")
+    return names
 
 
 def _write_outputs(

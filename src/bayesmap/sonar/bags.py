@@ -2,8 +2,10 @@
 
 Reads ROS 1 bags, ROS 2 bags (sqlite3 or MCAP storage) through the ``rosbags`` library's
 :class:`~rosbags.highlevel.AnyReader`. Each transducer publishes its own ``Range`` topic, in
-ring order; a *ring* is formed at each message of the first topic from every topic's reading
-nearest in time (within half the first topic's median period). A ring with a transducer
+ring order, or transducers share topics and are told apart by their messages' header
+``frame_id`` (``frames``, in ring order: a driver that publishes the whole ring on one
+topic); a *ring* is formed at each message of the first transducer from every transducer's
+reading nearest in time (within half the first one's median period). A ring with a transducer
 silent for that long is skipped and reported, like a bad row of a text log. Poses come from
 ``nav_msgs/Odometry`` (``pose.pose``) or from ``tf2_msgs/TFMessage`` transforms between two
 named frames, and are joined to the rings as in :func:`bayesmap.sonar.logs.read_sonar_log`
@@ -97,6 +99,7 @@ def read_sonar_bag(
     strict: bool = False,
     time_tolerance: float = 0.05,
     max_pose_gap: float = 1.0,
+    frames: Sequence[str] | None = None,
 ) -> SonarLog:
     """Read rings and poses from a ROS 1 bag, a ROS 2 bag folder or an MCAP bag.
 
@@ -105,7 +108,8 @@ def read_sonar_bag(
     path
         ``.bag`` file (ROS 1) or ROS 2 bag folder (sqlite3 or MCAP storage).
     topics
-        One ``sensor_msgs/Range`` topic per transducer, in ring order.
+        One ``sensor_msgs/Range`` topic per transducer, in ring order; with ``frames``, the
+        topic (or topics) the transducers share.
     pose_topic
         A ``nav_msgs/Odometry`` topic, or a ``tf2_msgs/TFMessage`` topic (``/tf``) from which
         the transform ``tf_frames[0] → tf_frames[1]`` is taken.
@@ -113,16 +117,29 @@ def read_sonar_bag(
         Abort at the first ring that cannot be formed or joined.
     time_tolerance, max_pose_gap
         Pose join settings [s], as for :func:`~bayesmap.sonar.logs.read_sonar_log`.
+    frames
+        The transducers' header ``frame_id`` values, in ring order (a leading ``/`` is
+        ignored): a message on any of ``topics`` is the reading of the transducer its frame
+        names; messages of other frames are counted in one warning and left out.
     """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
 
-    if len(topics) < 2:
-        raise InputError(f"a sonar ring needs at least two Range topics, got {list(topics)}")
+    channels = list(topics) if frames is None else [f.lstrip("/") for f in frames]
+    if len(channels) < 2:
+        what = "Range topics" if frames is None else "frames"
+        raise InputError(f"a sonar ring needs at least two {what}, got {channels}")
+    repeated = sorted({c for c in channels if channels.count(c) > 1})
+    if repeated:
+        what = "topic" if frames is None else "frame"
+        raise InputError(f"{what} {repeated[0]} is named twice; each transducer has its own")
+    if not topics:
+        raise InputError("give the Range topic (or topics) the frames are published on")
     bag = Path(path)
     if not bag.exists():
         raise InputError(f"cannot read bag {bag}: no such file or folder")
-    readings: dict[str, list[tuple[float, float]]] = {topic: [] for topic in topics}
+    readings: dict[str, list[tuple[float, float]]] = {channel: [] for channel in channels}
+    other_frames: dict[str, int] = {}
     pose_rows: list[tuple[float, float, float, float]] = []
     try:
         with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
@@ -140,12 +157,17 @@ def read_sonar_bag(
                         f"topic {topic} carries {known[topic].msgtype}, not sensor_msgs/Range",
                         path=bag,
                     )
-            wanted = [c for c in reader.connections if c.topic in readings or c.topic == pose_topic]
+            wanted = [c for c in reader.connections if c.topic in topics or c.topic == pose_topic]
             for connection, timestamp, raw in reader.messages(connections=wanted):
                 message: Any = reader.deserialize(raw, connection.msgtype)
-                if connection.topic in readings:
-                    r = _range(message)
-                    readings[connection.topic].append((_stamp(message, timestamp), r))
+                if connection.topic in topics:
+                    channel = connection.topic
+                    if frames is not None:
+                        channel = str(message.header.frame_id).lstrip("/")
+                        if channel not in readings:
+                            other_frames[channel] = other_frames.get(channel, 0) + 1
+                            continue
+                    readings[channel].append((_stamp(message, timestamp), _range(message)))
                 elif connection.msgtype.endswith("Odometry"):
                     pose = message.pose.pose
                     pose_rows.append(
@@ -190,30 +212,47 @@ def read_sonar_bag(
         )
         detail = " ".join(str(error).split()) or type(error).__name__
         raise FormatError(f"cannot read the bag ({detail}){hint}", path=bag) from None
-    return _assemble(bag, topics, readings, pose_rows, strict, time_tolerance, max_pose_gap)
+    if other_frames:
+        logger.warning(
+            "%s: %d Range messages from frames not in the ring (%s) left out",
+            bag,
+            sum(other_frames.values()),
+            ", ".join(f"{name or '(empty)'}: {n}" for name, n in sorted(other_frames.items())),
+        )
+    silent = [c for c in channels if not readings[c]]
+    if frames is not None and silent:
+        seen = sorted([c for c in channels if readings[c]] + list(other_frames))
+        raise FormatError(
+            f"no Range messages from frame(s) {', '.join(silent)} on {', '.join(topics)}; "
+            f"frames seen: {', '.join(seen) or 'none'}",
+            path=bag,
+        )
+    return _assemble(bag, channels, readings, pose_rows, strict, time_tolerance, max_pose_gap)
 
 
 def _assemble(
     bag: Path,
-    topics: Sequence[str],
+    channels: Sequence[str],
     readings: dict[str, list[tuple[float, float]]],
     pose_rows: list[tuple[float, float, float, float]],
     strict: bool,
     time_tolerance: float,
     max_pose_gap: float,
 ) -> SonarLog:
-    series = {t: np.asarray(sorted(readings[t]), dtype=np.float64).reshape(-1, 2) for t in topics}
+    """Rings from each transducer's ``(stamp, range)`` readings (``channels``: its topic or
+    frame, in ring order), joined to the poses."""
+    series = {c: np.asarray(sorted(readings[c]), dtype=np.float64).reshape(-1, 2) for c in channels}
     silent = [t for t, s in series.items() if len(s) == 0]
     if silent:
         raise FormatError(f"no Range messages on {', '.join(silent)}", path=bag)
     if not pose_rows:
         raise FormatError("no poses in the bag (check the pose topic and tf frames)", path=bag)
-    base = series[topics[0]][:, 0]
+    base = series[channels[0]][:, 0]
     period = float(np.median(np.diff(base))) if len(base) > 1 else 1.0
     window = 0.5 * period
-    ranges = np.full((len(base), len(topics)), np.nan)
-    for k, topic in enumerate(topics):
-        t, r = series[topic][:, 0], series[topic][:, 1]
+    ranges = np.full((len(base), len(channels)), np.nan)
+    for k, channel in enumerate(channels):
+        t, r = series[channel][:, 0], series[channel][:, 1]
         right = np.clip(np.searchsorted(t, base), 0, len(t) - 1)
         left = np.clip(right - 1, 0, len(t) - 1)
         nearest = np.where(np.abs(t[left] - base) <= np.abs(t[right] - base), left, right)
@@ -222,7 +261,7 @@ def _assemble(
     skipped: list[SkippedRow] = []
     complete = ~np.isnan(ranges).any(axis=1)
     for i in np.flatnonzero(~complete):
-        quiet = [topics[int(k)] for k in np.flatnonzero(np.isnan(ranges[i]))]
+        quiet = [channels[int(k)] for k in np.flatnonzero(np.isnan(ranges[i]))]
         skipped.append(
             SkippedRow(
                 str(bag),
