@@ -280,3 +280,96 @@ def test_sonar_map_reads_a_ring_on_one_topic(tmp_path: Path) -> None:
         result = CliRunner().invoke(app, [*base, *extra])
         assert result.exit_code == 2, result.output
         assert said in result.output and result.output.count("\n") <= 2
+
+
+ANGLES = np.radians([45.0, 15.0, -15.0, -45.0])
+POSITIONS = np.array([[0.10, 0.10], [0.15, 0.05], [0.15, -0.05], [0.10, -0.10]])
+
+
+def _cloud_bag(tmp_path: Path, kind: str, *, cloud2: bool, short_ring: int = -1) -> Path:
+    """The drive with its ring as one point cloud a message (RosAria's sonar): transducer
+    k's echo at range 1 + 0.1 k along its axis; ring ``short_ring`` lost its last point."""
+    store = "ros1" if kind == "ros1" else "ros2"
+    ts = get_typestore(Stores.ROS1_NOETIC if store == "ros1" else Stores.ROS2_HUMBLE)
+    t = ts.types
+    messages = [m for m in _messages(store) if m[0] == "/odom"]
+    for i in range(RINGS):
+        ns = 10**9 + i * 100_000_000
+        r = 1.0 + 0.1 * np.arange(4)
+        xy = POSITIONS + r[:, None] * np.stack([np.cos(ANGLES), np.sin(ANGLES)], axis=1)
+        if i == short_ring:
+            xy = xy[:-1]
+        stamp = t["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+        fields = {"stamp": stamp, "frame_id": "base_link"}
+        header = t["std_msgs/msg/Header"](**({"seq": 0} if store == "ros1" else {}), **fields)
+        if cloud2:
+            data = np.zeros((len(xy), 4), dtype="<f4")  # x, y, z, intensity
+            data[:, :2] = xy
+            field_type = t["sensor_msgs/msg/PointField"]
+            msg = t["sensor_msgs/msg/PointCloud2"](
+                header=header, height=1, width=len(xy),
+                fields=[field_type(name=n, offset=4 * k, datatype=7, count=1)
+                        for k, n in enumerate(["x", "y", "z", "intensity"])],
+                is_bigendian=False, point_step=16, row_step=16 * len(xy),
+                data=data.view(np.uint8).reshape(-1), is_dense=True,
+            )  # fmt: skip
+            messages.append(("/sonar_cloud", "sensor_msgs/msg/PointCloud2", ns, msg))
+        else:
+            point = t["geometry_msgs/msg/Point32"]
+            msg = t["sensor_msgs/msg/PointCloud"](
+                header=header, points=[point(x=float(x), y=float(y), z=0.0) for x, y in xy],
+                channels=[],
+            )  # fmt: skip
+            messages.append(("/sonar_cloud", "sensor_msgs/msg/PointCloud", ns, msg))
+    messages.sort(key=lambda m: m[2])
+    path = tmp_path / ("log.bag" if kind == "ros1" else f"log_{kind}")
+    if kind == "ros1":
+        with Writer1(path) as writer1:
+            conns = {}
+            for topic, msgtype, ns, msg in messages:
+                if topic not in conns:
+                    conns[topic] = writer1.add_connection(topic, msgtype, typestore=ts)
+                writer1.write(conns[topic], ns, ts.serialize_ros1(msg, msgtype))
+        return path
+    with Writer2(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer2:
+        conns = {}
+        for topic, msgtype, ns, msg in messages:
+            if topic not in conns:
+                conns[topic] = writer2.add_connection(topic, msgtype, typestore=ts)
+            writer2.write(conns[topic], ns, ts.serialize_cdr(msg, msgtype))
+    return path
+
+
+@pytest.mark.parametrize(("kind", "cloud2"), [("ros1", False), ("ros1", True), ("mcap", True)])
+def test_a_ring_sent_as_a_point_cloud_is_read_as_ranges_from_each_transducer(
+    tmp_path: Path, kind: str, cloud2: bool
+) -> None:
+    bag = _cloud_bag(tmp_path, kind, cloud2=cloud2, short_ring=5)
+    log = read_sonar_bag(bag, ["/sonar_cloud"], positions=POSITIONS)
+    assert np.allclose(log.ranges, [1.0, 1.1, 1.2, 1.3], atol=1e-6)  # float32 points
+    assert [(row.line, row.reason) for row in log.skipped] == [
+        (6, "ring at t=1.500 s holds 3 points, the ring 4 transducers"),
+        (RINGS, log.skipped[-1].reason),  # past the last pose
+    ]
+    at_centre = read_sonar_bag(bag, ["/sonar_cloud"], positions=np.zeros((4, 2)))
+    assert not np.allclose(at_centre.ranges, log.ranges, atol=0.05)  # the offsets matter
+    with pytest.raises(InputError, match="its transducers' positions are needed"):
+        read_sonar_bag(bag, ["/sonar_cloud"])
+
+
+def test_sonar_map_reads_a_point_cloud_ring_with_the_ring_file(tmp_path: Path) -> None:
+    bag = _cloud_bag(tmp_path, "mcap", cloud2=True)
+    ring = tmp_path / "ring.yaml"
+    rows = "\n".join(
+        f"  - {{x: {x}, y: {y}, heading: {np.degrees(a):.1f}}}"
+        for (x, y), a in zip(POSITIONS, ANGLES, strict=True)
+    )
+    ring.write_text(f"angle_unit: deg\nmax_range: 5.0\ntransducers:\n{rows}\n")
+    args = [
+        "sonar", "map", str(bag), "--topics", "/sonar_cloud", "--ring", str(ring),
+        "--resolution", "0.1", "--out", str(tmp_path / "out"),
+    ]  # fmt: skip
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert (summary["rows"], summary["readings"]) == (RINGS, 4 * (RINGS - 1))

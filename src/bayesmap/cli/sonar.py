@@ -241,7 +241,8 @@ def map_command(
         typer.Option(
             "--topics",
             help="LOG is a ROS bag (ROS 1, ROS 2 or MCAP): its sensor_msgs/Range topics, one "
-            "per transducer in ring order, comma-separated.",
+            "per transducer in ring order, comma-separated; or the one topic the ring shares "
+            "(see --frames); or one PointCloud/PointCloud2 topic, a ring per message (RosAria).",
         ),
     ] = None,
     frames: Annotated[
@@ -488,7 +489,7 @@ def _read_bag(
     ring_frames = None if frames is None else _listed("--frames", frames)
     transducers = names if ring_frames is None else ring_frames
     option = "--topics" if ring_frames is None else "--frames"
-    if len(transducers) != geometry.n:
+    if len(transducers) != geometry.n and not (ring_frames is None and len(names) == 1):
         _usage(f"{option} names {len(transducers)} transducers for a ring of {geometry.n}")
     tf_pair = tuple(f.strip() for f in tf_frames.split(","))
     if len(tf_pair) != 2 or not all(tf_pair):
@@ -504,6 +505,7 @@ def _read_bag(
         time_tolerance=pose_tolerance,
         max_pose_gap=max_pose_gap,
         frames=ring_frames,
+        positions=geometry.sensors(np.zeros(3))[0],  # for a ring sent as one point cloud
     )
 
 

@@ -5,7 +5,10 @@ Reads ROS 1 bags, ROS 2 bags (sqlite3 or MCAP storage) through the ``rosbags`` l
 ring order, or transducers share topics and are told apart by their messages' header
 ``frame_id`` (``frames``, in ring order: a driver that publishes the whole ring on one
 topic); a *ring* is formed at each message of the first transducer from every transducer's
-reading nearest in time (within half the first one's median period). A ring with a transducer
+reading nearest in time (within half the first one's median period). A driver that sends
+the whole ring as one ``sensor_msgs/PointCloud`` or ``PointCloud2`` a message, each echo a
+point in the robot frame in transducer order (RosAria, ROS's driver for Pioneer robots), is
+read from that one topic, each range the point's distance from its transducer. A ring with a transducer
 silent for that long is skipped and reported, like a bad row of a text log. Poses come from
 ``nav_msgs/Odometry`` (``pose.pose``) or from ``tf2_msgs/TFMessage`` transforms between two
 named frames, and are joined to the rings as in :func:`bayesmap.sonar.logs.read_sonar_log`
@@ -28,10 +31,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from bayesmap._io import open_input
 from bayesmap._typing import FloatArray
-from bayesmap.errors import FormatError, InputError
+from bayesmap.errors import BayesmapError, FormatError, InputError
 from bayesmap.sonar.logs import SkippedRow, SonarLog, join_poses
 
 __all__ = ["bag_kind", "read_sonar_bag"]
@@ -100,6 +104,7 @@ def read_sonar_bag(
     time_tolerance: float = 0.05,
     max_pose_gap: float = 1.0,
     frames: Sequence[str] | None = None,
+    positions: npt.ArrayLike | None = None,
 ) -> SonarLog:
     """Read rings and poses from a ROS 1 bag, a ROS 2 bag folder or an MCAP bag.
 
@@ -109,7 +114,11 @@ def read_sonar_bag(
         ``.bag`` file (ROS 1) or ROS 2 bag folder (sqlite3 or MCAP storage).
     topics
         One ``sensor_msgs/Range`` topic per transducer, in ring order; with ``frames``, the
-        topic (or topics) the transducers share.
+        topic (or topics) the transducers share; or one ``sensor_msgs/PointCloud`` or
+        ``PointCloud2`` topic whose every message is a ring, point ``k`` the echo of
+        transducer ``k`` in the robot frame (as ROS's driver for Pioneer robots, RosAria,
+        publishes its sonar): its range is the point's distance from the transducer
+        (``positions``).
     pose_topic
         A ``nav_msgs/Odometry`` topic, or a ``tf2_msgs/TFMessage`` topic (``/tf``) from which
         the transform ``tf_frames[0] → tf_frames[1]`` is taken.
@@ -121,12 +130,16 @@ def read_sonar_bag(
         The transducers' header ``frame_id`` values, in ring order (a leading ``/`` is
         ignored): a message on any of ``topics`` is the reading of the transducer its frame
         names; messages of other frames are counted in one warning and left out.
+    positions
+        ``(n, 2)`` the transducers' positions [m] in the robot frame, for a point-cloud topic
+        (:meth:`SonarGeometry.sensors <bayesmap.sonar.geometry.SonarGeometry.sensors>` at the
+        origin).
     """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
 
     channels = list(topics) if frames is None else [f.lstrip("/") for f in frames]
-    if len(channels) < 2:
+    if len(channels) < 2 and not (frames is None and len(topics) == 1):  # one topic: a cloud?
         what = "Range topics" if frames is None else "frames"
         raise InputError(f"a sonar ring needs at least two {what}, got {channels}")
     repeated = sorted({c for c in channels if channels.count(c) > 1})
@@ -139,6 +152,7 @@ def read_sonar_bag(
     if not bag.exists():
         raise InputError(f"cannot read bag {bag}: no such file or folder")
     readings: dict[str, list[tuple[float, float]]] = {channel: [] for channel in channels}
+    clouds: list[tuple[float, FloatArray]] = []
     other_frames: dict[str, int] = {}
     pose_rows: list[tuple[float, float, float, float]] = []
     try:
@@ -151,16 +165,27 @@ def read_sonar_bag(
                     f"{', '.join(sorted(known))}",
                     path=bag,
                 )
-            for topic in topics:
+            cloud = frames is None and len(topics) == 1 and _is_cloud(known[topics[0]].msgtype)
+            for topic in topics if not cloud else ():
                 if not known[topic].msgtype.endswith("/Range"):
                     raise FormatError(
-                        f"topic {topic} carries {known[topic].msgtype}, not sensor_msgs/Range",
+                        f"topic {topic} carries {known[topic].msgtype}, not sensor_msgs/Range"
+                        + (" or a point cloud" if len(topics) == 1 else ""),
                         path=bag,
                     )
+            if len(channels) < 2 and not cloud:
+                raise InputError(f"a sonar ring needs at least two Range topics, got {channels}")
+            if cloud and positions is None:
+                raise InputError(
+                    f"{topics[0]} carries the ring as a point cloud: its transducers' positions "
+                    "are needed to read ranges from it (give the ring)"
+                )
             wanted = [c for c in reader.connections if c.topic in topics or c.topic == pose_topic]
             for connection, timestamp, raw in reader.messages(connections=wanted):
                 message: Any = reader.deserialize(raw, connection.msgtype)
-                if connection.topic in topics:
+                if cloud and connection.topic in topics:
+                    clouds.append((_stamp(message, timestamp), _cloud_points(message, bag)))
+                elif connection.topic in topics:
                     channel = connection.topic
                     if frames is not None:
                         channel = str(message.header.frame_id).lstrip("/")
@@ -199,7 +224,7 @@ def read_sonar_bag(
                         "nav_msgs/Odometry or tf2_msgs/TFMessage",
                         path=bag,
                     )
-    except FormatError:
+    except BayesmapError:
         raise
     except AnyReaderError as error:
         raise FormatError(f"cannot read the bag: {error}", path=bag) from None
@@ -212,6 +237,11 @@ def read_sonar_bag(
         )
         detail = " ".join(str(error).split()) or type(error).__name__
         raise FormatError(f"cannot read the bag ({detail}){hint}", path=bag) from None
+    if clouds:
+        return _cloud_rings(
+            bag, clouds, np.asarray(positions, dtype=np.float64), pose_rows, strict,
+            time_tolerance, max_pose_gap,
+        )  # fmt: skip
     if other_frames:
         logger.warning(
             "%s: %d Range messages from frames not in the ring (%s) left out",
@@ -230,6 +260,62 @@ def read_sonar_bag(
     return _assemble(bag, channels, readings, pose_rows, strict, time_tolerance, max_pose_gap)
 
 
+def _is_cloud(msgtype: str) -> bool:
+    return msgtype.endswith(("/PointCloud", "/PointCloud2"))
+
+
+_CLOUD_TYPES = {1: "i1", 2: "u1", 3: "i2", 4: "u2", 5: "i4", 6: "u4", 7: "f4", 8: "f8"}
+"""``sensor_msgs/PointField`` datatype codes and the numpy types they name."""
+
+
+def _cloud_points(message: Any, bag: Path) -> FloatArray:
+    """``(m, 2)`` the x, y of a ``PointCloud`` or ``PointCloud2`` message's points [m]."""
+    if hasattr(message, "points"):  # sensor_msgs/PointCloud: geometry_msgs/Point32 points
+        return np.array([(p.x, p.y) for p in message.points], dtype=np.float64).reshape(-1, 2)
+    fields = {f.name: f for f in message.fields}
+    n = int(message.width) * int(message.height)
+    raw = np.asarray(message.data, dtype=np.uint8).tobytes()
+    points = np.empty((n, 2))
+    for k, name in enumerate(("x", "y")):
+        field = fields.get(name)
+        code = None if field is None else _CLOUD_TYPES.get(int(field.datatype))
+        if field is None or code is None:
+            raise FormatError(
+                f"a PointCloud2 ring needs numeric x and y fields, it has {', '.join(fields)}",
+                path=bag,
+            )
+        kind = np.dtype((">" if message.is_bigendian else "<") + code)
+        points[:, k] = np.ndarray(
+            (n,), kind, buffer=raw, offset=int(field.offset), strides=(int(message.point_step),)
+        )
+    return points
+
+
+def _cloud_rings(
+    bag: Path,
+    clouds: list[tuple[float, FloatArray]],
+    positions: FloatArray,
+    pose_rows: list[tuple[float, float, float, float]],
+    strict: bool,
+    time_tolerance: float,
+    max_pose_gap: float,
+) -> SonarLog:
+    """Rings from point-cloud messages: transducer ``k``'s range is the distance of point
+    ``k`` from its position (a point that is not finite measured nothing: 0 m)."""
+    clouds.sort(key=lambda cloud: cloud[0])
+    n = len(positions)
+    stamps = np.array([t for t, _ in clouds])
+    ranges = np.zeros((len(clouds), n))
+    reasons = [""] * len(clouds)
+    for i, (t, points) in enumerate(clouds):
+        if len(points) != n:
+            reasons[i] = f"ring at t={t:.3f} s holds {len(points)} points, the ring {n} transducers"
+            continue
+        r = np.hypot(*(points - positions).T)
+        ranges[i] = np.where(np.isfinite(r), r, 0.0)
+    return _join(bag, stamps, ranges, reasons, pose_rows, strict, time_tolerance, max_pose_gap)
+
+
 def _assemble(
     bag: Path,
     channels: Sequence[str],
@@ -245,8 +331,6 @@ def _assemble(
     silent = [t for t, s in series.items() if len(s) == 0]
     if silent:
         raise FormatError(f"no Range messages on {', '.join(silent)}", path=bag)
-    if not pose_rows:
-        raise FormatError("no poses in the bag (check the pose topic and tf frames)", path=bag)
     base = series[channels[0]][:, 0]
     period = float(np.median(np.diff(base))) if len(base) > 1 else 1.0
     window = 0.5 * period
@@ -258,28 +342,43 @@ def _assemble(
         nearest = np.where(np.abs(t[left] - base) <= np.abs(t[right] - base), left, right)
         ok = np.abs(t[nearest] - base) <= window
         ranges[ok, k] = r[nearest[ok]]
-    skipped: list[SkippedRow] = []
-    complete = ~np.isnan(ranges).any(axis=1)
-    for i in np.flatnonzero(~complete):
+    reasons = [""] * len(base)
+    for i in np.flatnonzero(np.isnan(ranges).any(axis=1)):
         quiet = [channels[int(k)] for k in np.flatnonzero(np.isnan(ranges[i]))]
-        skipped.append(
-            SkippedRow(
-                str(bag),
-                int(i) + 1,
-                f"ring at t={base[i]:.3f} s: no reading from {', '.join(quiet)}",
-            )
-        )
+        reasons[i] = f"ring at t={base[i]:.3f} s: no reading from {', '.join(quiet)}"
+    return _join(bag, base, ranges, reasons, pose_rows, strict, time_tolerance, max_pose_gap)
+
+
+def _join(
+    bag: Path,
+    stamps: FloatArray,
+    ranges: FloatArray,
+    reasons: list[str],
+    pose_rows: list[tuple[float, float, float, float]],
+    strict: bool,
+    time_tolerance: float,
+    max_pose_gap: float,
+) -> SonarLog:
+    """Rings (``stamps`` ascending; ``reasons``: why a ring cannot be used, or ``""``)
+    joined to the poses; a ring stamped as the one before it is left out (a driver that
+    restamps, or one message recorded twice), every ring left out is reported."""
+    if not pose_rows:
+        raise FormatError("no poses in the bag (check the pose topic and tf frames)", path=bag)
+    for i in np.flatnonzero(np.diff(stamps) <= 0) + 1:
+        if not reasons[i]:
+            reasons[i] = f"ring at t={stamps[i]:.3f} s has the stamp of the ring before it"
+    complete = np.array([not why for why in reasons], dtype=bool)
     pose_data = np.asarray(sorted(pose_rows), dtype=np.float64)
-    poses, why = join_poses(base, pose_data[:, 0], pose_data[:, 1:], time_tolerance, max_pose_gap)
+    poses, why = join_poses(stamps, pose_data[:, 0], pose_data[:, 1:], time_tolerance, max_pose_gap)
     for i in np.flatnonzero(complete & (why != "")):
-        skipped.append(SkippedRow(str(bag), int(i) + 1, str(why[i])))
-    skipped.sort(key=lambda row: row.line)
+        reasons[i] = str(why[i])
+    skipped = [SkippedRow(str(bag), i + 1, why) for i, why in enumerate(reasons) if why]
     if strict and skipped:
         raise FormatError(skipped[0].reason + " (drop --strict to skip it)", path=bag)
-    keep = complete & (why == "")
     for row in skipped:
         logger.warning("%s, ring %d: %s; skipped", bag, row.line, row.reason)
+    keep = np.array([not why for why in reasons], dtype=bool)
     if not keep.any():
         raise FormatError(f"no usable rings ({len(skipped)} skipped)", path=bag)
     out_ranges: FloatArray = ranges[keep]
-    return SonarLog(base[keep], poses[keep], out_ranges, len(base), tuple(skipped))
+    return SonarLog(stamps[keep], poses[keep], out_ranges, len(stamps), tuple(skipped))
