@@ -286,9 +286,12 @@ ANGLES = np.radians([45.0, 15.0, -15.0, -45.0])
 POSITIONS = np.array([[0.10, 0.10], [0.15, 0.05], [0.15, -0.05], [0.10, -0.10]])
 
 
-def _cloud_bag(tmp_path: Path, kind: str, *, cloud2: bool, short_ring: int = -1) -> Path:
+def _cloud_bag(
+    tmp_path: Path, kind: str, *, cloud2: bool, short_ring: int = -1, twice: int = -1
+) -> Path:
     """The drive with its ring as one point cloud a message (RosAria's sonar): transducer
-    k's echo at range 1 + 0.1 k along its axis; ring ``short_ring`` lost its last point."""
+    k's echo at range 1 + 0.1 k along its axis; ring ``short_ring`` lost its last point,
+    ring ``twice`` is recorded twice."""
     store = "ros1" if kind == "ros1" else "ros2"
     ts = get_typestore(Stores.ROS1_NOETIC if store == "ros1" else Stores.ROS2_HUMBLE)
     t = ts.types
@@ -321,6 +324,8 @@ def _cloud_bag(tmp_path: Path, kind: str, *, cloud2: bool, short_ring: int = -1)
                 channels=[],
             )  # fmt: skip
             messages.append(("/sonar_cloud", "sensor_msgs/msg/PointCloud", ns, msg))
+        if i == twice:
+            messages.append(messages[-1])
     messages.sort(key=lambda m: m[2])
     path = tmp_path / ("log.bag" if kind == "ros1" else f"log_{kind}")
     if kind == "ros1":
@@ -373,3 +378,11 @@ def test_sonar_map_reads_a_point_cloud_ring_with_the_ring_file(tmp_path: Path) -
     assert result.exit_code == 0, result.output
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert (summary["rows"], summary["readings"]) == (RINGS, 4 * (RINGS - 1))
+
+
+def test_a_ring_recorded_twice_is_read_once_and_reported(tmp_path: Path) -> None:
+    bag = _cloud_bag(tmp_path, "ros1", cloud2=False, twice=3)
+    log = read_sonar_bag(bag, ["/sonar_cloud"], positions=POSITIONS)
+    assert log.rows == RINGS + 1 and len(log.timestamps) == RINGS - 1
+    assert np.all(np.diff(log.timestamps) > 0)
+    assert log.skipped[0].reason == "ring at t=1.300 s has the stamp of the ring before it"
