@@ -67,6 +67,8 @@ def _draw_extras(
                 markersize=6,
                 linestyle="none",
                 label="start",
+                clip_on=False,  # whole even where the start lies on the area's edge
+                zorder=5,
             )
 
 
