@@ -5,11 +5,12 @@ Reads ROS 1 bags, ROS 2 bags (sqlite3 or MCAP storage) through the ``rosbags`` l
 ring order, or transducers share topics and are told apart by their messages' header
 ``frame_id`` (``frames``, in ring order: a driver that publishes the whole ring on one
 topic); a *ring* is formed at each message of the first transducer from every transducer's
-reading nearest in time (within half the first one's median period). A driver that sends
-the whole ring as one ``sensor_msgs/PointCloud`` or ``PointCloud2`` a message, each echo a
-point in the robot frame in transducer order (RosAria, ROS's driver for Pioneer robots), is
-read from that one topic, each range the point's distance from its transducer. A ring with a transducer
-silent for that long is skipped and reported, like a bad row of a text log. Poses come from
+reading nearest in time (within half the first one's median period), and a ring with a
+transducer silent for that long is skipped and reported, like a bad row of a text log. A
+driver that sends the whole ring as one ``sensor_msgs/PointCloud`` or ``PointCloud2`` a
+message, each echo a point in the robot frame in transducer order (RosAria, ROS's driver
+for Pioneer robots), is read from that one topic, each range the point's distance from its
+transducer. Poses come from
 ``nav_msgs/Odometry`` (``pose.pose``) or from ``tf2_msgs/TFMessage`` transforms between two
 named frames, and are joined to the rings as in :func:`bayesmap.sonar.logs.read_sonar_log`
 (interpolation across gaps up to ``max_pose_gap``, else the nearest pose within
@@ -154,6 +155,7 @@ def read_sonar_bag(
     readings: dict[str, list[tuple[float, float]]] = {channel: [] for channel in channels}
     clouds: list[tuple[float, FloatArray]] = []
     other_frames: dict[str, int] = {}
+    cloud = False  # whether the ring comes as one point cloud a message
     pose_rows: list[tuple[float, float, float, float]] = []
     try:
         with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
@@ -237,7 +239,9 @@ def read_sonar_bag(
         )
         detail = " ".join(str(error).split()) or type(error).__name__
         raise FormatError(f"cannot read the bag ({detail}){hint}", path=bag) from None
-    if clouds:
+    if cloud:
+        if not clouds:
+            raise FormatError(f"no messages on {topics[0]}", path=bag)
         return _cloud_rings(
             bag, clouds, np.asarray(positions, dtype=np.float64), pose_rows, strict,
             time_tolerance, max_pose_gap,
