@@ -159,10 +159,11 @@ def test_a_world_file_replaces_the_field_and_names_the_runs_by_their_init(tmp_pa
     ]
 
 
-def test_step_budget_is_six_sweeps_of_the_observable_area() -> None:
+def test_step_budget_is_twelve_sweeps_of_the_observable_area() -> None:
     params = rover.Config.model_validate({}).rover_params()
     one = rover.step_budget(400.0, params)
     swath = 2 * (params.sensor_offset + 1.245)  # the rangers' offset plus informative range
-    assert one == pytest.approx(rover.SWEEPS * 400.0 / (swath * params.speed * params.dt), abs=2)
+    assert rover.SWEEPS == 12
+    assert one == pytest.approx(rover.SWEEPS * 400.0 / (swath * params.speed * params.dt), rel=1e-3)
     assert rover.step_budget(1600.0, params) == pytest.approx(4 * one, abs=4)  # grows with area
     assert rover.step_budget(0.0, params) == 1

@@ -46,7 +46,7 @@ def run_command(
         typer.Option(
             "--max-steps",
             min=1,
-            help="Cycle budget (default: 6 sweeps of the observable area, docs/rover.md).",
+            help="Cycle budget (default: 12 sweeps of the observable area, docs/rover.md).",
         ),
     ] = None,
 ) -> None:
