@@ -107,8 +107,14 @@ def _write(
     shared: str | None = None,
 ) -> Path:
     store = "ros1" if kind == "ros1" else "ros2"
-    ts = get_typestore(Stores.ROS1_NOETIC if store == "ros1" else Stores.ROS2_HUMBLE)
-    messages = sorted(_messages(store, tf=tf, codes=codes, shared=shared), key=lambda m: m[2])
+    return _bag(tmp_path, kind, _messages(store, tf=tf, codes=codes, shared=shared))
+
+
+def _bag(tmp_path: Path, kind: str, messages: list[tuple[str, str, int, object]]) -> Path:
+    """``messages`` (topic, type, ns, message) written in time order with rosbags' writer
+    of ``kind``: ros1, ros2 (sqlite3) or mcap."""
+    ts = get_typestore(Stores.ROS1_NOETIC if kind == "ros1" else Stores.ROS2_HUMBLE)
+    messages = sorted(messages, key=lambda m: m[2])
     if kind == "ros1":
         path = tmp_path / "log.bag"
         with Writer1(path) as writer:
@@ -326,23 +332,7 @@ def _cloud_bag(
             messages.append(("/sonar_cloud", "sensor_msgs/msg/PointCloud", ns, msg))
         if i == twice:
             messages.append(messages[-1])
-    messages.sort(key=lambda m: m[2])
-    path = tmp_path / ("log.bag" if kind == "ros1" else f"log_{kind}")
-    if kind == "ros1":
-        with Writer1(path) as writer1:
-            conns = {}
-            for topic, msgtype, ns, msg in messages:
-                if topic not in conns:
-                    conns[topic] = writer1.add_connection(topic, msgtype, typestore=ts)
-                writer1.write(conns[topic], ns, ts.serialize_ros1(msg, msgtype))
-        return path
-    with Writer2(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer2:
-        conns = {}
-        for topic, msgtype, ns, msg in messages:
-            if topic not in conns:
-                conns[topic] = writer2.add_connection(topic, msgtype, typestore=ts)
-            writer2.write(conns[topic], ns, ts.serialize_cdr(msg, msgtype))
-    return path
+    return _bag(tmp_path, kind, messages)
 
 
 @pytest.mark.parametrize(("kind", "cloud2"), [("ros1", False), ("ros1", True), ("mcap", True)])
