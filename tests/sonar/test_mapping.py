@@ -118,8 +118,10 @@ def test_the_sweep_keeps_the_recorded_forward_maps_of_two_logs(
 ) -> None:
     # tests/sonar/data/make_golden_forward_map.py recorded two logs and the default
     # pipeline's map (then called ``forward``) made of them before the sweep and the cone
-    # cells were rewritten for speed: every log-odds value, swept cell and verdict must stay
-    # the same, bit for bit (with the symmetric arc the pipeline had then).
+    # cells were rewritten for speed: every swept cell and verdict must stay the same, bit
+    # for bit, and every log-odds value to rounding (with the symmetric arc the pipeline had
+    # then). NumPy releases may sum in another order: with NumPy 2.4 about 3 % of the
+    # values moved by at most 3e-14.
     pipelines_as_recorded(monkeypatch)
     maker = recorder("make_golden_forward_map")
     recorded = np.load(DATA / "golden_forward_map.npz")
@@ -128,7 +130,11 @@ def test_the_sweep_keeps_the_recorded_forward_maps_of_two_logs(
         got = maker.mapped("default", poses, ranges)
         assert np.count_nonzero(got["log_odds"]) > 5000  # the log maps something
         for key, value in got.items():
-            assert np.array_equal(value, recorded[f"{world_name}/{key}"]), (world_name, key)
+            expected = recorded[f"{world_name}/{key}"]
+            if key == "log_odds":
+                assert np.allclose(value, expected, rtol=0.0, atol=1e-9), world_name
+            else:
+                assert np.array_equal(value, expected), (world_name, key)
 
 
 def test_three_pipelines_keep_the_recorded_outcomes_of_a_log_of_thousands_of_rings(
@@ -137,7 +143,8 @@ def test_three_pipelines_keep_the_recorded_outcomes_of_a_log_of_thousands_of_rin
     # tests/sonar/data/make_golden_whole_log.py recorded (at a3c633a, before the outcomes
     # and the rejection log were kept as compact arrays and the map's verdict judged in
     # chunks) what default, streaming and paper return for a 3,158-ring log: every value
-    # must stay the same, with the verdict judged here 500 rings at a time.
+    # must stay the same (the log-odds to 1e-6, see there), with the verdict judged here
+    # 500 rings at a time.
     monkeypatch.setattr(map_verdict, "_RINGS_PER_CHUNK", 500)
     pipelines_as_recorded(monkeypatch)
     maker = recorder("make_golden_whole_log")
