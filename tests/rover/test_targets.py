@@ -1,14 +1,24 @@
-"""The paper's target rule (eqs. 38–39) on path costs: giving up what looking cannot resolve."""
+"""The target rules (the paper's eqs. 38–39 on path costs, and the frontier baseline):
+giving up what looking cannot resolve."""
 
 from __future__ import annotations
+
+import numpy as np
 
 from bayesmap.grid import OccupancyGrid
 from bayesmap.rover.mapping import UncertainBlocks
 from bayesmap.rover.params import RoverParams
 from bayesmap.rover.planning import local_plan
-from bayesmap.rover.targets import EntropyTarget, look_cycles
+from bayesmap.rover.targets import EntropyTarget, FrontierTarget, look_cycles
 
 PARAMS = RoverParams()
+
+
+def _select(
+    rule: EntropyTarget | FrontierTarget, grid: OccupancyGrid, pose: tuple[float, float, float]
+) -> tuple[float, float] | None:
+    plan = local_plan(grid, pose[0], pose[1], PARAMS)
+    return rule.select(grid, pose, plan, UncertainBlocks(grid.entropy >= PARAMS.h_desired))
 
 
 def test_a_face_target_looked_at_in_vain_gives_up_its_band_but_not_open_ground() -> None:
@@ -48,3 +58,23 @@ def test_when_all_that_is_left_was_given_up_the_blacklist_is_forgiven() -> None:
     assert rule.blacklist_ == set()
     grid.entropy[20, 20] = 0.05
     assert rule.select(grid, pose, plan, UncertainBlocks(grid.entropy >= PARAMS.h_desired)) is None
+
+
+def test_frontier_endgame_looks_at_a_cell_beside_an_obstacle_then_gives_it_up() -> None:
+    # no frontier left; two uncertain cells, the nearer against an obstacle: the baseline
+    # goes to look at it (it used to stop, with the obstacle's face unseen)
+    grid = OccupancyGrid(10.0, 10.0, 0.5, prior=0.2, initial_entropy=0.1)
+    grid.probability[:] = 0.05
+    grid.probability[grid.world_to_cell(5.7, 5.2)] = 0.9
+    rows, cols = grid.world_to_cell(np.array([5.2, 8.2]), np.array([5.2, 8.2]))
+    grid.entropy[rows, cols] = 1.0
+    rule = FrontierTarget(PARAMS)
+    target = _select(rule, grid, (3.0, 5.2, 0.0))
+    assert target == (5.25, 5.25)
+    viewpoint = local_plan(grid, 3.0, 5.2, PARAMS).waypoint(target)
+    assert viewpoint is not None and viewpoint != target
+    # still uncertain after a full turn's cycles at its viewpoint: given up for the other
+    at = (*viewpoint, 0.0)
+    chosen = [_select(rule, grid, at) for _ in range(look_cycles(PARAMS) + 1)]
+    assert chosen[:-1] == [target] * look_cycles(PARAMS)
+    assert chosen[-1] == (8.25, 8.25) and target in rule.blacklist_

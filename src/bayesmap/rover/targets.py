@@ -240,11 +240,16 @@ class FrontierTarget:
     nearest to the rover by a breadth-first search through passable cells, skipping cells
     closer than ``d_min`` or not clear of likely obstacles (:func:`clear_of_obstacles`).
     A goal is kept while it is unknown or above ``h_desired``, for at most ``replan_every``
-    calls (Yamauchi's timeout), after which it is blacklisted, as are goals the planner
-    finds unreachable. With no frontier left, the nearest cell whose
-    entropy is still at least ``h_desired`` is the goal, so that the stop rule can be met;
-    when all of them were given up the blacklist is forgiven, as in :class:`EntropyTarget`;
-    ``None`` when no such cell is clear of obstacles.
+    calls (Yamauchi's timeout) and for at most a full turn's cycles at its viewpoint
+    (:func:`look_cycles`), after which it is blacklisted, as are goals the planner finds
+    unreachable. With no frontier left, the nearest cell whose entropy is still at least
+    ``h_desired`` and that is not a likely obstacle is the goal, so that the stop rule can
+    be met: a cell beside an obstacle too, looked at from the viewpoint that
+    :class:`~bayesmap.rover.planning.LocalPlan` finds, as for the paper's rule. Until
+    2026-12-04 these goals had to be clear of obstacles, and the baseline stopped with the
+    faces of obstacles unseen, or timed out on them one by one: it reached 90 % coverage in
+    14 of 72 runs on generated 20 m worlds (docs/rover.md). When all of them were given up the
+    blacklist is forgiven, as in :class:`EntropyTarget`; ``None`` when no such cell is left.
 
     Attributes
     ----------
@@ -259,6 +264,7 @@ class FrontierTarget:
         self.target_: tuple[float, float] | None = None
         self.blacklist_: set[tuple[float, float]] = set()
         self._age = 0
+        self._looked = 0
 
     def reject(self, target: tuple[float, float]) -> None:
         self.blacklist_.add(target)
@@ -272,7 +278,6 @@ class FrontierTarget:
         plan: LocalPlan,
         uncertain_blocks: UncertainBlocks,
     ) -> tuple[float, float] | None:
-        del plan  # the baseline searches the whole map, but only when it re-plans
         if uncertain_blocks.total == 0:
             self.target_ = None
             return None
@@ -283,11 +288,13 @@ class FrontierTarget:
                 grid.probability[row, col] == grid.prior
                 or grid.entropy[row, col] >= self.params.h_desired
             )
-            if pending and self._age < self.replan_every:
+            self._looked += int(plan.cost_to(*self.target_) <= grid.resolution)
+            looking = self._looked <= look_cycles(self.params)
+            if pending and looking and self._age < self.replan_every:
                 return self.target_
             if pending:
                 self.reject(self.target_)
-        self._age = 0
+        self._age = self._looked = 0
         uncertain = grid.entropy >= self.params.h_desired
         unknown = grid.unobserved()
         x, y = float(np.asarray(pose)[0]), float(np.asarray(pose)[1])
@@ -313,10 +320,12 @@ class FrontierTarget:
         rows, cols = np.indices(unknown.shape)
         xs, ys = grid.cell_centers(rows, cols)
         distance_to_rover = np.hypot(xs - x, ys - y)
-        clear = clear_of_obstacles(grid.probability, p, grid.resolution)
+        ny, nx = grid.shape
+        allowed = np.ones((ny, nx), dtype=bool)
         for r, c in _cells(grid, self.blacklist_):
-            if 0 <= r < clear.shape[0] and 0 <= c < clear.shape[1]:
-                clear[r, c] = False
+            if 0 <= r < ny and 0 <= c < nx:
+                allowed[r, c] = False
+        clear = clear_of_obstacles(grid.probability, p, grid.resolution) & allowed
         far = (distance_to_rover >= p.d_min) & clear
         labels, n = ndimage.label(frontier, structure=np.ones((3, 3), dtype=bool))
         if n:
@@ -333,8 +342,10 @@ class FrontierTarget:
                     mx, my = xs[members], ys[members]
                     j = int(np.argmin(np.hypot(mx - cx[k], my - cy[k])))
                     return float(mx[j]), float(my[j])
-        d = np.where(uncertain & clear, distance_to_rover, np.inf)
-        d = np.where(far, d, d + 1e6)  # near cells only when nothing else is left
+        # no frontier goal left: the nearest uncertain cell, seen from a viewpoint if need be
+        d = np.where(uncertain & passable & allowed, distance_to_rover, np.inf)
+        # cells nearer than d_min only when nothing else is left
+        d = np.where(distance_to_rover >= p.d_min, d, d + 1e6)
         k = int(np.argmin(d))
         return None if np.isinf(d.flat[k]) else (float(xs.flat[k]), float(ys.flat[k]))
 
