@@ -269,6 +269,53 @@ def test_a_clean_up_that_hangs_after_sigterm_ends_with_the_stacks_printed():
     assert "Timeout (0:00:01)!" in err and "in <module>" in err
 
 
+# SIGTERM while a finaliser runs: Python prints that SystemExit and drops it, so the run
+# goes on; the exit must come again, and its repeats must leave the clean-up alone.
+_SWALLOWED = """
+import os, signal, sys, time
+from pathlib import Path
+from bayesmap._io import run_folder, terminate_as_exit, write_text
+
+class Collected:
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGTERM)
+        total = 0
+        for k in range(1000):  # bytecode after the signal: its handler runs in here
+            total += k
+
+target, marker = Path(sys.argv[1]), Path(sys.argv[2])
+run = run_folder(target, command="t", configuration={}, seed=1)
+with terminate_as_exit(retry=0.2), run as folder:
+    write_text(folder.path / "metrics.json", "new")
+    try:
+        Collected()
+        start = time.monotonic()
+        while time.monotonic() - start < 20:
+            sum(range(1000))
+        print("the exit was lost", flush=True)
+    finally:
+        time.sleep(1.0)  # a slow clean-up: five repeats would fall in it
+        marker.write_text("cleaned")
+"""
+
+
+def test_a_sigterm_dropped_by_a_finaliser_still_ends_the_run_cleanly(tmp_path):
+    _run(tmp_path / "out", {"metrics.json": "old"})
+    marker = tmp_path / "cleaned.txt"
+    child = subprocess.run(
+        [sys.executable, "-c", _SWALLOWED, str(tmp_path / "out"), str(marker)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert child.returncode == 143, child.stderr
+    assert "the exit was lost" not in child.stdout
+    assert "Exception ignored in" in child.stderr  # the first exit was indeed dropped
+    assert marker.read_text() == "cleaned"
+    assert (tmp_path / "out" / "metrics.json").read_text() == "old"
+    assert _leftovers(tmp_path) == []
+
+
 def test_read_input_refuses_what_is_not_a_regular_file(tmp_path):
     with pytest.raises(FormatError, match="regular file"):
         read_input(tmp_path, max_bytes=10)

@@ -24,6 +24,9 @@ Writing a run
 Interruption
     Python runs ``finally`` blocks on SIGINT (``KeyboardInterrupt``) but not on SIGTERM;
     :func:`terminate_as_exit` turns SIGTERM into ``SystemExit`` so the same clean-up runs.
+    A signal whose exception lands in a finaliser (``__del__``, a weakref callback: Python
+    prints such an exception and drops it) is raised again every
+    :data:`TERMINATE_RETRY` seconds until a clean-up is under way.
     Should that clean-up hang (a library stuck on a lock, say), the process prints every
     thread's stack to stderr and ends :data:`TERMINATE_GRACE` seconds after the signal,
     so a service manager's SIGTERM always ends it; what it left behind is swept as
@@ -70,6 +73,8 @@ MANIFEST_FORMAT = "bayesmap-run/1"
 """Value of the manifest's ``format`` field."""
 TERMINATE_GRACE = 30.0
 """Seconds a process has, after SIGTERM, to clean up before it ends without doing so [s]."""
+TERMINATE_RETRY = 0.5
+"""Seconds between repeats of SIGTERM's ``SystemExit`` while no clean-up has taken it [s]."""
 STALE_AFTER = 10.0
 """Seconds after which an unlocked temporary file or folder counts as abandoned [s]."""
 _CHUNK = 1 << 20
@@ -577,29 +582,60 @@ def _version() -> str:
 
 # ---------------------------------------------------------------------------- interruption
 @contextlib.contextmanager
-def terminate_as_exit(grace: float = TERMINATE_GRACE) -> Iterator[None]:
+def terminate_as_exit(
+    grace: float = TERMINATE_GRACE, retry: float = TERMINATE_RETRY
+) -> Iterator[None]:
     """Within the block, SIGTERM raises ``SystemExit(143)`` so clean-up code runs.
 
     The signal also arms :mod:`faulthandler`'s watchdog (a C thread, which runs even when
     the main thread is stuck holding the interpreter lock): if the process is still alive
     ``grace`` seconds later, it writes every thread's stack to stderr and exits with
-    code 1. Does nothing outside the main thread (where signal handlers cannot
-    be set).
+    code 1. Python runs a signal's handler wherever the main thread is, and when that is a
+    finaliser (``__del__``, a weakref callback, run whenever an object is collected), it
+    prints the ``SystemExit`` and drops it; so the exit is raised again every ``retry``
+    seconds (``SIGALRM``) until the process is cleaning up for it — a ``SystemExit`` is
+    being handled, in an ``except`` or ``finally`` block or a context manager's exit —
+    which a repeat, or a second SIGTERM, never interrupts. Does nothing outside the main
+    thread (where signal handlers cannot be set).
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    code = 128 + signal.SIGTERM
 
     def _exit(signum: int, frame: FrameType | None) -> None:
+        if _exit_under_way():
+            return
         if sys.__stderr__ is not None:
             faulthandler.dump_traceback_later(grace, exit=True, file=sys.__stderr__)
-        raise SystemExit(128 + signum)
+        signal.setitimer(signal.ITIMER_REAL, retry, retry)
+        raise SystemExit(code)
+
+    def _again(signum: int, frame: FrameType | None) -> None:
+        if _exit_under_way():
+            signal.setitimer(signal.ITIMER_REAL, 0.0)
+            return
+        raise SystemExit(code)
 
     previous = signal.signal(signal.SIGTERM, _exit)
+    previous_alarm = signal.signal(signal.SIGALRM, _again)
     try:
         yield
     finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous_alarm)
         signal.signal(signal.SIGTERM, previous)
+
+
+def _exit_under_way() -> bool:
+    """Whether this thread is handling a ``SystemExit``: the exception being handled, or
+    one it was raised while handling (a clean-up's own caught error), is one."""
+    error = sys.exc_info()[1]
+    while error is not None:
+        if isinstance(error, SystemExit):
+            return True
+        error = error.__context__
+    return False
 
 
 __all__ = [
