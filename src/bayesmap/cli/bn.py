@@ -470,9 +470,9 @@ def _print(result: dict[str, Any]) -> None:
     else:
         bounds_of = result.get("error_bounds", {})
         answers = {n: (p, bounds_of.get(n)) for n, p in result["posteriors"].items()}
-        title = "posterior of every unobserved variable"
+        title = "P(each variable | evidence)"
     bounded = "error_bound" in result or "error_bounds" in result
-    table = Table(title=title)
+    table = Table(title=title, min_width=len(title) + 2)  # the title on one line
     if "target" not in result:
         table.add_column("variable")
     table.add_column("state")
