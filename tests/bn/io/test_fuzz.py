@@ -149,6 +149,7 @@ def test_failed_write_leaves_no_file(tmp_path) -> None:
         ("a.xml", "xmlbif"),
         ("a.XMLBIF", "xmlbif"),
         ("a.bifxml.gz", "xmlbif"),
+        ("a.xbif", "xmlbif"),
         ("a.bif", "bif"),
         ("a.bif.gz", "bif"),
         ("a.xbn", "xbn"),
@@ -157,3 +158,35 @@ def test_failed_write_leaves_no_file(tmp_path) -> None:
 )
 def test_extensions_choose_the_format(name: str, fmt: str) -> None:
     assert io.format_of(name).name == fmt
+
+
+@pytest.mark.parametrize("fmt", ["xmlbif", "bif", "xbn"])
+def test_a_file_whose_extension_names_no_format_is_read_by_its_content(tmp_path, fmt) -> None:
+    text = SEEDS[fmt]
+    if fmt == "xmlbif":  # as JavaBayes writes it: a comment and a DTD before the root
+        text = text.replace(
+            "<BIF",
+            "<!-- by <JavaBayes> -->\n<!DOCTYPE BIF [\n  <!ELEMENT BIF ( NETWORK )*>\n]>\n<BIF",
+            1,
+        )
+    if fmt == "bif":
+        text = "// exported\n/* a <note> */\n" + text
+    (tmp_path / "net.txt").write_text(text)
+    (tmp_path / "net.dat.gz").write_bytes(gzip.compress(text.encode()))
+    expected = io.loads(SEEDS[fmt], fmt)
+    for name in ("net.txt", "net.dat.gz"):
+        net = io.read(tmp_path / name)
+        assert list(net.variables) == list(expected.variables)
+        assert np.array_equal(net.cpt("either"), expected.cpt("either"))
+    assert io.sniff(text.encode()) is io.FORMATS[fmt]
+
+
+@pytest.mark.parametrize(
+    "text", ["net { }", "<smile version='1.0'/>", "", "networks are fun", "<?xml version='1.0'?>"]
+)
+def test_content_no_format_matches_is_refused_with_the_extensions(tmp_path, text) -> None:
+    (tmp_path / "model.net").write_text(text)
+    with pytest.raises(FormatError, match=r"model\.net.*file name or its content.*\.xbif"):
+        io.read(tmp_path / "model.net")
+    with pytest.raises(FormatError, match="from the file name;"):
+        io.write(io.loads(SEEDS["bif"], "bif"), tmp_path / "out.net")

@@ -4,8 +4,9 @@ Models don't know their files: each format is a module (:mod:`~bayesmap.bn.io.xm
 :mod:`~bayesmap.bn.io.bif`, :mod:`~bayesmap.bn.io.xbn`) with ``read``/``write`` and
 ``loads``/``dumps``, and :data:`FORMATS` maps a format name to them and to its file
 extensions. :func:`read` and :func:`write` dispatch on the extension
-(``.xml``/``.xmlbif``/``.bifxml`` → XMLBIF, ``.bif`` → BIF, ``.xbn`` → XBN), each optionally
-followed by ``.gz``.
+(``.xml``/``.xmlbif``/``.bifxml``/``.xbif`` → XMLBIF, ``.bif`` → BIF, ``.xbn`` → XBN), each
+optionally followed by ``.gz``; :func:`read` of a file whose extension names no format
+tells the format from its content (:func:`sniff`).
 
 Examples
 --------
@@ -22,6 +23,7 @@ Examples
 from __future__ import annotations
 
 import importlib
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,7 +34,7 @@ from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
 from bayesmap.limits import ReadLimits
 
-__all__ = ["FORMATS", "Format", "dumps", "format_of", "loads", "read", "write"]
+__all__ = ["FORMATS", "Format", "dumps", "format_of", "loads", "read", "sniff", "write"]
 
 
 @dataclass(frozen=True)
@@ -62,7 +64,7 @@ FORMATS: dict[str, Format] = {
         "xmlbif",
         _deferred("xmlbif", "loads"),
         _deferred("xmlbif", "dumps"),
-        (".xml", ".xmlbif", ".bifxml"),
+        (".xml", ".xmlbif", ".bifxml", ".xbif"),
     ),
     "bif": Format("bif", _deferred("bif", "loads"), _deferred("bif", "dumps"), (".bif",)),
     "xbn": Format("xbn", _deferred("xbn", "loads"), _deferred("xbn", "dumps"), (".xbn",)),
@@ -78,6 +80,17 @@ def format_of(path: str | Path, format: str | None = None) -> Format:
     FormatError
         Unknown format name or extension.
     """
+    fmt = _named_format(path, format)
+    if fmt is None:
+        raise FormatError(
+            f"cannot tell the format from the file name; {_EXTENSIONS_HINT}", path=str(path)
+        )
+    return fmt
+
+
+def _named_format(path: str | Path, format: str | None) -> Format | None:
+    """``format`` if given (unknown: :class:`FormatError`), else the format ``path``'s
+    extension names, or ``None``."""
     if format is not None:
         try:
             return FORMATS[format.lower()]
@@ -91,18 +104,43 @@ def format_of(path: str | Path, format: str | None = None) -> Format:
     for fmt in FORMATS.values():
         if name.endswith(fmt.extensions):
             return fmt
-    known = sorted(ext for fmt in FORMATS.values() for ext in fmt.extensions)
-    raise FormatError(
-        f"cannot tell the format from the file name; use one of the extensions {known} "
-        "(optionally followed by .gz), or from Python pass format=",
-        path=str(path),
-    )
+    return None
+
+
+_EXTENSIONS_HINT = (
+    "use one of the extensions "
+    f"{sorted(ext for fmt in FORMATS.values() for ext in fmt.extensions)} "
+    "(optionally followed by .gz), or from Python pass format="
+)
+_XML_ROOTS = {"BIF": "xmlbif", "NETWORK": "xmlbif", "ANALYSISNOTEBOOK": "xbn", "BNMODEL": "xbn"}
+_XML_NOISE = re.compile(rb"<!--.*?-->|<[?!][^>]*>|\]>", re.DOTALL)
+"""Comments, the XML declaration, processing instructions and DTD declarations."""
+_XML_ROOT = re.compile(rb"<(?:[\w.-]+:)?([A-Za-z_][\w.-]*)")
+_BIF_NOISE = re.compile(rb"(?:\s|//[^\n]*|/\*.*?\*/)*", re.DOTALL)
+"""Blank space and C-style comments, which BIF allows before its ``network`` block."""
+
+
+def sniff(data: bytes) -> Format | None:
+    """The format of a network file's ``data`` from its content, or ``None``.
+
+    XML is XMLBIF when its root element is ``<BIF>`` (or a bare ``<NETWORK>``) and XBN when
+    it is ``<ANALYSISNOTEBOOK>`` (or ``<BNMODEL>``); text whose first word, after blank
+    space and comments, is ``network`` is BIF. Only the first 64 KiB are looked at.
+    """
+    head = data[: 1 << 16].lstrip(b"\xef\xbb\xbf \t\r\n")
+    if head.startswith(b"<"):
+        root = _XML_ROOT.search(_XML_NOISE.sub(b"", head))
+        name = _XML_ROOTS.get(root.group(1).decode("ascii").upper()) if root else None
+        return FORMATS[name] if name else None
+    words = _BIF_NOISE.sub(b"", head, count=1)  # the pattern matches (maybe empty) at 0
+    return FORMATS["bif"] if re.match(rb"network\b", words) else None
 
 
 def read(
     path: str | Path, format: str | None = None, *, limits: ReadLimits | None = None
 ) -> BayesNet:
-    """Read a network file into a new :class:`BayesNet` (format from the extension).
+    """Read a network file into a new :class:`BayesNet` (format from the extension, else
+    from the content: :func:`sniff`).
 
     ``limits`` caps the file's bytes (also after gunzipping) and its tables' sizes before
     anything is allocated (default :data:`~bayesmap.limits.DEFAULT_LIMITS`).
@@ -113,8 +151,17 @@ def read(
         Unknown extension, unreadable or non-regular file, a limit passed, malformed or
         inconsistent content; the message names the file and the line or element.
     """
-    fmt = format_of(path, format)
-    return fmt.loads(read_source(path, limits), path=str(path), limits=limits)
+    fmt = _named_format(path, format)
+    data = read_source(path, limits)
+    if fmt is None:
+        fmt = sniff(data)
+        if fmt is None:
+            raise FormatError(
+                "cannot tell the format from the file name or its content (XMLBIF, BIF or "
+                f"XBN); {_EXTENSIONS_HINT}",
+                path=str(path),
+            )
+    return fmt.loads(data, path=str(path), limits=limits)
 
 
 def write(net: BayesNet, path: str | Path, format: str | None = None) -> Path:
