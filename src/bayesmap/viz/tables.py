@@ -390,7 +390,9 @@ def fused_map_figure(
     the figure's height follows the arena's shape.
     """
     aspect = (bounds[3] - bounds[1]) / max(bounds[2] - bounds[0], 1e-9)
-    fig = Figure(figsize=(5.6, 1.1 + 4.5 * min(max(aspect, 0.3), 1.6)), layout="constrained")
+    # the axes' height [in] follows the arena's (a long corridor gets a low strip, not a
+    # gap above the legend), within bounds that keep a tall room on the page
+    fig = Figure(figsize=(5.6, 1.1 + max(4.5 * min(aspect, 1.6), 0.5)), layout="constrained")
     ax = fig.subplots()
     _draw_sized(ax, truth, truth_sizes, color=TRUTH_COLOR, alpha=0.45, filled=True)
     _draw_sized(ax, objects, object_sizes, color=MAP_COLOR, alpha=1.0, filled=False, linewidth=1.4)
