@@ -602,14 +602,8 @@ def terminate_as_exit(
         yield
         return
     code = 128 + signal.SIGTERM
-
-    def _exit(signum: int, frame: FrameType | None) -> None:
-        if _exit_under_way():
-            return
-        if sys.__stderr__ is not None:
-            faulthandler.dump_traceback_later(grace, exit=True, file=sys.__stderr__)
-        signal.setitimer(signal.ITIMER_REAL, retry, retry)
-        raise SystemExit(code)
+    alarm_before: Any = None  # the SIGALRM handler the repeats replaced, once they start
+    repeating = False
 
     def _again(signum: int, frame: FrameType | None) -> None:
         if _exit_under_way():
@@ -617,13 +611,24 @@ def terminate_as_exit(
             return
         raise SystemExit(code)
 
+    def _exit(signum: int, frame: FrameType | None) -> None:
+        nonlocal alarm_before, repeating
+        if _exit_under_way():
+            return
+        if sys.__stderr__ is not None:
+            faulthandler.dump_traceback_later(grace, exit=True, file=sys.__stderr__)
+        if not repeating:  # SIGALRM is taken only after a SIGTERM: no one else's alarm ends us
+            alarm_before, repeating = signal.signal(signal.SIGALRM, _again), True
+        signal.setitimer(signal.ITIMER_REAL, retry, retry)
+        raise SystemExit(code)
+
     previous = signal.signal(signal.SIGTERM, _exit)
-    previous_alarm = signal.signal(signal.SIGALRM, _again)
     try:
         yield
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-        signal.signal(signal.SIGALRM, previous_alarm)
+        if repeating:
+            signal.setitimer(signal.ITIMER_REAL, 0.0)
+            signal.signal(signal.SIGALRM, alarm_before)
         signal.signal(signal.SIGTERM, previous)
 
 
