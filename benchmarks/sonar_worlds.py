@@ -8,6 +8,8 @@ It also maps the example log of ``tests/sonar/data`` with ``bayesmap sonar map``
 pipeline) into ``docs/sonar_cli_example.png``.
 Run from the repository root: ``python benchmarks/sonar_worlds.py [--jobs N] [--from DIR]``
 (``--jobs``: worker processes for the world × seed runs; the numbers do not depend on it).
+``--ring 8`` runs the same experiment with the Pioneer's 8-sonar front ring instead and
+writes the section ``sonar_worlds_ring8`` (tables and the L corridor's panel of maps).
 """
 
 from __future__ import annotations
@@ -113,10 +115,38 @@ def targets_table(metrics: dict, pipeline: str) -> str:
     )
 
 
+def ring_section(folder: Path, note: str, body: str, targets: str, ring: int) -> None:
+    """The section ``sonar_worlds_ring<ring>``: the run's tables and its L corridor's maps."""
+    panel = folder / "maps_sonar-lcorridor-v2.png"
+    target = DOCS / f"sonar_ring{ring}_maps_sonar-lcorridor-v2.png"
+    shutil.copyfile(panel, target)
+    whole = body.split("\n### ", 2)  # the run's note, then "All worlds", then per world
+    text = "\n".join(
+        [
+            note,
+            "",
+            whole[0].strip(),
+            "",
+            "### " + whole[1].strip(),
+            "",
+            targets,
+            f"**sonar-lcorridor-v2** (run 0, {ring}-sonar ring)",
+            "",
+            f"![sonar-lcorridor-v2, {ring}-sonar ring]({target.name})",
+            "",
+        ]
+    )
+    update_section(f"sonar_worlds_ring{ring}", text, doc=DOCS / "sonar.md")
+    print(f"wrote the section sonar_worlds_ring{ring} and {target.name}")
+
+
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     parser.add_argument("--from", dest="source", type=Path, help="a finished run's folder")
+    parser.add_argument(
+        "--ring", type=int, choices=(8, 16), default=16, help="Pioneer ring (default 16)"
+    )
     args = parser.parse_args(argv)
     started = time.perf_counter()
     if args.source is not None:
@@ -125,16 +155,17 @@ def main(argv: list[str]) -> None:
     else:
         folder = Path(tempfile.mkdtemp(prefix="sonar_worlds_"))
         run(
-            Config(jobs=args.jobs),
+            Config(jobs=args.jobs, ring=args.ring),
             folder,
             progress=lambda what, done, total: print(f"{what} ({done}/{total})", flush=True),
         )
         minutes = (time.perf_counter() - started) / 60
         load = " / ".join(f"{v:.1f}" for v in os.getloadavg())
+        ring = "" if args.ring == 16 else f" --ring {args.ring}"
         note = (
-            f"Run by `python benchmarks/sonar_worlds.py --jobs {args.jobs}` in {minutes:.1f} min "
-            f"on {machine()}; load average at the end {load} (a shared machine: wall time "
-            "is inflated by other jobs)."
+            f"Run by `python benchmarks/sonar_worlds.py --jobs {args.jobs}{ring}` in "
+            f"{minutes:.1f} min on {machine()}; load average at the end {load} (a shared "
+            "machine: wall time is inflated by other jobs)."
         )
     summary = (folder / "summary.md").read_text(encoding="utf-8")
     metrics = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))
@@ -142,6 +173,9 @@ def main(argv: list[str]) -> None:
         targets_table(metrics, name) for name in TARGETED if name in metrics["pipelines"]
     )
     body = summary.split("\n", 1)[1].replace("\n## ", "\n### ")
+    if metrics["config"]["ring"] != 16:
+        ring_section(folder, note, body, targets, metrics["config"]["ring"])
+        return
     figures = []
     for png in sorted(folder.glob("maps_*.png")):
         target = DOCS / f"sonar_{png.name}"

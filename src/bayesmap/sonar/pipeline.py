@@ -424,7 +424,6 @@ PIPELINES: dict[str, Pipeline] = {
         _STREAMING,
         forward_sweeps=1,
         forward_free_stop=True,
-        forward_no_echo=3.0,
         map_verdict=MapVerdict(silence_confidence=0.999, silence_width=0.5, open_confidence=0.999),
     ),
     "streaming": _STREAMING,
@@ -455,10 +454,11 @@ merged; after the pass, every reading judged again by the map it ended with
 readings, the map stays the filter's). ``default``: the streaming pipeline's filter and
 map, then one sweep of the forward-model refinement over the whole log
 (``ElfesMapper.refine``: echo arcs shared by the whole log's map, free space stopped at the
-first surface it holds, accepted silences clearing 3 m), and the verdict asked of that
-refined map, with its own learnt thresholds (sure at 0.999 over half the cone for a lost
-echo, nothing above 0.999 in the cone for open space); the best map in every realistic
-world, at a tenth to a third more CPU than ``streaming`` (docs/sonar.md). ``paper``: all
+first surface it holds, accepted silences clearing 1 m as in the pass), and the verdict
+asked of that refined map, with its own learnt thresholds (sure at 0.999 over half the cone
+for a lost echo, nothing above 0.999 in the cone for open space); the best map in every
+realistic world with the Pioneer 16-sonar ring, at some more CPU than ``streaming``
+(docs/sonar.md, also for the 8-sonar front ring). ``paper``: all
 three stages with the eq. 1 cone model as first built (no-echo clears the cone, ±10
 clamp); the single stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
 ``ros``: unfiltered baselines (the ROS layer exactly as ``range_sensor_layer`` does it)."""
