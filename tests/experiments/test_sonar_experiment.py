@@ -18,7 +18,7 @@ from bayesmap.experiments.sonar import (
     score_world,
 )
 from bayesmap.grid import OccupancyGrid
-from bayesmap.sim.polygons import random_building
+from bayesmap.sim.polygons import random_building, world
 from bayesmap.sim.sonar_log import Realism, simulate_log
 
 
@@ -100,3 +100,19 @@ def test_default_and_streaming_pipelines_win_on_a_building_nobody_tuned_on() -> 
         assert metrics[mine]["path_occupied"] == 0  # people crossing the path leave no trace
     # The default's forward-model sweep refines the streaming map: it must not make it worse.
     assert kappa["default"] >= kappa["streaming"]
+
+
+def test_the_default_pipeline_keeps_the_walls_with_the_8_sonar_front_ring() -> None:
+    # With only the front eight transducers the filter finds fewer lost echoes; the sweep
+    # must not let the silences it keeps carve the corridor's walls away (when they cleared
+    # 3 m there, the default fell below the unfiltered baseline on this log).
+    config = Config(ring=8, realism=Realism(ring_rate=4.0))
+    w = world("sonar-lcorridor-v2")
+    log = simulate_log(w, make_ring(config), config.realism, rng=12)
+    names = ("default", "streaming", "elfes-ignore-no-echo", "ros")
+    metrics, _, _, _ = score_world(config, w, log, names)
+    kappa = {name: metrics[name]["kappa"] for name in names}
+    assert kappa["default"] > max(kappa["elfes-ignore-no-echo"], kappa["ros"]) + 0.05
+    assert kappa["default"] >= kappa["streaming"]
+    assert metrics["default"]["missed_wall_rate"] <= metrics["streaming"]["missed_wall_rate"]
+    assert metrics["default"]["path_occupied"] == 0
