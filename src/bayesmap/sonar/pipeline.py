@@ -456,9 +456,9 @@ map, then one sweep of the forward-model refinement over the whole log
 (``ElfesMapper.refine``: echo arcs shared by the whole log's map, free space stopped at the
 first surface it holds, accepted silences clearing 1 m as in the pass), and the verdict
 asked of that refined map, with its own learnt thresholds (sure at 0.999 over half the cone
-for a lost echo, nothing above 0.999 in the cone for open space); the best map in every
-realistic world with the Pioneer 16-sonar ring, at some more CPU than ``streaming``
-(docs/sonar.md, also for the 8-sonar front ring). ``paper``: all
+for a lost echo, nothing above 0.999 in the cone for open space); the best map over the
+realistic worlds with the Pioneer 16- and 8-sonar rings (in the open hall the one pass's
+is as good), at some more CPU than ``streaming`` (docs/sonar.md). ``paper``: all
 three stages with the eq. 1 cone model as first built (no-echo clears the cone, ±10
 clamp); the single stages likewise; ``elfes``, ``elfes-ignore-no-echo``, ``thrun``,
 ``ros``: unfiltered baselines (the ROS layer exactly as ``range_sensor_layer`` does it)."""
