@@ -140,7 +140,8 @@ def read_rover_log(
     glitches = isolated_jumps(xy)
     for k in np.flatnonzero(glitches).tolist():
         skip(int(lines[k]), f"the position leaps over {MAX_POSE_JUMP:g} m away and back")
-    table, xy = table[~glitches], xy[~glitches]
+    if glitches.any():  # no copy of the whole table when nothing leaps
+        table, xy = table[~glitches], xy[~glitches]
     steps = np.hypot(*np.diff(xy, axis=0).T)
     if steps.size and float(np.median(steps)) > MAX_POSE_JUMP:
         logger.warning(

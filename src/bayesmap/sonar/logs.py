@@ -384,7 +384,8 @@ def read_sonar_log(
         glitches = isolated_jumps(data[:, 1:3] * length)
         _report_glitches(main, table.lines[glitches], skipped)
         _abort_if_strict(strict, skipped)
-        data = data[~glitches]
+        if glitches.any():  # no copy of the whole table when nothing leaps (the peak memory)
+            data = data[~glitches]
         _warn_heading_unit(main, data[:, 3], units.heading_unit)
         # A copy: a view would keep the whole parsed table alive beside the log.
         times, range_raw = data[:, 0] * seconds, data[:, 4:]
@@ -439,7 +440,7 @@ def posed_rows(
     glitches = isolated_jumps(pose_table.values[:, 1:3])
     _report_glitches(pose_file, pose_table.lines[glitches], skipped)
     _abort_if_strict(strict, skipped)
-    pose_data = pose_table.values[~glitches]
+    pose_data = pose_table.values[~glitches] if glitches.any() else pose_table.values
     times, range_raw = table.values[:, 0], table.values[:, 1:]
     joined, why = join_poses(times, pose_data[:, 0], pose_data[:, 1:], time_tolerance, max_pose_gap)
     keep = why == ""
