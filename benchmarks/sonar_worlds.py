@@ -10,6 +10,10 @@ Run from the repository root: ``python benchmarks/sonar_worlds.py [--jobs N] [--
 (``--jobs``: worker processes for the world × seed runs; the numbers do not depend on it).
 ``--ring 8`` runs the same experiment with the Pioneer's 8-sonar front ring instead and
 writes the section ``sonar_worlds_ring8`` (tables and the L corridor's panel of maps).
+``--firing-cycle S`` simulates transducers that fire one after another, a bank of 8 in
+``S`` seconds, so that a logged ring repeats the last value of every transducer that has not
+fired since (``Realism.firing_cycle``), and writes the section ``sonar_worlds_firing``
+(``sonar_worlds_ring8_firing`` with ``--ring 8``).
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from benchmarks._report import machine, update_section  # noqa: E402
 from scipy.stats import binomtest  # noqa: E402
 
 from bayesmap.experiments.sonar import BASELINES, TARGETED, Config, run  # noqa: E402
+from bayesmap.sim.sonar_log import Realism  # noqa: E402
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 
@@ -115,10 +120,20 @@ def targets_table(metrics: dict, pipeline: str) -> str:
     )
 
 
-def ring_section(folder: Path, note: str, body: str, targets: str, ring: int) -> None:
-    """The section ``sonar_worlds_ring<ring>``: the run's tables and its L corridor's maps."""
+def variant(ring: int, firing_cycle: float) -> str:
+    """The name of a run other than the record's (``ring8``, ``firing``, ``ring8_firing``)."""
+    parts = ([f"ring{ring}"] if ring != 16 else []) + (["firing"] if firing_cycle > 0 else [])
+    return "_".join(parts)
+
+
+def variant_section(folder: Path, note: str, body: str, targets: str, metrics: dict) -> None:
+    """The section ``sonar_worlds_<variant>``: the run's tables and its L corridor's maps."""
+    ring = metrics["config"]["ring"]
+    cycle = metrics["config"]["realism"].get("firing_cycle", 0.0)
+    name = variant(ring, cycle)
+    label = f"{ring}-sonar ring" + (f", banks firing in {cycle:g} s" if cycle > 0 else "")
     panel = folder / "maps_sonar-lcorridor-v2.png"
-    target = DOCS / f"sonar_ring{ring}_maps_sonar-lcorridor-v2.png"
+    target = DOCS / f"sonar_{name}_maps_sonar-lcorridor-v2.png"
     shutil.copyfile(panel, target)
     whole = body.split("\n### ", 2)  # the run's note, then "All worlds", then per world
     text = "\n".join(
@@ -130,14 +145,14 @@ def ring_section(folder: Path, note: str, body: str, targets: str, ring: int) ->
             "### " + whole[1].strip(),
             "",
             targets,
-            f"**sonar-lcorridor-v2** (run 0, {ring}-sonar ring)",
+            f"**sonar-lcorridor-v2** (run 0, {label})",
             "",
-            f"![sonar-lcorridor-v2, {ring}-sonar ring]({target.name})",
+            f"![sonar-lcorridor-v2, {label}]({target.name})",
             "",
         ]
     )
-    update_section(f"sonar_worlds_ring{ring}", text, doc=DOCS / "sonar.md")
-    print(f"wrote the section sonar_worlds_ring{ring} and {target.name}")
+    update_section(f"sonar_worlds_{name}", text, doc=DOCS / "sonar.md")
+    print(f"wrote the section sonar_worlds_{name} and {target.name}")
 
 
 def main(argv: list[str]) -> None:
@@ -147,6 +162,12 @@ def main(argv: list[str]) -> None:
     parser.add_argument(
         "--ring", type=int, choices=(8, 16), default=16, help="Pioneer ring (default 16)"
     )
+    parser.add_argument(
+        "--firing-cycle",
+        type=float,
+        default=0.0,
+        help="seconds a bank of 8 transducers takes to fire in turn (default 0: all at once)",
+    )
     args = parser.parse_args(argv)
     started = time.perf_counter()
     if args.source is not None:
@@ -155,13 +176,14 @@ def main(argv: list[str]) -> None:
     else:
         folder = Path(tempfile.mkdtemp(prefix="sonar_worlds_"))
         run(
-            Config(jobs=args.jobs, ring=args.ring),
+            Config(jobs=args.jobs, ring=args.ring, realism=Realism(firing_cycle=args.firing_cycle)),
             folder,
             progress=lambda what, done, total: print(f"{what} ({done}/{total})", flush=True),
         )
         minutes = (time.perf_counter() - started) / 60
         load = " / ".join(f"{v:.1f}" for v in os.getloadavg())
         ring = "" if args.ring == 16 else f" --ring {args.ring}"
+        ring += f" --firing-cycle {args.firing_cycle:g}" if args.firing_cycle > 0 else ""
         note = (
             f"Run by `python benchmarks/sonar_worlds.py --jobs {args.jobs}{ring}` in "
             f"{minutes:.1f} min on {machine()}; load average at the end {load} (a shared "
@@ -173,8 +195,8 @@ def main(argv: list[str]) -> None:
         targets_table(metrics, name) for name in TARGETED if name in metrics["pipelines"]
     )
     body = summary.split("\n", 1)[1].replace("\n## ", "\n### ")
-    if metrics["config"]["ring"] != 16:
-        ring_section(folder, note, body, targets, metrics["config"]["ring"])
+    if variant(metrics["config"]["ring"], metrics["config"]["realism"].get("firing_cycle", 0.0)):
+        variant_section(folder, note, body, targets, metrics)
         return
     figures = []
     for png in sorted(folder.glob("maps_*.png")):

@@ -17,7 +17,7 @@ from bayesmap.sim.polygons import (
     world,
 )
 from bayesmap.sim.sonar import EchoKind, SonarRing
-from bayesmap.sim.sonar_log import Realism, drive, odometry, simulate_log
+from bayesmap.sim.sonar_log import Realism, drive, latest_firing, odometry, simulate_log
 
 
 @pytest.mark.parametrize("name", REALISTIC_WORLDS)
@@ -74,6 +74,31 @@ def test_simulated_log_has_people_stops_no_echo_code_and_truth() -> None:
     still = np.flatnonzero(np.all(np.diff(alone.poses, axis=0) == 0, axis=1))
     assert len(still) > 20
     assert np.array_equal(alone.ranges[still + 1], alone.ranges[still])
+
+
+def test_transducers_firing_in_turn_repeat_their_last_reading() -> None:
+    times = np.arange(40) / 8.0  # 8 rings a second, a bank firing in 0.32 s
+    source = latest_firing(times, 16, 0.32)
+    assert np.array_equal(source[0], np.zeros(16))
+    assert np.array_equal(source[:, :8], source[:, 8:])  # the two banks fire side by side
+    for k in range(16):
+        fresh = np.flatnonzero(source[:, k] == np.arange(40))
+        # a fresh reading every 2 or 3 rings (0.32 s / 0.125 s), held until the next one
+        assert set(np.diff(fresh[1:]).tolist()) <= {2, 3}
+        assert np.all(source[:, k] <= np.arange(40))
+    assert (source == np.arange(40)[:, None]).mean() < 0.5  # most readings are stale
+    ring = SonarRing.pioneer(16)
+    fresh_log = simulate_log(world("sonar-office-v2"), ring, Realism(), rng=7)
+    log = simulate_log(world("sonar-office-v2"), ring, Realism(firing_cycle=0.32), rng=7)
+    held = latest_firing(log.times, ring.n, 0.32)
+    columns = np.arange(ring.n)[None, :]
+    # the same drive, each value the fresh log's reading of the ring it was taken at
+    assert np.array_equal(log.odometry, fresh_log.odometry)
+    assert np.array_equal(log.ranges, fresh_log.ranges[held, columns])
+    assert np.array_equal(log.kind, fresh_log.kind[held, columns])
+    assert np.array_equal(log.specular, fresh_log.specular[held, columns])
+    moving = np.any(np.diff(log.poses, axis=0) != 0, axis=1)
+    assert (log.ranges[1:][moving] == log.ranges[:-1][moving]).mean() > 0.5
 
 
 @pytest.mark.parametrize("generate", [random_building, random_hall, random_office])

@@ -203,6 +203,13 @@ def _rejection_metrics(accepted: np.ndarray, specular: np.ndarray) -> dict[str, 
     }
 
 
+def _ring_label(config: Config) -> str:
+    """The simulated ring in words, with how its transducers fire when not all at once."""
+    cycle = config.realism.firing_cycle
+    turns = f", each bank of 8 firing in turn over {cycle:g} s" if cycle > 0 else ""
+    return f"Pioneer {config.ring}-sonar ring{turns}"
+
+
 def make_ring(config: Config) -> SonarRing:
     """The simulated Pioneer ring of ``config`` (true transducer offsets)."""
     return SonarRing.pioneer(
@@ -392,7 +399,7 @@ def _run(
                         task.extent,
                         walls=w.segments,
                         path=task.path,
-                        title=f"{world_name}: Pioneer {config.ring}-sonar ring, run 0",
+                        title=f"{world_name}: {_ring_label(config)}, run 0",
                         columns=5,
                     ),
                 )
@@ -419,8 +426,8 @@ def _run(
     )
     parts = [
         "# Sonar mapping with specular-reading rejection\n",
-        f"Worlds: {', '.join(w.name for w in worlds)}; {config.runs} seeded runs each, Pioneer "
-        f"{config.ring}-sonar ring, seed {config.seed}. Mean ± standard deviation over runs. "
+        f"Worlds: {', '.join(w.name for w in worlds)}; {config.runs} seeded runs each, "
+        f"{_ring_label(config)}, seed {config.seed}. Mean ± standard deviation over runs. "
         "κ and accuracy over observed cells; false obstacle: observed free cells mapped "
         "occupied; missed wall: wall cells within sensor reach not mapped occupied; path "
         "cells occ.: cells within the robot's radius of its logged path mapped occupied "

@@ -14,7 +14,12 @@ waypoints the way a real robot does and writes down what its log would hold:
   ray tracer;
 - *odometry drifts*: the logged poses integrate the true motion with a per-run scale error
   and heading noise that grows with distance and turning;
-- *no echo* is logged as a code above the maximum range (``no_echo_code``), never as a range.
+- *no echo* is logged as a code above the maximum range (``no_echo_code``), never as a range;
+- optionally (``firing_cycle``), the transducers *fire one after another*, as a Pioneer's
+  banks of 8 do, while the log writes a whole ring at every packet: a transducer that has
+  not fired since the last ring repeats its last value to the millimetre (ARIA's
+  ``isSonarNew`` is what tells a driver which values are fresh; a plain log does not keep
+  it), so most readings of a moving robot's ring are a few tenths of a second old.
 
 The truth (true poses, the kind of every reading, where the people were) comes back with the
 log for scoring; the mapping code sees only ``times``, ``odometry`` and ``ranges``.
@@ -65,6 +70,28 @@ class Realism(BaseModel):
         default=1.05, gt=1, description="No echo is logged as this times the max range."
     )
     quantum: float = Field(default=0.001, ge=0, description="Range rounding [m] (0: none).")
+    firing_cycle: float = Field(
+        default=0.0,
+        ge=0,
+        description="Time [s] a bank of 8 transducers takes to fire one after another; each "
+        "ring then holds every transducer's latest reading (0: all fresh every ring).",
+    )
+
+
+def latest_firing(times: FloatArray, n: int, cycle: float) -> IntArray:
+    """``(m, n)``: for each ring and transducer, the ring whose reading it still holds.
+
+    Transducer ``k`` fires at ``(k mod 8) / 8`` of the ``cycle`` [s] and then once every
+    cycle (banks of 8 fire side by side, as a Pioneer's front and rear arrays do). The first
+    ring logged after a firing holds its fresh reading, and the rings after it repeat that
+    reading until the next firing; the first ring is fresh throughout.
+    """
+    phase = (np.arange(n) % 8) / 8.0 * cycle
+    fired = np.floor((times[:, None] - phase[None, :]) / cycle)
+    fresh = np.ones(fired.shape, dtype=bool)
+    fresh[1:] = fired[1:] > fired[:-1]
+    rings = np.where(fresh, np.arange(len(times))[:, None], 0)
+    return np.asarray(np.maximum.accumulate(rings, axis=0))
 
 
 class SimulatedLog(NamedTuple):
@@ -232,6 +259,15 @@ def simulate_log(
     ranges = np.where(echo & (ranges < ring.max_range), ranges, code)
     logged = odometry(poses, realism, rng=generator)
     times = np.arange(len(poses)) / realism.ring_rate
+    kind, specular = clean.kind, clean.specular
+    if realism.firing_cycle > 0:
+        source = latest_firing(times, ring.n, realism.firing_cycle)
+        columns = np.arange(ring.n)[None, :]
+        ranges, kind, specular = (
+            ranges[source, columns],
+            kind[source, columns],
+            specular[source, columns],
+        )
     if not np.all(shapely.contains_xy(world.free, poses[:, 0], poses[:, 1])):
         raise ConfigError(f"world {world.name!r}: the drive leaves free space")
     return SimulatedLog(
@@ -239,7 +275,7 @@ def simulate_log(
         odometry=logged,
         ranges=ranges,
         poses=poses,
-        kind=clean.kind,
-        specular=clean.specular,
+        kind=kind,
+        specular=specular,
         people=people,
     )
