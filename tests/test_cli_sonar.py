@@ -232,6 +232,22 @@ def test_ring_preset_pipeline_choice_and_literal_messages(tmp_path: Path) -> Non
     assert result.exit_code == 1 and "[m]ring.yaml" in _text(result)
 
 
+def test_a_pioneers_bearings_given_alone_get_a_hint_to_use_its_preset(tmp_path: Path) -> None:
+    base = [
+        "sonar", "map", str(DATA / "example_log.txt"), "--range-unit", "mm",
+        "--position-unit", "mm", "--heading-unit", "deg", "--resolution", "0.2",
+        "--max-range", "5000",
+    ]  # fmt: skip
+    # the Pioneer 3-DX front array's bearings, in its order, to a degree
+    front = "90,50,30,10,-10,-30,-50,-90.5"
+    result = runner.invoke(app, [*base, "--angles-deg", front, "--out", str(tmp_path / "a")])
+    # (the example log has 16 readings a ring: the ring is refused after the hint)
+    assert "bearings of the pioneer8 ring" in _text(result)
+    assert "--ring pioneer8" in _text(result)
+    result = runner.invoke(app, [*base, "--angles-deg", ANGLES, "--out", str(tmp_path / "b")])
+    assert result.exit_code == 0 and "bearings of the" not in _text(result)
+
+
 def test_sigma_follows_the_range_unit() -> None:
     from bayesmap.cli.sonar import _geometry
 

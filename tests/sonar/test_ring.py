@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from bayesmap.errors import BayesmapError, ConfigError, FormatError, InputError
 from bayesmap.sonar.bottom_up import neighbour_bounds
-from bayesmap.sonar.ring import load_ring, preset, ring_from_mapping
+from bayesmap.sonar.ring import load_ring, preset, preset_with_bearings, ring_from_mapping
 
 
 def test_pioneer_presets_put_transducers_where_aria_does() -> None:
@@ -146,3 +146,14 @@ def test_fuzzed_ring_documents_fail_only_with_bayesmap_errors(data: object) -> N
     except BayesmapError:
         return
     assert ring.n >= 2 and ring.offsets is not None
+
+
+def test_a_presets_bearings_are_recognised_in_order_and_nothing_else() -> None:
+    for name in ("pioneer8", "pioneer16"):
+        angles = tuple(preset(name).angles)
+        assert preset_with_bearings(angles) == name
+        assert preset_with_bearings(tuple(a + 0.01 for a in angles)) == name
+        assert preset_with_bearings(tuple(a + 2 * math.pi for a in angles)) == name
+        assert preset_with_bearings(angles[::-1]) is None  # another order
+        assert preset_with_bearings(tuple(a + 0.05 for a in angles)) is None
+    assert preset_with_bearings(tuple(math.radians(22.5 * k) for k in range(16))) is None

@@ -35,7 +35,7 @@ from bayesmap.sonar.pipeline import (
     build_map,
 )
 from bayesmap.sonar.player import PlayerLog, is_player_log, read_player_log
-from bayesmap.sonar.ring import PRESETS, load_ring
+from bayesmap.sonar.ring import PRESETS, load_ring, preset_with_bearings
 
 app = typer.Typer(
     help="Build occupancy maps from sonar-ring logs, with specular-reading rejection.",
@@ -101,7 +101,15 @@ def _geometry(
     elif angles_deg is not None:
         if max_range is None:
             raise InputError("--max-range is needed with --angles-deg (in --range-unit)")
-        geometry = SonarGeometry(angles=_angles(angles_deg), max_range=max_range * metres)
+        angles = _angles(angles_deg)
+        known = preset_with_bearings(angles)
+        if known is not None:
+            _say(
+                f"warning: these are the bearings of the {known} ring, but --angles-deg puts "
+                "every transducer at the robot's centre; on a Pioneer they sit 0.1-0.2 m out, "
+                f"and --ring {known} places them so (the maps need it)"
+            )
+        geometry = SonarGeometry(angles=angles, max_range=max_range * metres)
     elif logged is not None:
         geometry = logged
     else:

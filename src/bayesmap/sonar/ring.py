@@ -34,7 +34,14 @@ from bayesmap.errors import ConfigError, FormatError, InputError
 from bayesmap.sensing.sonar_rings import PIONEER_FRONT8, PIONEER_RING16, Layout
 from bayesmap.sonar.geometry import SonarGeometry
 
-__all__ = ["PRESETS", "load_ring", "preset", "ring_from_layout", "ring_from_mapping"]
+__all__ = [
+    "PRESETS",
+    "load_ring",
+    "preset",
+    "preset_with_bearings",
+    "ring_from_layout",
+    "ring_from_mapping",
+]
 
 _LENGTH = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 _ANGLE = {"deg": math.pi / 180.0, "rad": 1.0}
@@ -57,6 +64,23 @@ def preset(name: str) -> SonarGeometry:
     if name not in PRESETS:
         raise ConfigError(f"unknown ring preset {name!r}; choose from: {', '.join(PRESETS)}")
     return ring_from_layout(PRESETS[name])
+
+
+def preset_with_bearings(angles: tuple[float, ...], tolerance: float = 0.02) -> str | None:
+    """The preset whose transducers point at ``angles`` [rad], in order, to within
+    ``tolerance`` [rad] (about 1°), or ``None``.
+
+    A user who knows a Pioneer's bearings but not where its transducers sit may give the
+    bearings alone, placing every transducer at the centre; the preset puts each where the
+    robot has it, 0.1–0.2 m out, which the maps need.
+    """
+    for name, layout in PRESETS.items():
+        if len(layout) == len(angles) and all(
+            abs(math.remainder(a - bearing, 2 * math.pi)) <= tolerance
+            for a, (_, _, bearing) in zip(angles, layout, strict=True)
+        ):
+            return name
+    return None
 
 
 def ring_from_layout(layout: Layout) -> SonarGeometry:
