@@ -72,6 +72,42 @@ probability ( b a ) { (x) 0.2 0.3 0.5; (y) 0.1 0.1 0.8; }
     assert net.parents("b") == ("a",)
 
 
+def test_javabayes_lists_of_quoted_names_need_no_commas() -> None:
+    # JavaBayes' BIF 0.15 writes quoted names one after another, without commas, in the
+    # states and in old-style headers (as in its classic "Dog-Problem" example).
+    net = bif.loads(
+        """// Produced by BayesianNetworks package in JavaBayes
+network "Dog-Problem" { //3 variables and 3 probability distributions
+	property "credal-set constant-density-bounded 1.1" ;
+}
+variable  "family-out" { //2 values
+	type discrete[2] {  "true"  "false" };
+	property "position = (257, 99)" ;
+}
+variable  "light-on" { //2 values
+	type discrete[2] {  "true"  "false" };
+}
+variable "hear-bark" { type discrete[2] {"true""false"}; }
+probability (  "light-on"  "family-out" ) { //2 variable(s) and 4 values
+	table 0.6 0.05 0.4 0.95 ;
+}
+probability (  "family-out" ) { //1 variable(s) and 2 values
+	table 0.15 0.85 ;
+}
+probability ( "hear-bark" "light-on" ) { table 0.7 0.01 0.3 0.99 ; }
+"""
+    )
+    assert net.states("light-on") == ("true", "false")
+    assert net.states("hear-bark") == ("true", "false")
+    assert net.parents("light-on") == ("family-out",)
+    assert net.cpt("light-on")[0].tolist() == [0.6, 0.05]  # P(on | out), P(on | not out)
+    on = 0.15 * 0.6 + 0.85 * 0.05
+    assert net.posterior("light-on")["true"] == pytest.approx(on)
+    assert net.posterior("family-out", {"light-on": "true"})["true"] == pytest.approx(0.09 / on)
+    with pytest.raises(FormatError, match="list of names"):
+        bif.loads(HEADER.replace("{ x, y }", '{ "x" y }'))
+
+
 def test_keeps_full_double_precision() -> None:
     value = 0.123456789012345678
     net = bif.loads(

@@ -85,7 +85,9 @@ _WORD = re.compile(r"\S{1,40}")
 _HEADER_END = re.compile(_QUOTED + r'|[{};"]')
 _BODY_TOKEN = re.compile(_QUOTED + r'|[{}"]')
 _STATEMENT = re.compile(r"(?:" + _QUOTED + r'|[^";])*;')
-_ITEM = re.compile(r'\s*(?:"((?:[^"\\\n]|\\.)*)"\s*|([^",]*))(,|\Z)')
+_ITEM = re.compile(r'\s*(?:"((?:[^"\\\n]|\\.)*)"\s*(,|\Z|(?="))|([^",]*)(,|\Z))')
+"""One name of a list and what ends it: a quoted name (group 1) ends at a comma, the end, or
+the next quoted name (group 2); an unquoted one (group 3) at a comma or the end (group 4)."""
 _ESCAPE = re.compile(r"\\(.)", re.DOTALL)
 _TYPE = re.compile(r"\s*type\s+discrete\s*\[\s*([0-9]{1,9})\s*\]\s*\{(.*)\}\s*\Z", re.DOTALL)
 _PROPERTY = re.compile(r"\s*property(?![\w.\-])(.*)\Z", re.DOTALL)
@@ -512,7 +514,8 @@ class _Parser:
 
     # ------------------------------------------------------------------ names
     def _items(self, raw: str, offset: int, what: str, *, allow_empty: bool = False) -> list[str]:
-        """Names in a comma- (or, without commas, whitespace-) separated list."""
+        """Names in a comma- (or, without commas, whitespace-) separated list; quoted names
+        may also follow one another with only whitespace between (JavaBayes' BIF 0.15)."""
         if '"' not in raw:
             items = [s.strip() for s in raw.split(",")] if "," in raw else raw.split()
             if any(not s for s in items):
@@ -526,16 +529,17 @@ class _Parser:
                 raise self.error(
                     offset, f"{what}: cannot read {raw.strip()[:60]!r} as a list of names"
                 )
-            if match.group(1) is not None:
-                if not match.group(1):
+            quoted, quoted_end, plain, plain_end = match.groups()
+            if quoted is not None:
+                if not quoted:
                     raise self.error(offset, f'{what}: an empty name "" in {raw.strip()[:60]!r}')
-                items.append(_unescape(match.group(1)))
+                items.append(_unescape(quoted))
             else:
-                item = match.group(2).strip()
+                item = plain.strip()
                 if not item:
                     raise self.error(offset, f"{what}: an empty name in {raw.strip()[:60]!r}")
                 items.append(item)
-            if match.group(3) == "":
+            if (quoted_end if quoted is not None else plain_end) == "" and match.end() == len(raw):
                 break
             pos = match.end()
         if not items and not allow_empty:
