@@ -26,6 +26,7 @@ from PIL import Image
 
 from bayesmap.bn import io as bn_io
 from bayesmap.bn.io import bif, xbn, xmlbif
+from bayesmap.bn.io import net as hugin
 from bayesmap.bn.model import BayesNet
 from bayesmap.grid.occupancy import OccupancyGrid
 from bayesmap.grid.ros import read_ros_map
@@ -78,13 +79,14 @@ class Target:
 
 
 # ---------------------------------------------------------------------------- networks
-def _network_seeds(dumps: Callable[..., str]) -> list[bytes]:
-    """A tiny network with awkward names and properties, and a chain of eight variables."""
+def _network_seeds(dumps: Callable[..., str], root: str = "a b") -> list[bytes]:
+    """A tiny network with awkward names and properties, and a chain of eight variables
+    (``root``: the tiny network's first variable; NET cannot name it ``a b``)."""
     tiny = BayesNet("tiny [/m]")
     tiny.properties["author"] = 'x "y" <z> [/m]'
-    tiny.add_variable("a b", ["<0.5m", ">=0.5m"], cpt=[0.25, 0.75], kind="B")
+    tiny.add_variable(root, ["<0.5m", ">=0.5m"], cpt=[0.25, 0.75], kind="B")
     tiny.add_variable(
-        "c", ["x", "y", "z"], parents=["a b"], cpt=[[0.5, 0.125], [0.25, 0.5], [0.25, 0.375]]
+        "c", ["x", "y", "z"], parents=[root], cpt=[[0.5, 0.125], [0.25, 0.5], [0.25, 0.375]]
     )
     tiny.variable("c").properties["note"] = "a; b } c"
     chain = BayesNet("chain")
@@ -140,6 +142,12 @@ XMLBIF_POISONS: list[Mutator] = [
     _sub_one(_NUMBER, _bad_number),
     _sub_one(r"<OUTCOME>[^<]*</OUTCOME>", lambda m, r: b"<OUTCOME></OUTCOME>"),
     _entity,
+]
+NET_POISONS: list[Mutator] = [
+    _sub_one(r"(?<=[\s(])(?:0\.[0-9]+|1\.0)(?=[\s)])", _bad_number),  # NET lists: (0.5 0.5)
+    _sub_one(r'states = \("[^"]*"', lambda m, r: b'states = (""'),
+    _sub_one(r"\npotential \([^\n]*\n\{[^}]*\}", _duplicate),
+    lambda data, rng: data + b'\nnode late { states = ("a); }',
 ]
 XBN_POISONS: list[Mutator] = [
     _sub_one(_NUMBER, _bad_number),
@@ -270,4 +278,7 @@ def targets() -> dict[str, Target]:
         "ROS yaml": Target("ROS yaml", _read_ros_yaml, [_YAML.encode()], ROS_YAML_POISONS),
         "ROS image": Target("ROS image", _read_ros_image, [_pgm(), _png()], ROS_IMAGE_POISONS),
         "sonar log": Target("sonar log", _read_sonar, [_sonar_seed()]),
+        "net": Target(
+            "net", _loads(hugin, "f.net"), _network_seeds(hugin.dumps, "a_b"), NET_POISONS
+        ),
     }  # fmt: skip

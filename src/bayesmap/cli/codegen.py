@@ -17,7 +17,9 @@ def _names(items: list[str] | None) -> list[str]:
 
 
 def codegen(
-    file: Annotated[Path, typer.Argument(help="Network file (.xml/.xmlbif/.bifxml, .bif, .xbn).")],
+    file: Annotated[
+        Path, typer.Argument(help="Network file (.xml/.xmlbif/.bifxml, .bif, .xbn, .net).")
+    ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Directory for PREFIX.h and PREFIX.c.")],
     target: Annotated[
         list[str], typer.Option("--target", "-t", help="Variable to answer; repeat for more.")

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from _fuzzing import FUZZ, mutated, read_within_budget
 from bayesmap.bn import io
 from bayesmap.bn.io import bif, xbn, xmlbif
+from bayesmap.bn.io import net as hugin
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
 
@@ -29,8 +30,9 @@ def _seed_network() -> BayesNet:
 
 SEEDS = {
     module.__name__.rsplit(".", 1)[-1]: module.dumps(_seed_network())
-    for module in (bif, xmlbif, xbn)
+    for module in (bif, xmlbif, xbn, hugin)
 }
+MODULES = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn, "net": hugin}
 SPECIAL = st.sampled_from(
     list('{}()[];,|"=\\<>/&*\n\t 0123456789.-eabcxyz')
     + [
@@ -40,6 +42,11 @@ SPECIAL = st.sampled_from(
         "variable",
         "probability",
         "network",
+        "potential",
+        "node",
+        "data",
+        "states",
+        "%",
         "//",
         "/*",
         "*/",
@@ -94,15 +101,14 @@ def _check(module, text: str | bytes) -> None:
 @settings(max_examples=150, deadline=None)
 @given(data=st.data())
 def test_mutated_files_raise_only_format_error(fmt: str, data: st.DataObject) -> None:
-    module = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn}[fmt]
-    _check(module, data.draw(mutations(SEEDS[fmt])))
+    _check(MODULES[fmt], data.draw(mutations(SEEDS[fmt])))
 
 
 @pytest.mark.parametrize("fmt", sorted(SEEDS))
 @FUZZ
 @given(data=st.data())
 def test_byte_mutations_stay_within_the_budget(fmt: str, data: st.DataObject) -> None:
-    module = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn}[fmt]
+    module = MODULES[fmt]
     blob = data.draw(mutated([SEEDS[fmt].encode()]))
     outcome = read_within_budget(lambda: module.loads(blob, path="fuzz"))
     assert isinstance(outcome, (BayesNet, FormatError))
@@ -117,7 +123,7 @@ def test_mutated_gzip_files_stay_within_the_budget(tmp_path_factory, data: st.Da
     assert isinstance(outcome, (BayesNet, FormatError))
 
 
-@pytest.mark.parametrize("module", [bif, xmlbif, xbn], ids=lambda m: m.__name__.rsplit(".", 1)[-1])
+@pytest.mark.parametrize("module", MODULES.values(), ids=list(MODULES))
 @settings(max_examples=60, deadline=None)
 @given(blob=st.binary(max_size=200) | st.text(max_size=200))
 def test_arbitrary_input_raises_only_format_error(module, blob: bytes | str) -> None:
@@ -154,13 +160,15 @@ def test_failed_write_leaves_no_file(tmp_path) -> None:
         ("a.bif.gz", "bif"),
         ("a.xbn", "xbn"),
         ("a.xbn.GZ", "xbn"),
+        ("a.net", "net"),
+        ("a.NET.gz", "net"),
     ],
 )
 def test_extensions_choose_the_format(name: str, fmt: str) -> None:
     assert io.format_of(name).name == fmt
 
 
-@pytest.mark.parametrize("fmt", ["xmlbif", "bif", "xbn"])
+@pytest.mark.parametrize("fmt", ["xmlbif", "bif", "xbn", "net"])
 def test_a_file_whose_extension_names_no_format_is_read_by_its_content(tmp_path, fmt) -> None:
     text = SEEDS[fmt]
     if fmt == "xmlbif":  # as JavaBayes writes it: a comment and a DTD before the root
@@ -171,6 +179,8 @@ def test_a_file_whose_extension_names_no_format_is_read_by_its_content(tmp_path,
         )
     if fmt == "bif":
         text = "// exported\n/* a <note> */\n" + text
+    if fmt == "net":
+        text = "% exported by Hugin\n\n" + text
     (tmp_path / "net.txt").write_text(text)
     (tmp_path / "net.dat.gz").write_bytes(gzip.compress(text.encode()))
     expected = io.loads(SEEDS[fmt], fmt)
@@ -182,11 +192,19 @@ def test_a_file_whose_extension_names_no_format_is_read_by_its_content(tmp_path,
 
 
 @pytest.mark.parametrize(
-    "text", ["net { }", "<smile version='1.0'/>", "", "networks are fun", "<?xml version='1.0'?>"]
+    "text",
+    [
+        "// ~->[DNET-1]->~\nbnet x { }",  # Netica
+        "<smile version='1.0'/>",  # GeNIe
+        "",
+        "networks are fun",
+        "<?xml version='1.0'?>",
+        "nets { }",
+    ],
 )
 def test_content_no_format_matches_is_refused_with_the_extensions(tmp_path, text) -> None:
-    (tmp_path / "model.net").write_text(text)
-    with pytest.raises(FormatError, match=r"model\.net.*file name or its content.*\.xbif"):
-        io.read(tmp_path / "model.net")
+    (tmp_path / "model.dne").write_text(text)
+    with pytest.raises(FormatError, match=r"model\.dne.*file name or its content.*\.xbif"):
+        io.read(tmp_path / "model.dne")
     with pytest.raises(FormatError, match="from the file name;"):
-        io.write(io.loads(SEEDS["bif"], "bif"), tmp_path / "out.net")
+        io.write(io.loads(SEEDS["bif"], "bif"), tmp_path / "out.dne")

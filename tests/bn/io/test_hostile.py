@@ -10,11 +10,12 @@ import pytest
 
 from bayesmap.bn import io
 from bayesmap.bn.io import bif, xbn, xmlbif
+from bayesmap.bn.io import net as hugin
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
 from bayesmap.limits import ReadLimits
 
-MODULES = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn}
+MODULES = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn, "net": hugin}
 
 
 def _small_net() -> BayesNet:
@@ -179,6 +180,7 @@ def test_a_duplicate_bif_row_is_refused() -> None:
         ("xmlbif", "<OUTCOME>y</OUTCOME>", "<OUTCOME>  </OUTCOME>"),
         ("xbn", "<STATENAME>x</STATENAME>", "<STATENAME></STATENAME>"),
         ("bif", "{ x, y }", '{ "", y }'),
+        ("net", '("x" "y")', '("" "y")'),
     ],
 )
 def test_empty_names_are_refused(fmt: str, old: str, new: str) -> None:

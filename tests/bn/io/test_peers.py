@@ -103,10 +103,13 @@ def test_files_written_by_pyagrum_load(tmp_path, name: str) -> None:
     bn = gum.loadBN(str(_gunzip(example(name), tmp_path / f"{name}.bif")))
     gum.saveBN(bn, str(tmp_path / "g.bif"))
     gum.saveBN(bn, str(tmp_path / "g.bifxml"))
+    gum.saveBN(bn, str(tmp_path / "g.net"))
     # pyAgrum's BIF reader keeps float32, so its tables are off by ~1e-8 from the file's.
     assert_matches_pyagrum(io.read(tmp_path / "g.bif"), bn, atol=1e-7)
     # pyAgrum writes BIFXML tables with 6 significant digits; compare at that precision.
     assert_matches_pyagrum(io.read(tmp_path / "g.bifxml"), bn, atol=1e-5)
+    # NET (Hugin) tables: its float32 values, which our model renormalises
+    assert_matches_pyagrum(io.read(tmp_path / "g.net"), bn, atol=1e-7)
 
 
 def _gunzip(src, dst):
@@ -114,12 +117,12 @@ def _gunzip(src, dst):
     return dst
 
 
-@pytest.mark.parametrize("suffix", [".bif", ".bifxml"])
+@pytest.mark.parametrize(("suffix", "atol"), [(".bif", 1e-7), (".bifxml", 1e-12), (".net", 1e-7)])
 @pytest.mark.parametrize("name", ["asia", "alarm", "insurance", "hailfinder", "win95pts"])
-def test_pyagrum_loads_what_we_write(tmp_path, name: str, suffix: str) -> None:
+def test_pyagrum_loads_what_we_write(tmp_path, name: str, suffix: str, atol: float) -> None:
     net = io.read(example(name))
     path = io.write(net, tmp_path / f"ours{suffix}")
-    assert_matches_pyagrum(net, gum.loadBN(str(path)), atol=1e-12 if suffix == ".bifxml" else 1e-7)
+    assert_matches_pyagrum(net, gum.loadBN(str(path)), atol=atol)
 
 
 @pytest.mark.parametrize("name", ["asia", "child"])
@@ -166,7 +169,7 @@ def test_pgmpy_reads_our_bif_with_odd_state_names(tmp_path, net: BayesNet) -> No
 )
 @given(net=networks(plain_names, kinds=True, properties=False, max_variables=4, min_states=2))
 def test_pyagrum_reads_our_files(tmp_path, net: BayesNet) -> None:
-    for suffix, atol in ((".bif", 1e-7), (".bifxml", 1e-12)):
+    for suffix, atol in ((".bif", 1e-7), (".bifxml", 1e-12), (".net", 1e-7)):
         path = io.write(net, tmp_path / f"r{suffix}")
         assert_matches_pyagrum(net, gum.loadBN(str(path)), atol=atol)
         assert_same(net, io.read(path))

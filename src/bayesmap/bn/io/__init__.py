@@ -1,12 +1,12 @@
-"""Network files: XMLBIF 0.3, BIF and XBN, chosen by the file's extension.
+"""Network files: XMLBIF 0.3, BIF, XBN and Hugin NET, chosen by the file's extension.
 
 Models don't know their files: each format is a module (:mod:`~bayesmap.bn.io.xmlbif`,
-:mod:`~bayesmap.bn.io.bif`, :mod:`~bayesmap.bn.io.xbn`) with ``read``/``write`` and
-``loads``/``dumps``, and :data:`FORMATS` maps a format name to them and to its file
-extensions. :func:`read` and :func:`write` dispatch on the extension
-(``.xml``/``.xmlbif``/``.bifxml``/``.xbif`` → XMLBIF, ``.bif`` → BIF, ``.xbn`` → XBN), each
-optionally followed by ``.gz``; :func:`read` of a file whose extension names no format
-tells the format from its content (:func:`sniff`).
+:mod:`~bayesmap.bn.io.bif`, :mod:`~bayesmap.bn.io.xbn`, :mod:`~bayesmap.bn.io.net`) with
+``read``/``write`` and ``loads``/``dumps``, and :data:`FORMATS` maps a format name to them
+and to its file extensions. :func:`read` and :func:`write` dispatch on the extension
+(``.xml``/``.xmlbif``/``.bifxml``/``.xbif`` → XMLBIF, ``.bif`` → BIF, ``.xbn`` → XBN,
+``.net`` → NET), each optionally followed by ``.gz``; :func:`read` of a file whose extension
+names no format tells the format from its content (:func:`sniff`).
 
 Examples
 --------
@@ -68,6 +68,7 @@ FORMATS: dict[str, Format] = {
     ),
     "bif": Format("bif", _deferred("bif", "loads"), _deferred("bif", "dumps"), (".bif",)),
     "xbn": Format("xbn", _deferred("xbn", "loads"), _deferred("xbn", "dumps"), (".xbn",)),
+    "net": Format("net", _deferred("net", "loads"), _deferred("net", "dumps"), (".net",)),
 }
 """Registered formats by name."""
 
@@ -118,6 +119,8 @@ _XML_NOISE = re.compile(rb"<!--.*?-->|<[?!][^>]*>|\]>", re.DOTALL)
 _XML_ROOT = re.compile(rb"<(?:[\w.-]+:)?([A-Za-z_][\w.-]*)")
 _BIF_NOISE = re.compile(rb"(?:\s|//[^\n]*|/\*.*?\*/)*", re.DOTALL)
 """Blank space and C-style comments, which BIF allows before its ``network`` block."""
+_NET_NOISE = re.compile(rb"(?:\s|%[^\n]*)*")
+"""Blank space and ``%`` comments, which NET allows before its ``net`` block."""
 
 
 def sniff(data: bytes) -> Format | None:
@@ -125,7 +128,8 @@ def sniff(data: bytes) -> Format | None:
 
     XML is XMLBIF when its root element is ``<BIF>`` (or a bare ``<NETWORK>``) and XBN when
     it is ``<ANALYSISNOTEBOOK>`` (or ``<BNMODEL>``); text whose first word, after blank
-    space and comments, is ``network`` is BIF. Only the first 64 KiB are looked at.
+    space and comments, is ``network`` is BIF, and ``net`` Hugin NET. Only the first
+    64 KiB are looked at.
     """
     head = data[: 1 << 16].lstrip(b"\xef\xbb\xbf \t\r\n")
     if head.startswith(b"<"):
@@ -133,7 +137,10 @@ def sniff(data: bytes) -> Format | None:
         name = _XML_ROOTS.get(root.group(1).decode("ascii").upper()) if root else None
         return FORMATS[name] if name else None
     words = _BIF_NOISE.sub(b"", head, count=1)  # the pattern matches (maybe empty) at 0
-    return FORMATS["bif"] if re.match(rb"network\b", words) else None
+    if re.match(rb"network\b", words):
+        return FORMATS["bif"]
+    words = _NET_NOISE.sub(b"", head, count=1)
+    return FORMATS["net"] if re.match(rb"net(?![\w.-])", words) else None
 
 
 def read(

@@ -13,6 +13,7 @@ from __future__ import annotations
 import gzip
 import heapq
 import math
+import re
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -242,6 +243,24 @@ def split_property(text: str) -> tuple[str, str]:
     """``"key = value"`` → ``("key", "value")``; text without ``=`` is a key with value ``""``."""
     key, _, value = text.partition("=")
     return key.strip(), value.strip()
+
+
+_ESCAPE = re.compile(r"\\(.)", re.DOTALL)
+_UNESCAPES = {"n": "\n", "r": "\r", "t": "\t"}
+_ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\r": "\\r", "\t": "\\t"}
+
+
+def quoted(text: str) -> str:
+    """``text`` in double quotes with backslash escapes (``\\"``, ``\\\\``, ``\\n``, ``\\r``,
+    ``\\t``), as the text formats (BIF, NET) write names and strings."""
+    return '"' + "".join(_ESCAPES.get(c, c) for c in text) + '"'
+
+
+def unescape(text: str) -> str:
+    """The inside of a quoted string back to its text (the inverse of :func:`quoted`)."""
+    if "\\" not in text:
+        return text
+    return _ESCAPE.sub(lambda m: _UNESCAPES.get(m.group(1), m.group(1)), text)
 
 
 def table_values(array: FloatArray) -> str:

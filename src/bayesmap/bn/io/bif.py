@@ -57,8 +57,10 @@ from bayesmap.bn.io._common import (
     decode,
     probabilities,
     properties_with_kind,
+    quoted,
     read_source,
     split_property,
+    unescape,
     write_output,
 )
 from bayesmap.bn.model import BayesNet
@@ -88,15 +90,12 @@ _STATEMENT = re.compile(r"(?:" + _QUOTED + r'|[^";])*;')
 _ITEM = re.compile(r'\s*(?:"((?:[^"\\\n]|\\.)*)"\s*(,|\Z|(?="))|([^",]*)(,|\Z))')
 """One name of a list and what ends it: a quoted name (group 1) ends at a comma, the end, or
 the next quoted name (group 2); an unquoted one (group 3) at a comma or the end (group 4)."""
-_ESCAPE = re.compile(r"\\(.)", re.DOTALL)
 _TYPE = re.compile(r"\s*type\s+discrete\s*\[\s*([0-9]{1,9})\s*\]\s*\{(.*)\}\s*\Z", re.DOTALL)
 _PROPERTY = re.compile(r"\s*property(?![\w.\-])(.*)\Z", re.DOTALL)
 _PAREN_TOKEN = re.compile(_QUOTED + r'|[()"]')
 _TABLE = re.compile(r"\s*(table|default)(?![\w.\-])(.*)\Z", re.DOTALL)
 _PARENS = re.compile(r"\s*\((.*)\)\s*\Z", re.DOTALL)
 _PLAIN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*")
-_UNESCAPES = {"n": "\n", "r": "\r", "t": "\t"}
-_ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\r": "\\r", "\t": "\\t"}
 
 
 # ---------------------------------------------------------------------------- reading
@@ -273,15 +272,15 @@ class _Parser:
 
     def _property(self, raw: str, offset: int) -> tuple[str, str]:
         raw = raw.strip()
-        if raw.startswith('"') and _full_quoted(raw):
-            return split_property(_unescape(raw[1:-1]))
+        if raw.startswith('"') and _fullquoted(raw):
+            return split_property(unescape(raw[1:-1]))
         key, eq, value = raw.partition("=")
         key = key.strip()
         value = value.strip()
         if key.startswith('"'):
             key = self._one_item(key, offset, "property name")
-        if value.startswith('"') and _full_quoted(value):
-            value = _unescape(value[1:-1])
+        if value.startswith('"') and _fullquoted(value):
+            value = unescape(value[1:-1])
         if not key:
             raise self.error(offset, "property without a name")
         return key, value
@@ -533,7 +532,7 @@ class _Parser:
             if quoted is not None:
                 if not quoted:
                     raise self.error(offset, f'{what}: an empty name "" in {raw.strip()[:60]!r}')
-                items.append(_unescape(quoted))
+                items.append(unescape(quoted))
             else:
                 item = plain.strip()
                 if not item:
@@ -563,16 +562,8 @@ def _first_word(statement: str) -> str:
     return words[0] if words else ""
 
 
-def _full_quoted(text: str) -> bool:
+def _fullquoted(text: str) -> bool:
     return re.fullmatch(_QUOTED, text) is not None
-
-
-def _unescape(text: str) -> str:
-    return (
-        _ESCAPE.sub(lambda m: _UNESCAPES.get(m.group(1), m.group(1)), text)
-        if "\\" in text
-        else text
-    )
 
 
 def _split_bar(inner: str) -> int | None:
@@ -641,7 +632,7 @@ def _property_lines(props: dict[str, str], owner: str, path: str | None) -> list
     lines = []
     for key, value in props.items():
         check_property(owner, key, value, path=path)
-        lines.append(f"  property {_quote(key)} = {_quoted(value)} ;\n")
+        lines.append(f"  property {_quote(key)} = {quoted(value)} ;\n")
     return lines
 
 
@@ -651,8 +642,4 @@ def _numbers(values: list[float]) -> str:
 
 def _quote(name: str) -> str:
     """``name`` as is when it is a plain identifier, else double-quoted with escapes."""
-    return name if _PLAIN.fullmatch(name) else _quoted(name)
-
-
-def _quoted(text: str) -> str:
-    return '"' + "".join(_ESCAPES.get(c, c) for c in text) + '"'
+    return name if _PLAIN.fullmatch(name) else quoted(name)
