@@ -3,8 +3,9 @@
 Every bnlearn file shipped with pgmpy 1.1 (``pgmpy/utils/example_models/*.bif.gz``) is
 unpacked to a temporary ``.bif`` and loaded from disk by each library: the median of
 ``--repeats`` runs (pgmpy: one run for files where its first run takes over 3 s). Then
-bayesmap writes each network as BIF, XMLBIF and XBN. The table goes to the ``bn_io``
-section of docs/benchmarks.md.
+bayesmap writes each network as BIF, XMLBIF, XBN and Hugin NET (where its names are NET
+names) and reads the XMLBIF, XBN and NET files back, and pyAgrum loads the same NET file.
+The table goes to the ``bn_io`` section of docs/benchmarks.md.
 
 Run from the repository root: ``python benchmarks/bn_io.py [--repeats 5]``.
 """
@@ -30,6 +31,7 @@ from benchmarks._report import machine, update_section  # noqa: E402
 from pgmpy.readwrite import BIFReader  # noqa: E402
 
 from bayesmap.bn import io  # noqa: E402
+from bayesmap.errors import FormatError  # noqa: E402
 
 EXAMPLES = Path(pgmpy.__file__).parent / "utils" / "example_models"
 PGMPY_SINGLE_RUN = 3.0
@@ -78,13 +80,19 @@ def main() -> None:
                 )
             agrum = _pyagrum(path, args.repeats)
             net = io.read(path)
-            writes = {
-                suffix: _time(lambda s=suffix, n=net: io.write(n, Path(tmp) / f"out{s}"), 3)
-                for suffix in (".bif", ".xml", ".xbn")
+            writes: dict[str, float | None] = {}
+            for suffix in (".bif", ".xml", ".xbn", ".net"):
+                try:
+                    writes[suffix] = _time(
+                        lambda s=suffix, n=net: io.write(n, Path(tmp) / f"out{s}"), 3
+                    )
+                except FormatError:  # a name NET cannot hold
+                    writes[suffix] = None
+            reads: dict[str, float | None] = {
+                s: _time(lambda s=s: io.read(Path(tmp) / f"out{s}"), 3) if writes[s] else None
+                for s in (".xml", ".xbn", ".net")
             }
-            reads = {
-                s: _time(lambda s=s: io.read(Path(tmp) / f"out{s}"), 3) for s in (".xml", ".xbn")
-            }
+            reads["pyAgrum .net"] = _pyagrum(Path(tmp) / "out.net", 3) if writes[".net"] else None
             row = (name, len(net), ours, theirs, agrum, writes, reads)
             rows.append(row)
             print(
@@ -92,14 +100,18 @@ def main() -> None:
                 f"pgmpy {theirs * 1e3:9.1f} ms "
                 f"({theirs / ours:6.1f}x)  pyAgrum "
                 + (f"{agrum * 1e3:7.1f} ms" if agrum is not None else "  fails")
-                + "  write bif/xml/xbn "
-                + "/".join(f"{w * 1e3:.1f}" for w in writes.values())
-                + " ms  read xml/xbn "
-                + "/".join(f"{r * 1e3:.1f}" for r in reads.values())
+                + "  write bif/xml/xbn/net "
+                + "/".join(_ms(w) for w in writes.values())
+                + " ms  read xml/xbn/net, pyAgrum net "
+                + "/".join(_ms(r) for r in reads.values())
                 + " ms",
                 flush=True,
             )
     update_section("bn_io", _markdown(rows, args.repeats))
+
+
+def _ms(seconds: float | None) -> str:
+    return "–" if seconds is None else f"{seconds * 1e3:.1f}"
 
 
 def _markdown(rows: list[tuple], repeats: int) -> str:
@@ -111,21 +123,23 @@ def _markdown(rows: list[tuple], repeats: int) -> str:
         f"Machine: {machine()}. Load of each bnlearn file from an unpacked `.bif` on disk, "
         f"median of {repeats} runs (pgmpy 1.1 `BIFReader(path).get_model()`: one run when it "
         f"takes over {PGMPY_SINGLE_RUN:.0f} s); pyAgrum {gum.__version__} `loadBN`; then bayesmap "
-        "writes the network in each format and reads its XMLBIF and XBN files back "
-        "(medians of 3). Other jobs shared the two cores, so absolute times "
-        "are noisy; the ratios are what matter.",
+        "writes the network in each format and reads its XMLBIF, XBN and NET files back, and "
+        "pyAgrum loads the NET file (medians of 3; – where the names are not NET names). "
+        "Other jobs shared the two cores, so absolute times are noisy; the ratios are what "
+        "matter.",
         "",
         "| network | variables | bayesmap load [ms] | pgmpy load [ms] | speed-up vs pgmpy "
-        "| pyAgrum load [ms] | write BIF / XMLBIF / XBN [ms] | load XMLBIF / XBN [ms] |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|",
+        "| pyAgrum load [ms] | write BIF / XMLBIF / XBN / NET [ms] "
+        "| load XMLBIF / XBN / NET [ms] | pyAgrum load NET [ms] |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for name, size, ours, theirs, agrum, writes, reads in rows:
         agrum_text = f"{agrum * 1e3:.1f}" if agrum is not None else "cannot read"
-        write_text = " / ".join(f"{w * 1e3:.1f}" for w in writes.values())
-        read_text = " / ".join(f"{r * 1e3:.1f}" for r in reads.values())
+        write_text = " / ".join(_ms(w) for w in writes.values())
+        read_text = " / ".join(_ms(reads[s]) for s in (".xml", ".xbn", ".net"))
         lines.append(
             f"| {name} | {size} | {ours * 1e3:.1f} | {theirs * 1e3:.0f} | {theirs / ours:.0f}x "
-            f"| {agrum_text} | {write_text} | {read_text} |"
+            f"| {agrum_text} | {write_text} | {read_text} | {_ms(reads['pyAgrum .net'])} |"
         )
     verdict = "holds" if worst >= 10 else "does NOT hold"
     lines += [
