@@ -204,7 +204,7 @@ class _Parser:
         name = "network"
         net_properties: dict[str, str] = {}
         specs: dict[str, VariableSpec] = {}
-        potentials: list[int] = []  # token positions of the potential blocks
+        potentials: list[int] = []  # where each potential block starts, after its keyword
         seen_net = False
         while not self.at_end():
             kind, word, offset = self._next("a block")
