@@ -106,7 +106,7 @@ def _geometry(
         if known is not None:
             _say(
                 f"warning: these are the bearings of the {known} ring, but --angles-deg puts "
-                "every transducer at the robot's centre; on a Pioneer they sit 0.1-0.2 m out, "
+                "every transducer at the robot's centre; on a Pioneer they sit 0.15-0.26 m out, "
                 f"and --ring {known} places them so (the maps need it)"
             )
         geometry = SonarGeometry(angles=angles, max_range=max_range * metres)

@@ -72,7 +72,7 @@ def preset_with_bearings(angles: tuple[float, ...], tolerance: float = 0.02) -> 
 
     A user who knows a Pioneer's bearings but not where its transducers sit may give the
     bearings alone, placing every transducer at the centre; the preset puts each where the
-    robot has it, 0.1–0.2 m out, which the maps need.
+    robot has it, 0.15–0.26 m out, which the maps need.
     """
     for name, layout in PRESETS.items():
         if len(layout) == len(angles) and all(
