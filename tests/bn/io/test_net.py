@@ -109,7 +109,9 @@ def _with(old: str, new: str) -> str:
         (_with("boolean node Wet", "decision Wet"), "a decision node", 18),
         (_with("boolean node Wet", "utility Wet"), "a utility node", 18),
         (_with("boolean node Wet", "continuous node Wet"), "a continuous node", 18),
-        ("class Wet { }", "object-oriented 'class'", 1),
+        ("class Wet {\n instance Rain : Weather (); }", "an instance of a class", 2),
+        ('class Wet { node A { states = ("x"); } potential (A) { data = (1); }', "never closed", 1),
+        ("class Wet { } class Dry { }", "text after the end of the class", 1),
         (_with("potential (Rain) {", "potential (Rain Sprinkler) {"), "exactly one node", 22),
         (_with("data = (0.8 0.2);", "model_nodes = (); model_data = (1);"), "expressions", 22),
         (_with("data = (0.8 0.2);", "data = (0.8 0.1 0.1);"), "3 probabilities, expected 2", 22),
@@ -138,6 +140,40 @@ def test_malformed_files_name_the_line(text: str, message: str, line: int | None
     assert caught.value.path == "n.net" and caught.value.line == line
 
 
+def test_a_plain_network_saved_as_a_class_reads_as_the_network() -> None:
+    # The Hugin tools save a network as a class with an empty interface; labels may be
+    # empty, tables unnormalised (Hugin normalises them), and interval nodes may name their
+    # states only by their bounds.
+    net = hugin.loads(
+        """class Survey
+{
+    inputs = ();
+    outputs = ();
+    HR_Grid_X = "40";
+
+    node Age
+    {
+	label = "";
+	states = ("" "" "");
+	subtype = interval;
+	state_values = (0 18 65 120);
+    }
+
+    node Count { states = ("" ""); subtype = number; state_values = (1 2); }
+
+    potential (Age) { data = ( 1 2 1 ); }
+    potential (Count | Age) { data = ((1 0) (0.5 0.5) (0 1)); }
+} % class Survey
+"""
+    )
+    assert net.name == "Survey"
+    assert net.properties == {"HR_Grid_X": "40"}  # the empty interface lists say nothing
+    assert net.states("Age") == ("[0, 18)", "[18, 65)", "[65, 120)")
+    assert net.states("Count") == ("1", "2")
+    assert net.variable("Age").properties["label"] == ""
+    np.testing.assert_allclose(net.cpt("Age"), [0.25, 0.5, 0.25])
+
+
 def test_a_node_without_a_table_is_named() -> None:
     with pytest.raises(FormatError, match="'Puddles' has no probability table"):
         hugin.loads(
@@ -160,4 +196,6 @@ def test_a_net_file_is_known_by_its_content(tmp_path) -> None:
     path = tmp_path / "grass.hugin"
     path.write_text(TEXT)
     assert io.sniff(TEXT.encode()) is io.FORMATS["net"]
+    assert io.sniff(b"% saved by Hugin\nclass Survey\n{") is io.FORMATS["net"]
+    assert io.sniff(b"classes { }") is None
     assert io.read(path).name == "wet grass"

@@ -128,8 +128,8 @@ def sniff(data: bytes) -> Format | None:
 
     XML is XMLBIF when its root element is ``<BIF>`` (or a bare ``<NETWORK>``) and XBN when
     it is ``<ANALYSISNOTEBOOK>`` (or ``<BNMODEL>``); text whose first word, after blank
-    space and comments, is ``network`` is BIF, and ``net`` Hugin NET. Only the first
-    64 KiB are looked at.
+    space and comments, is ``network`` is BIF, and ``net`` or ``class`` Hugin NET. Only
+    the first 64 KiB are looked at.
     """
     head = data[: 1 << 16].lstrip(b"\xef\xbb\xbf \t\r\n")
     if head.startswith(b"<"):
@@ -140,7 +140,7 @@ def sniff(data: bytes) -> Format | None:
     if re.match(rb"network\b", words):
         return FORMATS["bif"]
     words = _NET_NOISE.sub(b"", head, count=1)
-    return FORMATS["net"] if re.match(rb"net(?![\w.-])", words) else None
+    return FORMATS["net"] if re.match(rb"(?:net|class)(?![\w.-])", words) else None
 
 
 def read(

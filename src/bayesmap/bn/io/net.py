@@ -15,25 +15,32 @@ Reading
     ``net`` block, whose attributes become the network's properties (``name`` its name),
     ``node`` blocks (optionally ``discrete``, ``labelled``, ``numbered``, ``interval`` or
     ``boolean``; a ``boolean`` node without ``states`` has the states ``false``, ``true``),
-    whose ``states`` list names the states (strings, or numbers kept as written) and whose
-    other attributes become properties (``kind`` the node kind, as in the other formats),
-    and one ``potential ( child | parents )`` block per node, whose ``data`` lists the
-    probabilities with the first parent's state slowest and the child's fastest; the
-    parentheses that group them are checked for balance and otherwise ignored, and other
-    potential attributes (``experience``, ``fading``) are passed over. What a Bayesian
-    network of discrete chance nodes cannot hold is refused with the line it is on:
-    decision, utility, continuous and function nodes, object-oriented ``class`` files,
-    tables given by expressions (``model_nodes``, ``model_data``) and potentials over more
-    than one node. One pass of a regular-expression tokenizer does the work, so the time is
-    linear in the size of the file; a table's size is checked against
+    whose ``states`` list names the states (strings, or numbers kept as written; where the
+    labels are empty, the ``state_values`` name them: ``[0, 18)`` for an interval node, the
+    numbers of a numbered one) and whose other attributes become properties (``kind`` the
+    node kind, as in the other formats), and one ``potential ( child | parents )`` block
+    per node, whose ``data`` lists the probabilities with the first parent's state slowest
+    and the child's fastest; the parentheses that group them are checked for balance and
+    otherwise ignored, each distribution is normalised as Hugin does (a table of weights
+    is a valid NET table), and other potential attributes (``experience``, ``fading``) are
+    passed over. A plain network saved as a ``class`` (as the Hugin tools save one) reads
+    as the network, named after the class; its empty ``inputs`` and ``outputs`` lists are
+    dropped and its other attributes become properties.
+
+    What a Bayesian network of discrete chance nodes cannot hold is refused with the line
+    it is on: decision, utility, continuous and function nodes, instances of classes and
+    several classes in one file (object-oriented networks), temporal clones, tables given
+    by expressions (``model_nodes``, ``model_data``) and potentials over more than one
+    node. One pass of a regular-expression tokenizer does the work, so the time is linear
+    in the size of the file; a table's size is checked against
     :class:`~bayesmap.limits.ReadLimits` before it is allocated.
 Writing
     Node names must be NET names (a letter or ``_``, then letters, digits or ``_``);
     anything else is refused, since the format has no way to quote them. Every node gets
-    a ``label`` (its name) and ``states``; properties become attributes, written as they
-    are when they read as a NET list of numbers (``position = (100 50)``), else as
-    strings. Probabilities are written with the shortest text that gives back the same
-    double.
+    a ``label`` (its ``label`` property, else its name) and ``states``; other properties
+    become attributes, written as they are when they read as a NET list of numbers
+    (``position = (100 50)``), else as strings. Probabilities are written with the
+    shortest text that gives back the same double.
 
 Every problem raises :class:`~bayesmap.errors.FormatError` naming the file and line.
 """
@@ -64,7 +71,7 @@ from bayesmap.bn.io._common import (
     unescape,
     write_output,
 )
-from bayesmap.bn.model import BayesNet
+from bayesmap.bn.model import WARN_TOLERANCE, BayesNet
 from bayesmap.errors import FormatError
 from bayesmap.limits import ReadLimits
 
@@ -88,6 +95,13 @@ _NUMBER_LIST = re.compile(r"\(\s*(?:[-+]?[0-9][0-9.eE+-]*[\s,]*)*\)")
 """A property value written as a NET list of numbers (``position = (100 50)``; BIF's
 ``(100, 50)`` loses its commas)."""
 _NODE_TYPES = {"discrete", "labelled", "numbered", "interval", "boolean"}
+_OBJECT_ORIENTED = {
+    "class": "a second class (an object-oriented network of several classes)",
+    "instance": "an instance of a class (an object-oriented network; save it flat)",
+    "temporal": "a temporal clone (a dynamic network)",
+}
+_CLASS_INTERFACE = {"inputs", "outputs"}
+"""A class's interface lists, dropped when empty (a plain network saved as a class)."""
 _REFUSED_NODES = {
     "decision": "a decision node (influence diagrams are not Bayesian networks)",
     "utility": "a utility node (influence diagrams are not Bayesian networks)",
@@ -206,11 +220,30 @@ class _Parser:
         specs: dict[str, VariableSpec] = {}
         potentials: list[int] = []  # where each potential block starts, after its keyword
         seen_net = False
-        while not self.at_end():
+        in_class = self._class_header()
+        if in_class is not None:
+            name = in_class
+        while True:
+            if in_class is not None and self._peek("}"):
+                self._next("'}'")
+                if not self.at_end():
+                    raise self.error(self._at(), "text after the end of the class")
+                break
+            if self.at_end():
+                if in_class is not None:
+                    raise self.error(len(self.text), f"class {in_class!r} is never closed")
+                break
             kind, word, offset = self._next("a block")
             if kind != "word":
                 raise self.error(offset, f"expected 'net', 'node' or 'potential', found {word!r}")
-            if word == "net":
+            if in_class is not None and self._peek("="):
+                self._next("'='")
+                value = self._value(word, "class", None)
+                if word in net_properties:
+                    raise self.error(offset, f"class: attribute {word!r} is given twice")
+                if word not in _CLASS_INTERFACE or value.text:
+                    net_properties[word] = value.as_property()
+            elif word == "net" and in_class is None:
                 if seen_net:
                     raise self.error(offset, "a second 'net' block")
                 seen_net = True
@@ -222,8 +255,8 @@ class _Parser:
             elif word == "potential":
                 potentials.append(self.pos)
                 self._skip_block()
-            elif word == "class":
-                raise self.error(offset, "an object-oriented 'class' network is not read")
+            elif word in _OBJECT_ORIENTED:
+                raise self.error(offset, f"{_OBJECT_ORIENTED[word]} is not read")
             else:
                 spec = self._node(word, offset)
                 if spec.name in specs:
@@ -237,6 +270,17 @@ class _Parser:
             self._seek(start)
             self._potential(specs, done)
         return build_network(name, specs.values(), properties=net_properties, path=self.path)
+
+    def _class_header(self) -> str | None:
+        """``class NAME {`` opening the file (the Hugin tools save a plain network so), and
+        the class's name; ``None`` for a file of ``net``, ``node`` and ``potential`` blocks."""
+        token = self._scan()
+        if token is None or token[:2] != ("word", "class"):
+            return None
+        self._next("'class'")
+        name, _ = self._name("the class name")
+        self._expect("{", f"class {name!r}")
+        return name
 
     def _node(self, word: str, offset: int) -> VariableSpec:
         """A node block, from its first word (``node`` or a node type) on."""
@@ -256,15 +300,7 @@ class _Parser:
         line = self.line(at)
         where = Location(self.path, line, f"node {name!r}")
         attributes = self._attributes(f"node {name!r}")
-        states_value = attributes.pop("states", None)
-        if states_value is None:
-            if "boolean" not in types:
-                raise self.error(at, f"node {name!r} has no 'states' list")
-            states = ["false", "true"]
-        else:
-            states = self._list(states_value, f"states of {name!r}")
-        if not states:
-            raise self.error(at, f"node {name!r} has an empty 'states' list")
+        states = self._states(name, types, attributes, at)
         if len(set(states)) != len(states):
             duplicated = sorted({s for s in states if states.count(s) > 1})
             raise self.error(at, f"node {name!r} lists state(s) {duplicated} twice")
@@ -330,7 +366,13 @@ class _Parser:
             )
         values = probabilities(numbers, Location(self.path, line, element))
         # data: the parents in their order, the child fastest; a CPT: (child, *parents)
-        spec.cpt = np.moveaxis(values.reshape(*cards, len(spec.states)), -1, 0)
+        cpt = np.moveaxis(values.reshape(*cards, len(spec.states)), -1, 0)
+        # Hugin normalises each distribution itself (a table of counts or weights is a
+        # valid NET table); rounding is left to the model's own policy
+        sums = cpt.sum(axis=0, keepdims=True)
+        if np.any(sums <= 0.0):
+            raise self.error(at, f"{element}: a distribution in 'data' sums to 0 or less")
+        spec.cpt = np.where(np.abs(sums - 1.0) > WARN_TOLERANCE, cpt / sums, cpt)
         spec.parents = tuple(parents)
         spec.cpt_where = where
 
@@ -352,33 +394,39 @@ class _Parser:
         raise self.error(len(self.text), "the file ends inside a potential block")
 
     def _attributes(self, element: str, numbers: str | None = None) -> dict[str, _Value]:
-        """``{ key = value; ... }``: each value, where it starts and whether it is a list.
-
-        A list keeps its items, strings unescaped, separated by ``\\x1f`` (strings may hold
-        spaces); the attribute named ``numbers`` keeps only its words, separated by
-        spaces, for :func:`~bayesmap.bn.io._common.probabilities`.
-        """
+        """``{ key = value; ... }``: each value (see :meth:`_value`) by its key."""
         self._expect("{", f"{element}'s attributes")
         attributes: dict[str, _Value] = {}
         while not self._peek("}"):
             key, at = self._name(f"an attribute name in the {element}")
             self._expect("=", f"after {key!r}")
-            kind, text, offset = self._next(f"the value of {key!r}")
-            if kind == "string":
-                value = _Value(unescape(text[1:-1]), offset, False)
-            elif kind == "word":
-                value = _Value(text, offset, False)
-            elif text == "(":
-                items = self._list_items(offset, key, numbers_only=key == numbers)
-                value = _Value(items, offset, True)
-            else:
-                raise self.error(offset, f"{element}: {key!r} has no value before {text!r}")
-            self._expect(";", f"after the value of {key!r}")
+            value = self._value(key, element, numbers)
             if key in attributes:
                 raise self.error(at, f"{element}: attribute {key!r} is given twice")
             attributes[key] = value
         self._next("'}'")
         return attributes
+
+    def _value(self, key: str, element: str, numbers: str | None) -> _Value:
+        """An attribute's value after its ``=``, and the ``;`` that ends it: the value, where
+        it starts and whether it is a list.
+
+        A list keeps its items, strings unescaped, each after a ``\\x1f`` (strings may hold
+        spaces); the attribute named ``numbers`` keeps only its words, separated by
+        spaces, for :func:`~bayesmap.bn.io._common.probabilities`.
+        """
+        kind, text, offset = self._next(f"the value of {key!r}")
+        if kind == "string":
+            value = _Value(unescape(text[1:-1]), offset, False)
+        elif kind == "word":
+            value = _Value(text, offset, False)
+        elif text == "(":
+            items = self._list_items(offset, key, numbers_only=key == numbers)
+            value = _Value(items, offset, True)
+        else:
+            raise self.error(offset, f"{element}: {key!r} has no value before {text!r}")
+        self._expect(";", f"after the value of {key!r}")
+        return value
 
     def _list_items(self, offset: int, key: str, *, numbers_only: bool) -> str:
         """The items of a list whose ``(`` was just read, to its matching ``)``."""
@@ -397,7 +445,7 @@ class _Parser:
                     raise self.error(at, f"{key!r}: unexpected {text!r} in a list")
             else:
                 items.append(unescape(text[1:-1]) if kind == "string" else text)
-        return "\x1f".join(items)
+        return "".join("\x1f" + item for item in items)
 
     def _numbers(self, offset: int, key: str) -> str:
         """A list of numbers (``data``), its grouping parentheses checked and dropped: one
@@ -417,26 +465,52 @@ class _Parser:
                 raise self.error(match.start(), f"{key!r}: {mark[:40]!r} in a list of numbers")
         raise self.error(offset, f"{key!r}: the list opened here is never closed")
 
-    def _list(self, value: _Value, what: str) -> list[str]:
+    def _states(
+        self, name: str, types: list[str], attributes: dict[str, _Value], at: int
+    ) -> list[str]:
+        """A node's states: its ``states`` list; ``false``, ``true`` for a boolean node
+        without one; and, where the labels are empty, names from its ``state_values``
+        (an interval node's ``[a, b)``, a numbered node's numbers), as Hugin shows them."""
+        value = attributes.pop("states", None)
+        if value is None:
+            if "boolean" not in types:
+                raise self.error(at, f"node {name!r} has no 'states' list")
+            return ["false", "true"]
         if not value.is_list:
-            raise self.error(value.offset, f"{what}: expected a list ( ... ), found {value.text!r}")
-        items = value.text.split("\x1f") if value.text else []
-        if any(not item for item in items):
-            raise self.error(value.offset, f"{what}: an empty name")
-        return items
+            raise self.error(value.offset, f"states of {name!r}: expected a list ( ... )")
+        states = value.items()
+        if not states:
+            raise self.error(at, f"node {name!r} has an empty 'states' list")
+        given = attributes.get("state_values")
+        if not all(states) and given is not None and given.is_list:
+            values = given.items()
+            if len(values) == len(states) + 1:  # interval bounds
+                bounds = zip(values[:-1], values[1:], strict=True)
+                states = [
+                    label or f"[{a}, {b})" for label, (a, b) in zip(states, bounds, strict=True)
+                ]
+            elif len(values) == len(states):
+                states = [label or v for label, v in zip(states, values, strict=True)]
+        if not all(states):
+            raise self.error(value.offset, f"states of {name!r}: an empty name")
+        return states
 
 
 class _Value(NamedTuple):
-    """An attribute's value: its text (a list's items joined by ``\\x1f``), where it
+    """An attribute's value: its text (a list's items, each after a ``\\x1f``), where it
     starts, and whether it is a list."""
 
     text: str
     offset: int
     is_list: bool
 
+    def items(self) -> list[str]:
+        """A list's items."""
+        return self.text.split("\x1f")[1:]
+
     def as_property(self) -> str:
         """The value as a property: a list as ``(a b c)``, as NET writes it."""
-        return "(" + " ".join(self.text.split("\x1f")) + ")" if self.is_list else self.text
+        return "(" + " ".join(self.items()) + ")" if self.is_list else self.text
 
 
 # ---------------------------------------------------------------------------- writing
