@@ -1,4 +1,4 @@
-"""Tests of ``bayesmap blackboard run`` and ``bayesmap blackboard world``."""
+"""Tests of ``bayesmap blackboard run``, ``map`` and ``world``."""
 
 from __future__ import annotations
 
@@ -6,9 +6,17 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
 from typer.testing import CliRunner
 
+from bayesmap.blackboard.fused import FusedMapper
+from bayesmap.blackboard.logs import write_sweep_log
 from bayesmap.cli import app
+from bayesmap.experiments.blackboard_world import catalogue_of
+from bayesmap.experiments.fused_run import fused_params
+from bayesmap.sim.whisker_worlds import parse_world
+from bayesmap.sim.whiskers import WhiskerParams, condition, observe
 
 runner = CliRunner()
 
@@ -115,3 +123,61 @@ def test_paper_mode_maps_with_the_catalogues_largest_type(tmp_path: Path) -> Non
     assert result.exit_code == 0, result.output
     objects = json.loads((out / "map.json").read_text())["objects"]
     assert objects and {(o["length"], o["width"], o["leg"]) for o in objects} == {(1.2, 0.8, 0.1)}
+
+
+def _logged_tour(tmp_path: Path) -> tuple[Path, Path, np.ndarray, list[np.ndarray]]:
+    """ROOM's tour simulated, written as a sweep log: the log, the room file, the tour."""
+    room = parse_world(ROOM)
+    poses = room.robot_poses()
+    rng = np.random.default_rng(11)
+    sweeps = [observe(room.world(), p, condition("normal"), rng=rng).sweeps for p in poses]
+    world = tmp_path / "room.json"
+    world.write_text(json.dumps(ROOM))
+    return write_sweep_log(tmp_path / "tour.csv", poses, sweeps), world, poses, sweeps
+
+
+def test_map_of_a_logged_tour_is_the_mappers_own_and_is_scored(tmp_path: Path) -> None:
+    log, world, poses, sweeps = _logged_tour(tmp_path)
+    out = tmp_path / "out"
+    args = ["blackboard", "map", str(log), "--world", str(world), "--out", str(out)]
+    result = runner.invoke(app, [*args, "--seed", "4"])
+    assert result.exit_code == 0, result.output
+    assert f"{len(poses)} poses" in result.output and "fused_precision" in result.output
+    # the same sweeps straight into the mapper, with the same settings and seed
+    room = parse_world(ROOM)
+    params = fused_params(WhiskerParams(sigma_r=0.02, sigma_theta=0.05, whisker_length=1.0))
+    mapper = FusedMapper(catalogue_of(room), room.arena, params)
+    rng = np.random.default_rng(4)
+    for pose, rows in zip(poses, sweeps, strict=True):
+        mapper.step(pose, rows, rng=rng)
+    expected = mapper.finish(rng=rng).objects()
+    assert json.loads((out / "map.json").read_text())["objects"] == json.loads(json.dumps(expected))
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["fused_precision"] == 1.0 and metrics["fused_recall"] == 1.0
+    assert metrics["contacts"] == sum(int(np.isfinite(s[:, 3]).sum()) for s in sweeps)
+    assert (out / "map.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_log_in_a_room_without_truth_and_its_mistakes(tmp_path: Path) -> None:
+    log, _, _, _ = _logged_tour(tmp_path)
+    unknown = tmp_path / "unknown.json"
+    unknown.write_text(json.dumps({**ROOM, "tables": []}))  # the catalogue names the types
+    out = tmp_path / "out"
+    args = ["blackboard", "map", str(log), "--world", str(unknown), "--out", str(out)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    assert "fused_precision" not in json.loads((out / "metrics.json").read_text())
+    bare = tmp_path / "bare.json"
+    bare.write_text(json.dumps({"arena": ROOM["arena"], "tables": []}))
+    result = runner.invoke(
+        app, ["blackboard", "map", str(log), "--world", str(bare), "--out", str(out)]
+    )
+    assert result.exit_code == 1 and "must list its catalogue" in result.output
+    # a log in millimetres read as metres: its poses lie far outside a 4 m room
+    table = pd.read_csv(log)
+    table[["x", "y", "length", "range"]] *= 1000.0
+    table.to_csv(log, index=False)
+    result = runner.invoke(app, args)
+    assert result.exit_code == 1 and "outside" in result.output and "Traceback" not in result.output
+    result = runner.invoke(app, [*args, "--length-unit", "mm"])
+    assert result.exit_code == 0, result.output

@@ -1,4 +1,5 @@
-"""``bayesmap blackboard``: map the tables of a room from a world file (fused or per pose)."""
+"""``bayesmap blackboard``: map the tables of a room from a world file (fused or per pose) or
+from a logged whisker tour."""
 
 from __future__ import annotations
 
@@ -47,6 +48,69 @@ def run_command(
     print_note(f"wrote {out}/metrics.json, map.json, map.png: {numbers}", out=console)
     if "note" in result.headline:
         print_note(f"note: {result.headline['note']}", out=console)
+
+
+@app.command("map")
+def map_command(
+    log: Annotated[
+        Path,
+        typer.Argument(
+            help="Sweep log (CSV or .parquet): pose, x, y, heading, start, stop, length, "
+            "range, normal [, texture]; see docs/blackboard.md."
+        ),
+    ],
+    world: Annotated[
+        Path,
+        typer.Option(
+            "--world",
+            help="Room file (JSON): the arena and the catalogue of table types; tables it "
+            "lists are the truth the map is scored against.",
+        ),
+    ],
+    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    sigma_range: Annotated[
+        float, typer.Option("--sigma-range", min=0.0, help="Contact range noise [m].")
+    ] = 0.02,
+    sigma_normal: Annotated[
+        float, typer.Option("--sigma-normal", min=0.0, help="Contact normal noise [rad].")
+    ] = 0.05,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the sampler.")] = 0,
+    length_unit: Annotated[
+        Literal["m", "cm", "mm"], typer.Option("--length-unit", help="Unit of x, y, length, range.")
+    ] = "m",
+    angle_unit: Annotated[
+        Literal["rad", "deg"],
+        typer.Option("--angle-unit", help="Unit of heading, start, stop, normal."),
+    ] = "rad",
+) -> None:
+    """Map the tables of a logged whisker tour; write metrics.json, map.json and map.png."""
+    from bayesmap.experiments import blackboard_log  # the mapper loads only when it runs
+
+    try:
+        with progress_bar(console, first=f"mapping {log.name}", elapsed=True) as hook:
+            metrics = blackboard_log.map_log(
+                log,
+                world,
+                out,
+                sigma_range=sigma_range,
+                sigma_normal=sigma_normal,
+                seed=seed,
+                length_unit=length_unit,
+                angle_unit=angle_unit,
+                progress=hook,
+            )
+    except BayesmapError as error:
+        print_error(" ".join(str(error).split()), out=console)
+        raise typer.Exit(1) from error
+    scores: dict[str, object] = {
+        k: metrics[k] for k in ("fused_precision", "fused_recall") if k in metrics
+    }
+    numbers = f": {headline_text(scores)}" if scores else ""
+    print_note(
+        f"{metrics['poses']} poses, {metrics['contacts']} contacts, {metrics['objects']} "
+        f"objects mapped; wrote {out}/metrics.json, map.json, map.png{numbers}",
+        out=console,
+    )
 
 
 @app.command("world")

@@ -22,7 +22,7 @@ from bayesmap.experiments.table_metrics import (
 from bayesmap.sim.tables_world import TablesWorld
 from bayesmap.sim.whiskers import WhiskerParams, observe
 
-__all__ = ["fused_metrics", "fused_params", "run_fused"]
+__all__ = ["fused_metrics", "fused_params", "map_scores", "run_fused"]
 
 
 def fused_params(
@@ -109,15 +109,23 @@ def run_fused(
 
 
 def fused_metrics(run: dict[str, Any], world: TablesWorld, tol: MatchTolerance) -> dict[str, Any]:
-    """The ``fused_*`` metrics of a fused run's final map, and its size.
-
-    ``fused_existence`` and ``fused_object_true`` list, per mapped object, its existence
-    probability and whether it matches a true table (the data of a calibration check).
-    ``tables_touched`` counts the true tables some whisker touched at some pose: a table no
-    whisker touched left no contact, so no mapper could place it (the tour never came
-    within a whisker's length of it).
+    """The ``fused_*`` metrics of a fused run's final map (:func:`map_scores`), the size of
+    its evidence store, and ``tables_touched``: the true tables some whisker touched at
+    some pose (a table no whisker touched left no contact, so no mapper could place it: the
+    tour never came within a whisker's length of it).
     """
-    fused: FusedMap = run["fused"]
+    return {
+        **map_scores(run["fused"], world, tol),
+        "fused_evidence_rows": run["store_rows"],
+        "tables_touched": len(set().union(*(set(t.tolist()) for t in run["touched"]))),
+    }
+
+
+def map_scores(fused: FusedMap, world: TablesWorld, tol: MatchTolerance) -> dict[str, Any]:
+    """The ``fused_*`` scores of a fused map against the world's tables
+    (:func:`~bayesmap.experiments.table_metrics.fused_scores`), its log posterior, and per
+    mapped object its existence probability and whether it matches a true table
+    (``fused_existence``, ``fused_object_true``: the data of a calibration check)."""
     matched, _ = match_tables(
         fused.tables, world.tables, tol, symmetry_period(world.table_sizes[:, :2])
     )
@@ -134,9 +142,7 @@ def fused_metrics(run: dict[str, Any], world: TablesWorld, tol: MatchTolerance) 
             fused.tables, sizes, world.tables, world.table_sizes[:, :2], world.bounds, tol
         ),
         "fused_log_posterior": fused.log_posterior,
-        "fused_evidence_rows": run["store_rows"],
         "fused_existence": [float(p) for p in fused.existence],
         "fused_doubtful_existence": [float(p) for p in fused.doubtful_existence],
-        "tables_touched": len(set().union(*(set(t.tolist()) for t in run["touched"]))),
         "fused_object_true": true.tolist(),
     }

@@ -383,7 +383,8 @@ def fused_map_figure(
     bounds: tuple[float, float, float, float],
     title: str,
 ) -> Figure:
-    """The fused map over the truth: true tables filled, mapped objects outlined.
+    """The fused map over the truth: true tables filled (none: no truth), mapped objects
+    outlined.
 
     Each mapped object is labelled with its type and existence probability; the legend
     sits below the axis label, outside the axes, so it never hides a table or the label;
@@ -402,15 +403,12 @@ def fused_map_figure(
         ax.text(x, y, f"{label}\np={p:.2f}", ha="center", va="center", fontsize=6, color=MAP_COLOR)
     _arena(ax, bounds)
     ax.set_title(title, fontsize=9)
+    handles = [
+        Patch(facecolor=TRUTH_COLOR, alpha=0.45, label="true table"),
+        Line2D([], [], color=MAP_COLOR, lw=1.4, label="fused map (type, existence p)"),
+        Line2D([], [], color="k", lw=1.5, label="arena walls"),
+    ][0 if len(truth) else 1 :]  # a map of a logged tour may have no truth to show
     fig.legend(
-        handles=[
-            Patch(facecolor=TRUTH_COLOR, alpha=0.45, label="true table"),
-            Line2D([], [], color=MAP_COLOR, lw=1.4, label="fused map (type, existence p)"),
-            Line2D([], [], color="k", lw=1.5, label="arena walls"),
-        ],
-        loc="outside lower center",
-        ncol=3,
-        fontsize=7,
-        frameon=False,
+        handles=handles, loc="outside lower center", ncol=len(handles), fontsize=7, frameon=False
     )
     return fig
