@@ -181,3 +181,13 @@ def test_a_log_in_a_room_without_truth_and_its_mistakes(tmp_path: Path) -> None:
     assert result.exit_code == 1 and "outside" in result.output and "Traceback" not in result.output
     result = runner.invoke(app, [*args, "--length-unit", "mm"])
     assert result.exit_code == 0, result.output
+    assert "warning" not in result.output
+    # and in degrees read as radians: mapped, with a hint
+    table[["heading", "start", "stop", "normal"]] = np.degrees(
+        table[["heading", "start", "stop", "normal"]]
+    )
+    table.to_csv(log, index=False)
+    result = runner.invoke(app, [*args, "--length-unit", "mm"])
+    assert result.exit_code == 0 and "if the log is in degrees, give --angle-unit deg" in (
+        result.output
+    )

@@ -38,7 +38,7 @@ from bayesmap._typing import FloatArray
 from bayesmap.blackboard.evidence import SWEEP_FIELDS
 from bayesmap.errors import FormatError, InputError
 
-__all__ = ["SweepLog", "read_sweep_log", "write_sweep_log"]
+__all__ = ["SweepLog", "angle_unit_hint", "read_sweep_log", "write_sweep_log"]
 
 POSE_COLUMNS = ("x", "y", "heading")
 REQUIRED = ("pose", *POSE_COLUMNS, "start", "stop", "length", "range", "normal")
@@ -55,6 +55,8 @@ class SweepLog:
 
     poses: FloatArray
     sweeps: tuple[FloatArray, ...]
+    largest_angle: float = 0.0
+    """The largest magnitude of any angle as logged, in the log's angle unit."""
 
     @property
     def whisker_length(self) -> float:
@@ -101,6 +103,7 @@ def read_sweep_log(
     contact = np.isfinite(values["range"])
     _require(contact & (values["range"] < 0), where, "range must be >= 0 (blank: no contact)")
     _require(contact & ~np.isfinite(values["normal"]), where, "a contact needs a normal")
+    largest = max(float(np.nanmax(np.abs(values[c]), initial=0.0)) for c in ANGLES)
     for column in LENGTHS:
         values[column] = values[column] * LENGTH_UNITS[length_unit]
     for column in ANGLES:
@@ -125,7 +128,17 @@ def read_sweep_log(
     sweeps = tuple(
         np.ascontiguousarray(rows[by_pose[a:b]]) for a, b in zip(bounds, bounds[1:], strict=False)
     )
-    return SweepLog(poses=np.ascontiguousarray(firsts), sweeps=sweeps)
+    return SweepLog(poses=np.ascontiguousarray(firsts), sweeps=sweeps, largest_angle=largest)
+
+
+def angle_unit_hint(log: SweepLog, unit: str) -> str | None:
+    """A hint when a log read in radians has angles beyond ±(2π + 0.1), as degrees read as
+    radians would (an unwrapped heading can be that large too: a hint, not an error)."""
+    if unit != "rad" or log.largest_angle <= 2.0 * math.pi + 0.1:
+        return None
+    return (
+        f"angles reach {log.largest_angle:.4g} rad: if the log is in degrees, give --angle-unit deg"
+    )
 
 
 def _table(path: Path) -> pd.DataFrame:

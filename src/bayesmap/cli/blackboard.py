@@ -102,6 +102,8 @@ def map_command(
     except BayesmapError as error:
         print_error(" ".join(str(error).split()), out=console)
         raise typer.Exit(1) from error
+    for hint in metrics["warnings"]:
+        print_note(f"warning: {hint}", out=console)
     scores: dict[str, object] = {
         k: metrics[k] for k in ("fused_precision", "fused_recall") if k in metrics
     }

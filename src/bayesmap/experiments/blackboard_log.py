@@ -18,7 +18,7 @@ import numpy as np
 from bayesmap._io import write_bytes, write_json
 from bayesmap._typing import ProgressHook
 from bayesmap.blackboard.fused import FusedMap, FusedMapper
-from bayesmap.blackboard.logs import read_sweep_log
+from bayesmap.blackboard.logs import angle_unit_hint, read_sweep_log
 from bayesmap.errors import InputError
 from bayesmap.experiments._common import no_progress
 from bayesmap.experiments.blackboard_world import _tolerance, catalogue_of, map_figure
@@ -42,7 +42,8 @@ def map_log(
     progress: ProgressHook = no_progress,
 ) -> dict[str, Any]:
     """Map ``log`` in the room of ``world``; write ``map.json``, ``map.png`` and
-    ``metrics.json`` under ``out`` and return the metrics.
+    ``metrics.json`` under ``out`` and return the metrics (``warnings``: hints about the
+    log, such as angles that look like degrees read as radians).
 
     ``sigma_range`` [m] and ``sigma_normal`` [rad] are the sensor's noise on a contact's
     range and normal (the defaults are the simulator's ``normal`` condition); ``seed``
@@ -90,6 +91,7 @@ def map_log(
         "seed": seed,
         "catalogue": [t._asdict() for t in catalogue],
         "objects": len(objects),
+        "warnings": [hint for hint in (angle_unit_hint(data, angle_unit),) if hint],
     }
     if len(truth.tables):
         metrics.update(map_scores(fused, truth, _tolerance(truth)))
