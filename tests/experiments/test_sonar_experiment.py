@@ -19,7 +19,7 @@ from bayesmap.experiments.sonar import (
 )
 from bayesmap.grid import OccupancyGrid
 from bayesmap.sim.polygons import random_building, world
-from bayesmap.sim.sonar_log import Realism, simulate_log
+from bayesmap.sim.sonar_log import Realism, SimulatedLog, simulate_log
 
 
 def test_map_metrics_against_hand_counts() -> None:
@@ -102,16 +102,23 @@ def test_default_and_streaming_pipelines_win_on_a_building_nobody_tuned_on() -> 
     assert kappa["default"] >= kappa["streaming"]
 
 
+def _default_beside_baselines(config: Config, name: str) -> tuple[SimulatedLog, dict]:
+    """One log of world ``name`` (seed 12) and the scores of the default, the one pass and
+    the two strongest baselines on it."""
+    w = world(name)
+    log = simulate_log(w, make_ring(config), config.realism, rng=12)
+    names = ("default", "streaming", "elfes-ignore-no-echo", "ros")
+    return log, score_world(config, w, log, names)[0]
+
+
 def test_the_default_pipeline_keeps_the_walls_with_the_8_sonar_front_ring() -> None:
     # With only the front eight transducers the filter finds fewer lost echoes; the sweep
     # must not let the silences it keeps carve the corridor's walls away (when they cleared
     # 3 m there, the default fell below the unfiltered baseline on this log).
-    config = Config(ring=8, realism=Realism(ring_rate=4.0))
-    w = world("sonar-lcorridor-v2")
-    log = simulate_log(w, make_ring(config), config.realism, rng=12)
-    names = ("default", "streaming", "elfes-ignore-no-echo", "ros")
-    metrics, _, _, _ = score_world(config, w, log, names)
-    kappa = {name: metrics[name]["kappa"] for name in names}
+    _, metrics = _default_beside_baselines(
+        Config(ring=8, realism=Realism(ring_rate=4.0)), "sonar-lcorridor-v2"
+    )
+    kappa = {name: scores["kappa"] for name, scores in metrics.items()}
     assert kappa["default"] > max(kappa["elfes-ignore-no-echo"], kappa["ros"]) + 0.05
     assert kappa["default"] >= kappa["streaming"]
     assert metrics["default"]["missed_wall_rate"] <= metrics["streaming"]["missed_wall_rate"]
@@ -122,14 +129,12 @@ def test_the_default_pipeline_holds_when_transducers_fire_in_turn() -> None:
     # A Pioneer's banks fire one transducer after another while the log writes a whole ring
     # at every packet: most readings of a moving ring repeat a value a few rings old. The
     # pipeline maps each repeat again at the new pose; it must still beat the baselines.
-    config = Config(realism=Realism(ring_rate=4.0, firing_cycle=0.64))
-    w = world("sonar-office-v2")
-    log = simulate_log(w, make_ring(config), config.realism, rng=12)
+    log, metrics = _default_beside_baselines(
+        Config(realism=Realism(ring_rate=4.0, firing_cycle=0.64)), "sonar-office-v2"
+    )
     moving = np.any(np.diff(log.poses, axis=0) != 0, axis=1)
     assert (log.ranges[1:][moving] == log.ranges[:-1][moving]).mean() > 0.5
-    names = ("default", "streaming", "elfes-ignore-no-echo", "ros")
-    metrics, _, _, _ = score_world(config, w, log, names)
-    kappa = {name: metrics[name]["kappa"] for name in names}
+    kappa = {name: scores["kappa"] for name, scores in metrics.items()}
     assert kappa["default"] > max(kappa["elfes-ignore-no-echo"], kappa["ros"]) + 0.1
     assert kappa["default"] >= kappa["streaming"]
     assert metrics["default"]["missed_wall_rate"] <= metrics["ros"]["missed_wall_rate"]

@@ -37,6 +37,7 @@ from bayesmap._io import write_bytes
 from bayesmap._typing import FloatArray
 from bayesmap.blackboard.evidence import SWEEP_FIELDS
 from bayesmap.errors import FormatError, InputError
+from bayesmap.sonar.logs import ANGLE_UNITS, LENGTH_UNITS
 
 __all__ = ["SweepLog", "angle_unit_hint", "read_sweep_log", "write_sweep_log"]
 
@@ -44,8 +45,6 @@ POSE_COLUMNS = ("x", "y", "heading")
 REQUIRED = ("pose", *POSE_COLUMNS, "start", "stop", "length", "range", "normal")
 LENGTHS = {"x", "y", "length", "range"}
 ANGLES = {"heading", "start", "stop", "normal"}
-LENGTH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
-ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ from bayesmap.blackboard.fused import FusedMap, FusedMapper
 from bayesmap.blackboard.logs import angle_unit_hint, read_sweep_log
 from bayesmap.errors import InputError
 from bayesmap.experiments._common import no_progress
-from bayesmap.experiments.blackboard_world import _tolerance, catalogue_of, map_figure
+from bayesmap.experiments.blackboard_world import catalogue_of, map_figure, match_tolerance
 from bayesmap.experiments.fused_run import fused_params, map_scores
 from bayesmap.sim import whisker_worlds
 from bayesmap.sim.whiskers import WhiskerParams
@@ -94,7 +94,7 @@ def map_log(
         "warnings": [hint for hint in (angle_unit_hint(data, angle_unit),) if hint],
     }
     if len(truth.tables):
-        metrics.update(map_scores(fused, truth, _tolerance(truth)))
+        metrics.update(map_scores(fused, truth, match_tolerance(truth)))
     out = Path(out)
     write_json(out / "metrics.json", metrics)
     write_json(

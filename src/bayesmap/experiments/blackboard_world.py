@@ -89,7 +89,9 @@ def _per_pose(run: dict[str, Any], world: TablesWorld) -> dict[str, Any]:
     return paper.per_pose_metrics(run, paper.Config.model_validate({}), world)
 
 
-def _tolerance(world: TablesWorld) -> MatchTolerance:
+def match_tolerance(world: TablesWorld) -> MatchTolerance:
+    """How close a mapped table must come to a true one of ``world`` to match it: the
+    paper experiment's tolerances, angles weighed at half its tables' length."""
     config = paper.Config.model_validate({})
     return MatchTolerance(
         position_tol=config.position_tol,
@@ -131,7 +133,7 @@ def fused_world_run(
         label=condition_name,
         progress=progress,
     )
-    return world, result, fused_metrics(result, world, _tolerance(world))
+    return world, result, fused_metrics(result, world, match_tolerance(world))
 
 
 def run(
