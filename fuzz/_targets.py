@@ -30,7 +30,9 @@ from bayesmap.bn.io import net as hugin
 from bayesmap.bn.model import BayesNet
 from bayesmap.grid.occupancy import OccupancyGrid
 from bayesmap.grid.ros import read_ros_map
+from bayesmap.sonar.carmen import read_carmen_log
 from bayesmap.sonar.logs import read_sonar_log, write_sonar_log
+from bayesmap.sonar.player import read_player_log
 
 Mutator = Callable[[bytes, np.random.Generator], bytes]
 
@@ -260,6 +262,49 @@ def _read_sonar(data: bytes, scratch: Path) -> object:
     return read_sonar_log(path, 4)
 
 
+_RING4 = [(0.1, 0.1, 0.8), (0.12, 0.0, 0.0), (0.1, -0.1, -0.8), (-0.1, 0.0, 3.1)]
+"""A four-transducer ring for the Player and CARMEN seeds: x, y [m], bearing [rad]."""
+
+
+def _player_seed() -> bytes:
+    """A small Player 3 log: the ring's geometry, then odometry and rings at 4 Hz."""
+    head = "{t:.3f} 16777343 6665 {device} 00 {kind} "
+    geometry = " ".join(f"{x:+.3f} {y:+.3f} {a:+.4f}" for x, y, a in _RING4)
+    lines = ["## Player version 3.0.2", "## File version 0.3.0"]
+    lines.append(head.format(t=0.0, device="sonar", kind="004 001") + f"4 {geometry}")
+    for k in range(6):
+        t = 0.25 * k
+        pose = f"{0.1 * k:+.3f} +0.000 +0.000 +0.400 +0.000 +0.000 0"
+        lines.append(head.format(t=t, device="position2d", kind="001 001") + pose)
+        ranges = " ".join(f"{1.0 + 0.1 * (k + i):.3f}" for i in range(4))
+        lines.append(head.format(t=t + 0.01, device="sonar", kind="001 001") + f"4 {ranges}")
+    return ("\n".join(lines) + "\n").encode()
+
+
+def _carmen_seed() -> bytes:
+    """A small CARMEN log: its header, a PARAM line, then odometry and rings at 4 Hz."""
+    offsets = " ".join(f"{x:.3f} {y:.3f} {a:f}" for x, y, a in _RING4)
+    lines = ["# CARMEN Logfile", "PARAM robot_sensor_angle 0.4363 0.000000 robot 0.000000"]
+    for k in range(6):
+        t = 100.0 + 0.25 * k
+        stamps = f"{t:f} robot {t - 100.0:f}"
+        lines.append(f"ODOM {0.1 * k:f} 0.000000 0.000000 0.400000 0.000000 0.000000 {stamps}")
+        ranges = " ".join(f"{1.0 + 0.1 * (k + i):.2f}" for i in range(4))
+        lines.append(f"SONAR 0.436300 4 {ranges} {offsets} {t + 0.01:f} robot {t - 99.99:f}")
+    return ("\n".join(lines) + "\n").encode()
+
+
+def _read_log_with(reader: Callable[[Path], object]) -> Callable[[bytes, Path], object]:
+    """A target reading bytes as a log file through ``reader``."""
+
+    def read(data: bytes, scratch: Path) -> object:
+        path = scratch / "robot.log"
+        path.write_bytes(data)
+        return reader(path)
+
+    return read
+
+
 def _loads(module: object, name: str) -> Callable[[bytes, Path], object]:
     return lambda data, scratch: module.loads(data, path=name)  # type: ignore[attr-defined]
 
@@ -281,4 +326,6 @@ def targets() -> dict[str, Target]:
         "net": Target(
             "net", _loads(hugin, "f.net"), _network_seeds(hugin.dumps, "a_b"), NET_POISONS
         ),
+        "Player log": Target("Player log", _read_log_with(read_player_log), [_player_seed()]),
+        "CARMEN log": Target("CARMEN log", _read_log_with(read_carmen_log), [_carmen_seed()]),
     }  # fmt: skip

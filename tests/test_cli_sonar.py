@@ -5,8 +5,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
-from tests.sonar.helpers import player_lines, simulated_drive, write_player_log
+from tests.sonar.helpers import carmen_lines, player_lines, simulated_drive, write_log_lines
 from typer.testing import CliRunner
 
 from bayesmap.cli import app
@@ -312,34 +313,55 @@ def test_run_names_a_bad_world_file_or_pipeline_in_one_line(tmp_path: Path) -> N
     assert "world.json: a 400002 m x 300002 m grid" in result.output and "mm?" in result.output
 
 
-def _player_map(log: Path, out: Path, *extra: str) -> object:
+def _map_file(log: Path, out: Path, *extra: str) -> object:
     return runner.invoke(
         app, ["sonar", "map", str(log), "--resolution", "0.2", "--out", str(out), *extra]
     )
 
 
 def test_a_player_log_is_mapped_with_the_ring_it_describes(tmp_path: Path) -> None:
-    log = write_player_log(tmp_path / "drive.log", player_lines(simulated_drive()))
-    result = _player_map(log, tmp_path / "o")
+    log = write_log_lines(tmp_path / "drive.log", player_lines(simulated_drive()))
+    result = _map_file(log, tmp_path / "o")
     assert result.exit_code == 0, _text(result)
-    assert "ring: the log's sonar geometry, 16 transducers, max range 5 m" in _text(result)
+    assert "ring: the log's sonar geometry, 16 transducers, 25 deg beams, max range 5 m" in _text(
+        result
+    )
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["readings"] == 240 * 16 and summary["rows_skipped"] == 0
     assert summary["rows"] == 240 + 121 + 1  # sonar, odometry and geometry lines
     manifest = json.loads((tmp_path / "o" / "manifest.json").read_text())
     assert manifest["configuration"]["format"] == "player"
     assert read_ros_map(tmp_path / "o" / "map.yaml").resolution == pytest.approx(0.2)
-    old = write_player_log(tmp_path / "old.log", player_lines(simulated_drive(), "0.2.0", False))
+    old = write_log_lines(tmp_path / "old.log", player_lines(simulated_drive(), "0.2.0", False))
     given = ["--format", "player", "--ring", "pioneer16", "--max-range", "5"]
-    result = _player_map(old, tmp_path / "p", *given, "--sonar-index", "0")
+    result = _map_file(old, tmp_path / "p", *given, "--sonar-index", "0")
     assert result.exit_code == 0, _text(result)
     assert "sonar geometry" not in _text(result)
+
+
+def test_a_carmen_log_is_mapped_as_the_player_log_of_the_same_drive(tmp_path: Path) -> None:
+    drive = simulated_drive()
+    carmen = write_log_lines(tmp_path / "drive.clf", carmen_lines(drive))
+    result = _map_file(carmen, tmp_path / "c")
+    assert result.exit_code == 0, _text(result)
+    assert "ring: the log's sonar geometry, 16 transducers, 25 deg beams" in _text(result)
+    manifest = json.loads((tmp_path / "c" / "manifest.json").read_text())
+    assert manifest["configuration"]["format"] == "carmen"
+    summary = json.loads((tmp_path / "c" / "summary.json").read_text())
+    assert summary["readings"] == 240 * 16 and summary["rows"] == 240 + 121
+    player = write_log_lines(tmp_path / "drive.log", player_lines(drive))
+    assert _map_file(player, tmp_path / "p").exit_code == 0
+    ours, theirs = (read_ros_map(tmp_path / d / "map.yaml").probability for d in "cp")
+    assert np.mean(ours == theirs) > 0.999  # poses differ by CARMEN's and Player's rounding
+    result = _map_file(carmen, tmp_path / "l", "--clock", "logger", "--format", "carmen")
+    assert result.exit_code == 0, _text(result)
 
 
 @pytest.mark.parametrize(
     ("extra", "words"),
     [
         (["--poses", "p.txt"], "--poses is for text logs; a Player log holds its own odometry"),
+        (["--clock", "logger"], "--clock is for CARMEN logs; LOG is read as player"),
         (["--range-unit", "mm"], "a Player log is in metres, radians and seconds"),
         (["--time-unit", "ns"], "a Player log is in metres, radians and seconds"),
         (["--format", "text", "--sonar-index", "1"], "--sonar-index is for Player logs"),
@@ -349,19 +371,34 @@ def test_a_player_log_is_mapped_with_the_ring_it_describes(tmp_path: Path) -> No
 def test_options_that_do_not_go_with_the_format_exit_2(
     tmp_path: Path, extra: list[str], words: str
 ) -> None:
-    log = write_player_log(tmp_path / "drive.log", player_lines(simulated_drive())[:40])
-    result = _player_map(log, tmp_path / "o", *extra)
+    log = write_log_lines(tmp_path / "drive.log", player_lines(simulated_drive())[:40])
+    result = _map_file(log, tmp_path / "o", *extra)
     assert result.exit_code == 2 and words in _text(result)
     assert "Traceback" not in _text(result) and not (tmp_path / "o").exists()
 
 
+def test_a_carmen_log_with_options_of_other_formats_exits_2(tmp_path: Path) -> None:
+    log = write_log_lines(tmp_path / "drive.clf", carmen_lines(simulated_drive())[:40])
+    result = _map_file(log, tmp_path / "o", "--sonar-index", "1")
+    assert result.exit_code == 2 and "--sonar-index is for Player logs; LOG is read as carmen" in (
+        _text(result)
+    )
+    result = _map_file(log, tmp_path / "o", "--heading-unit", "deg")
+    assert result.exit_code == 2 and "a CARMEN log is in metres, radians and seconds" in (
+        _text(result)
+    )
+    result = _map_file(DATA / "example_log.txt", tmp_path / "o", "--format", "carmen")
+    assert result.exit_code == 1 and "no SONAR lines" in _text(result)
+    assert not (tmp_path / "o").exists()
+
+
 def test_player_logs_that_cannot_be_mapped_are_one_line_errors(tmp_path: Path) -> None:
-    result = _player_map(DATA / "example_log.txt", tmp_path / "o", "--format", "player")
+    result = _map_file(DATA / "example_log.txt", tmp_path / "o", "--format", "player")
     assert result.exit_code == 1 and "not a Player log" in _text(result)
     bare = player_lines(simulated_drive(), geometry=False)[:40]
-    result = _player_map(write_player_log(tmp_path / "bare.log", bare), tmp_path / "o")
+    result = _map_file(write_log_lines(tmp_path / "bare.log", bare), tmp_path / "o")
     assert result.exit_code == 1 and "no usable sonar geometry" in _text(result)
-    result = _player_map(tmp_path / "bare.log", tmp_path / "o", "--ring", "pioneer8")
+    result = _map_file(tmp_path / "bare.log", tmp_path / "o", "--ring", "pioneer8")
     assert result.exit_code == 1
     assert "the log's rings hold 16 ranges, the ring has 8 transducers" in _text(result)
     assert "Traceback" not in _text(result) and not (tmp_path / "o").exists()

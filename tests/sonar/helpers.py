@@ -1,4 +1,5 @@
-"""Shared by the sonar tests: the data folder, its recording scripts, simulated Player logs."""
+"""Shared by the sonar tests: the data folder, its recording scripts, simulated Player and
+CARMEN logs."""
 
 from __future__ import annotations
 
@@ -99,7 +100,42 @@ def player_lines(drive: Drive, version: str = "0.3.0", geometry: bool = True) ->
     return lines
 
 
-def write_player_log(path: Path, lines: list[str]) -> Path:
-    """Write ``lines`` as a log file (LF line ends, as ``writelog`` writes them)."""
+def carmen_lines(drive: Drive, cone: float = 0.4363) -> list[str]:
+    """The lines CARMEN's logger would write for ``drive``: its header, a few PARAM lines,
+    ODOM and SONAR (the Pioneer ring's offsets, beams ``cone`` rad wide) with ipc stamps at
+    the drive's times and logger stamps 0.5 ms later, from the log's start, and a laser
+    on the side."""
+    start = float(drive.times[0]) - 1.0
+    offsets = " ".join(f"{x:.3f} {y:.3f} {a:f}" for x, y, a in PIONEER_RING16)
+
+    def stamps(t: float) -> str:
+        return f"{t:f} robot {t - start + 0.0005:f}"
+
+    lines = [
+        "# CARMEN Logfile",
+        "# file format is one message per line",
+        "# message_name [message contents] ipc_timestamp ipc_hostname logger_timestamp",
+        "# SONAR cone_angle num_sonars [sonar_reading] [sonar_offsets x y theta]",
+        f"PARAM robot_sensor_angle {cone} {stamps(start)}",
+        f"PARAM robot_use_sonar on {stamps(start)}",
+        f"SYNC start {stamps(start)}",
+    ]
+    timed: list[tuple[float, int, str]] = []
+    for t, (x, y, a) in zip(drive.pose_times, drive.poses, strict=True):
+        timed.append(
+            (float(t), 0, f"ODOM {x:f} {y:f} {a:f} 0.400000 0.000000 0.000000 {stamps(t)}")
+        )
+    for t, r in zip(drive.times, drive.ranges, strict=True):
+        ranges = " ".join(f"{v:.3f}" for v in r)
+        sonar = f"SONAR {cone:f} {len(r)} {ranges} {offsets} {stamps(t)}"
+        timed.append((float(t), 1, sonar))
+        timed.append((float(t), 2, f"FLASER 3 1.0 1.0 1.0 0 0 0 0 0 0 {stamps(t)}"))
+    lines.extend(line for _, _, line in sorted(timed))
+    return lines
+
+
+def write_log_lines(path: Path, lines: list[str]) -> Path:
+    """Write ``lines`` as a log file (LF line ends, as ``writelog`` and CARMEN's logger
+    write them)."""
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from tests.sonar.helpers import player_lines, simulated_drive, write_player_log
+from tests.sonar.helpers import player_lines, simulated_drive, write_log_lines
 
 from bayesmap.errors import FormatError, InputError
 from bayesmap.sensing.sonar_rings import PIONEER_RING16
@@ -30,7 +30,7 @@ def _text_log(tmp_path: Path) -> SonarLog:
 
 @pytest.mark.parametrize("version", ["0.3.0", "0.2.0"])
 def test_a_player_log_reads_as_the_same_plain_text_log(tmp_path: Path, version: str) -> None:
-    path = write_player_log(tmp_path / "drive.log", player_lines(simulated_drive(), version))
+    path = write_log_lines(tmp_path / "drive.log", player_lines(simulated_drive(), version))
     player = read_player_log(path).log
     text = _text_log(tmp_path)
     assert player.skipped == () and len(player.timestamps) == len(simulated_drive().times)
@@ -44,14 +44,14 @@ def test_a_player_log_reads_as_the_same_plain_text_log(tmp_path: Path, version: 
 
 @pytest.mark.parametrize("version", ["0.3.0", "0.2.0"])
 def test_the_geometry_lines_give_the_ring(tmp_path: Path, version: str) -> None:
-    path = write_player_log(tmp_path / "drive.log", player_lines(simulated_drive(), version))
+    path = write_log_lines(tmp_path / "drive.log", player_lines(simulated_drive(), version))
     ring = read_player_log(path).ring
     assert ring is not None and ring.n == 16
     assert ring.angles == pytest.approx([a for _, _, a in PIONEER_RING16], abs=1e-4)
     assert np.allclose(ring.offsets, [(x, y) for x, y, _ in PIONEER_RING16], atol=1e-3)
     assert ring.max_range == 5.0 and ring.min_range == 0.1 and ring.closed is None
     assert math.degrees(ring.beam_width) == pytest.approx(25.0)
-    bare = write_player_log(tmp_path / "bare.log", player_lines(simulated_drive(), version, False))
+    bare = write_log_lines(tmp_path / "bare.log", player_lines(simulated_drive(), version, False))
     assert read_player_log(bare).ring is None
 
 
@@ -60,17 +60,17 @@ def test_geometry_published_as_data_and_a_wrong_sized_one(tmp_path: Path) -> Non
     geometry = lines[3]
     assert " sonar 00 004 001 16 " in geometry
     lines[3] = geometry.replace(" 004 001 16 ", " 001 002 16 ")  # PLAYER_SONAR_DATA_GEOM
-    ring = read_player_log(write_player_log(tmp_path / "data.log", lines)).ring
+    ring = read_player_log(write_log_lines(tmp_path / "data.log", lines)).ring
     assert ring is not None and ring.n == 16
     fields = geometry.split()
     lines[3] = " ".join([*fields[:7], "8", *fields[8 : 8 + 24]])  # 8 transducers, rings of 16
-    log = read_player_log(write_player_log(tmp_path / "eight.log", lines))
+    log = read_player_log(write_log_lines(tmp_path / "eight.log", lines))
     assert log.ring is None
     assert [(row.line, row.reason) for row in log.log.skipped] == [
         (4, "sonar geometry of 8 transducers for rings of 16 ranges")
     ]
     lines[3] = geometry + " 7"  # a field too many: the line is skipped, its ring unused
-    log = read_player_log(write_player_log(tmp_path / "long.log", lines))
+    log = read_player_log(write_log_lines(tmp_path / "long.log", lines))
     assert log.ring is None and log.log.skipped[0].reason == "1 fields after the sonar geometry"
 
 
@@ -88,7 +88,7 @@ def test_bad_lines_cost_their_line_and_strict_names_the_first(tmp_path: Path) ->
     fields = lines[sonar[30]].split()
     fields[0] = "0000000001.000"  # a clock jump back
     lines[sonar[30]] = " ".join(fields)
-    path = write_player_log(tmp_path / "bad.log", lines)
+    path = write_log_lines(tmp_path / "bad.log", lines)
     log = read_player_log(path).log
     reasons = {row.line: row.reason for row in log.skipped}
     numbers = [i + 1 for i in (sonar[5], sonar[9], sonar[12], pose[4], sonar[20], sonar[30])]
@@ -110,7 +110,7 @@ def test_bad_lines_cost_their_line_and_strict_names_the_first(tmp_path: Path) ->
 def test_devices_are_chosen_by_index(tmp_path: Path) -> None:
     lines = player_lines(simulated_drive())
     moved = [line.replace(" sonar 00 ", " sonar 01 ") for line in lines]
-    path = write_player_log(tmp_path / "one.log", moved)
+    path = write_log_lines(tmp_path / "one.log", moved)
     assert len(read_player_log(path, sonar_index=1).log.timestamps) == 240
     with pytest.raises(FormatError, match=r"no ranges of sonar:0 \(it holds laser:0, "):
         read_player_log(path)
@@ -143,10 +143,10 @@ def test_comments_before_the_header_are_read_past(tmp_path: Path) -> None:
     """A note added by hand above writelog's header: the log is still detected and read
     the same, and bad lines are named by their line in the file as it is."""
     lines = player_lines(simulated_drive())
-    plain = read_player_log(write_player_log(tmp_path / "plain.log", lines)).log
+    plain = read_player_log(write_log_lines(tmp_path / "plain.log", lines)).log
     sonar = next(i for i, line in enumerate(lines) if " sonar 00 001 001 " in line)
     lines[sonar] = " ".join(lines[sonar].split()[:12])  # cut short
-    path = write_player_log(tmp_path / "noted.log", ["# recorded in the east corridor", "", *lines])
+    path = write_log_lines(tmp_path / "noted.log", ["# recorded in the east corridor", "", *lines])
     assert is_player_log(path)
     noted = read_player_log(path).log
     assert np.array_equal(noted.timestamps, plain.timestamps[1:])  # the first ring cut short
@@ -155,7 +155,7 @@ def test_comments_before_the_header_are_read_past(tmp_path: Path) -> None:
 
 
 def test_detection_progress_and_settings(tmp_path: Path) -> None:
-    path = write_player_log(tmp_path / "drive.log", player_lines(simulated_drive()))
+    path = write_log_lines(tmp_path / "drive.log", player_lines(simulated_drive()))
     assert is_player_log(path) and not is_player_log(tmp_path / "missing.log")
     calls: list[tuple[str, int, int]] = []
     read_player_log(path, progress=lambda *call: calls.append(call))
@@ -168,7 +168,7 @@ def test_detection_progress_and_settings(tmp_path: Path) -> None:
 
 
 def test_a_gzipped_player_log_is_detected_and_read(tmp_path: Path) -> None:
-    path = write_player_log(tmp_path / "drive.log", player_lines(simulated_drive()))
+    path = write_log_lines(tmp_path / "drive.log", player_lines(simulated_drive()))
     packed = tmp_path / "drive.log.gz"
     packed.write_bytes(gzip.compress(path.read_bytes()))
     assert is_player_log(packed)
@@ -195,7 +195,7 @@ def test_junk_lines_never_crash_the_reader(
     lines = player_lines(simulated_drive(), geometry=False)[:60]
     for at, line in extra:
         lines.insert(max(at, 2), line)
-    path = write_player_log(tmp_path / "junk.log", lines)
+    path = write_log_lines(tmp_path / "junk.log", lines)
     try:
         log = read_player_log(path, strict=strict).log
     except FormatError:

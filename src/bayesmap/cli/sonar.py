@@ -24,9 +24,10 @@ from bayesmap.cli._console import USAGE, console, headline_text, print_note, pro
 from bayesmap.errors import BayesmapError, InputError
 from bayesmap.limits import cell_side_problem
 from bayesmap.sonar.bags import bag_kind
+from bayesmap.sonar.carmen import Clock, is_carmen_log, read_carmen_log
 from bayesmap.sonar.filter import Stage
 from bayesmap.sonar.geometry import SonarGeometry
-from bayesmap.sonar.logs import LENGTH_UNITS, LogUnits, SonarLog, read_sonar_log
+from bayesmap.sonar.logs import LENGTH_UNITS, LogUnits, RingLog, SonarLog, read_sonar_log
 from bayesmap.sonar.pipeline import (
     DEFAULT_CELL_SIDE,
     DEFAULT_PIPELINE,
@@ -34,7 +35,7 @@ from bayesmap.sonar.pipeline import (
     BuiltMap,
     build_map,
 )
-from bayesmap.sonar.player import PlayerLog, is_player_log, read_player_log
+from bayesmap.sonar.player import is_player_log, read_player_log
 from bayesmap.sonar.ring import PRESETS, load_ring, preset_with_bearings
 
 app = typer.Typer(
@@ -45,7 +46,10 @@ app = typer.Typer(
 LengthUnit = Literal["mm", "cm", "m"]
 AngleUnit = Literal["rad", "deg", "decideg"]
 TimeUnit = Literal["s", "ms", "us", "ns"]
-LogFormat = Literal["auto", "text", "player"]
+LogFormat = Literal["auto", "text", "player", "carmen"]
+LogKind = Literal["text", "player", "carmen", "bag"]
+_LOGGED_RING = {"player": "Player", "carmen": "CARMEN"}
+"""The log formats that describe their own ring, by the name of the tool that writes them."""
 _err = console(stderr=True)
 
 
@@ -90,8 +94,8 @@ def _geometry(
     range_unit: str,
     logged: SonarGeometry | None = None,
 ) -> SonarGeometry:
-    """The ring from ``--ring`` or ``--angles-deg`` (else the ring a Player log describes,
-    ``logged``), with the command line's overrides."""
+    """The ring from ``--ring`` or ``--angles-deg`` (else the ring a Player or CARMEN log
+    describes, ``logged``), with the command line's overrides."""
     if ring is not None and angles_deg is not None:
         _usage("give the ring either as --ring or as --angles-deg, not both")
     _check_overrides(max_range, beam_width_deg, sigma)
@@ -184,7 +188,7 @@ def map_command(
         typer.Option(
             "--ring",
             help="Ring file (YAML: each transducer's x, y, heading...) or preset: "
-            f"{', '.join(PRESETS)}. Default for a Player log: the ring its geometry describes.",
+            f"{', '.join(PRESETS)}. Default for a Player or CARMEN log: the ring it describes.",
         ),
     ] = None,
     angles_deg: Annotated[
@@ -199,7 +203,8 @@ def map_command(
         typer.Option(
             "--max-range",
             help="Max range in --range-unit; a reading at or above it means no echo "
-            "(default: the ring file's; for a ring from a Player log, the presets' 5 m).",
+            "(default: the ring file's; for a ring from a Player or CARMEN log, the presets' "
+            "5 m).",
         ),
     ] = None,
     poses: Annotated[
@@ -271,8 +276,10 @@ def map_command(
         LogFormat,
         typer.Option(
             "--format",
-            help="LOG's format: 'text' rows, a 'player' log (Player/Stage writelog, metres and "
-            "radians), or 'auto': player when LOG opens with '## Player version', else text.",
+            help="LOG's format: 'text' rows, a 'player' log (Player/Stage writelog), a 'carmen' "
+            "log (CARMEN's logger; both in metres and radians), or 'auto': player when LOG "
+            "opens with '## Player version', carmen when with '# CARMEN Logfile' or a CARMEN "
+            "message, else text.",
         ),
     ] = "auto",
     sonar_index: Annotated[
@@ -285,6 +292,14 @@ def map_command(
             "--position-index", min=0, help="Player log: the odometry's position2d index [0]."
         ),
     ] = None,
+    clock: Annotated[
+        Clock | None,
+        typer.Option(
+            "--clock",
+            help="CARMEN log: which stamp times a message, 'ipc' (when it was sent) or "
+            "'logger' (seconds since logging began) [ipc].",
+        ),
+    ] = None,
 ) -> None:
     """Build map.png, map.yaml + map.pgm (ROS map_server) and summary.json from a sonar log."""
     with _user_errors():
@@ -295,7 +310,7 @@ def map_command(
             log_format,
             topics,
             poses,
-            (sonar_index, position_index),
+            {"--sonar-index": sonar_index, "--position-index": position_index, "--clock": clock},
             (range_unit, position_unit, heading_unit, time_unit),
         )
         if pipeline not in PIPELINES:
@@ -306,7 +321,7 @@ def map_command(
         if problem is not None:
             raise InputError(f"--resolution {problem}")
         geometry: SonarGeometry | None = None
-        if kind == "player" and ring is None and angles_deg is None:
+        if kind in _LOGGED_RING and ring is None and angles_deg is None:
             _check_overrides(max_range, beam_width_deg, sigma)  # the ring comes with the log
         else:
             geometry = _geometry(ring, angles_deg, max_range, beam_width_deg, sigma, range_unit)
@@ -322,19 +337,28 @@ def map_command(
                 chosen, acceptability=False, agreeability=False, trait_verification=False
             )
         with progress_bar(_err, first=f"reading {log.name}", percent=True) as hook:
-            if kind == "player" or geometry is None:
-                player = read_player_log(
-                    log,
-                    sonar_index=sonar_index or 0,
-                    position_index=position_index or 0,
-                    strict=strict,
-                    time_tolerance=pose_tolerance,
-                    max_pose_gap=max_pose_gap,
-                    progress=hook,
+            if kind in _LOGGED_RING:
+                join = {"time_tolerance": pose_tolerance, "max_pose_gap": max_pose_gap}
+                logged = (
+                    read_player_log(
+                        log,
+                        sonar_index=sonar_index or 0,
+                        position_index=position_index or 0,
+                        strict=strict,
+                        progress=hook,
+                        **join,
+                    )
+                    if kind == "player"
+                    else read_carmen_log(
+                        log, clock=clock or "ipc", strict=strict, progress=hook, **join
+                    )
                 )
-                data = player.log
-                geometry = _player_ring(player, geometry, max_range, beam_width_deg, sigma)
+                data = logged.log
+                geometry = _logged_ring(
+                    _LOGGED_RING[kind], logged, geometry, max_range, beam_width_deg, sigma
+                )
             elif topics is not None:
+                assert geometry is not None  # given: a bag does not describe its ring
                 data = _read_bag(
                     log,
                     topics,
@@ -347,6 +371,7 @@ def map_command(
                     max_pose_gap,
                 )
             else:
+                assert geometry is not None  # given: a text log does not describe its ring
                 data = read_sonar_log(
                     log,
                     geometry.n,
@@ -422,13 +447,14 @@ def _log_kind(
     log_format: LogFormat,
     topics: str | None,
     poses: Path | None,
-    indices: tuple[int | None, int | None],
+    options: dict[str, object],
     units: tuple[str, str, str, str],
-) -> Literal["text", "player", "bag"]:
-    """How to read LOG: a bag (``--topics``), a Player log or text rows (``--format``, or the
-    ``## Player version`` line Player's writelog opens its logs with). Options that do not go
-    with it are a usage error (exit 2)."""
-    kind: Literal["text", "player", "bag"]
+) -> LogKind:
+    """How to read LOG: a bag (``--topics``), a Player or CARMEN log, or text rows
+    (``--format``, or how LOG opens: ``## Player version``, ``# CARMEN Logfile`` or a CARMEN
+    message). ``options`` are the format-specific options given (``None`` if not). Options
+    that do not go with the format are a usage error (exit 2)."""
+    kind: LogKind
     if topics is not None:
         if log_format != "auto":
             _usage(f"--format {log_format} is for log files; with --topics LOG is a ROS bag")
@@ -438,45 +464,52 @@ def _log_kind(
     elif (bag := bag_kind(log)) is not None:
         _usage(f"{log} is {bag}: give --topics, one sensor_msgs/Range topic per transducer")
     elif log_format == "auto":
-        kind = "player" if is_player_log(log) else "text"
+        kind = "player" if is_player_log(log) else "carmen" if is_carmen_log(log) else "text"
     else:
         kind = log_format
-    if kind == "player":
+    if kind in _LOGGED_RING:
+        tool = _LOGGED_RING[kind]
         if poses is not None:
-            _usage("--poses is for text logs; a Player log holds its own odometry")
+            _usage(f"--poses is for text logs; a {tool} log holds its own odometry")
         if units != ("m", "m", "rad", "s"):
             _usage(
-                "a Player log is in metres, radians and seconds: drop --range-unit, "
+                f"a {tool} log is in metres, radians and seconds: drop --range-unit, "
                 "--position-unit, --heading-unit and --time-unit"
             )
-    else:
-        for name, value in zip(("--sonar-index", "--position-index"), indices, strict=True):
-            if value is not None:
-                _usage(f"{name} is for Player logs; LOG is read as {kind} (see --format)")
+    owners = {"--sonar-index": "player", "--position-index": "player", "--clock": "carmen"}
+    for name, value in options.items():
+        if value is not None and owners[name] != kind:
+            _usage(
+                f"{name} is for {_LOGGED_RING[owners[name]]} logs; LOG is read as {kind} "
+                "(see --format)"
+            )
     return kind
 
 
-def _player_ring(
-    player: PlayerLog,
+def _logged_ring(
+    tool: str,
+    logged: RingLog,
     given: SonarGeometry | None,
     max_range: float | None,
     beam_width_deg: float | None,
     sigma: float | None,
 ) -> SonarGeometry:
-    """The ring of a Player log's rings: the one given, else the one its geometry describes."""
+    """The ring of a Player or CARMEN (``tool``) log's rings: the one given, else the one the
+    log describes."""
     geometry = given
     if geometry is None:
-        if player.ring is None:
+        if logged.ring is None:
             raise InputError(
-                "the Player log has no usable sonar geometry: give the ring as --ring or "
+                f"the {tool} log has no usable sonar geometry: give the ring as --ring or "
                 "--angles-deg"
             )
-        geometry = _geometry(None, None, max_range, beam_width_deg, sigma, "m", player.ring)
+        geometry = _geometry(None, None, max_range, beam_width_deg, sigma, "m", logged.ring)
         _say(
-            f"ring: the log's sonar geometry, {geometry.n} transducers, max range "
+            f"ring: the log's sonar geometry, {geometry.n} transducers, "
+            f"{math.degrees(geometry.beam_width):.3g} deg beams, max range "
             f"{geometry.max_range:g} m"
         )
-    n = player.log.ranges.shape[1]
+    n = logged.log.ranges.shape[1]
     if n != geometry.n:
         raise InputError(f"the log's rings hold {n} ranges, the ring has {geometry.n} transducers")
     return geometry

@@ -6,7 +6,7 @@
 - :mod:`~bayesmap.sonar.mapping`: grid mappers (eq. 1 cone model, Thrun ±0.4, ROS range layer);
 - :mod:`~bayesmap.sonar.map_verdict`: the map's verdict on each reading after the pass;
 - :mod:`~bayesmap.sonar.logs`: real plain-text logs; :mod:`~bayesmap.sonar.player`: Player logs;
-  :mod:`~bayesmap.sonar.pipeline`: log → map.
+  :mod:`~bayesmap.sonar.carmen`: CARMEN logs; :mod:`~bayesmap.sonar.pipeline`: log → map.
 
 See docs/sonar.md for every choice that fills the fragment's gaps.
 
@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from bayesmap.sonar import (
         bags,
         bottom_up,
+        carmen,
         filter,
         geometry,
         logs,
@@ -36,13 +37,14 @@ if TYPE_CHECKING:
     )
     from bayesmap.sonar.bags import read_sonar_bag
     from bayesmap.sonar.bottom_up import acceptability, agreeability
+    from bayesmap.sonar.carmen import read_carmen_log
     from bayesmap.sonar.filter import Rejection, RingVerdict, SpecularFilter
     from bayesmap.sonar.geometry import SonarGeometry
-    from bayesmap.sonar.logs import SonarLog, read_sonar_log, write_sonar_log
+    from bayesmap.sonar.logs import RingLog, SonarLog, read_sonar_log, write_sonar_log
     from bayesmap.sonar.map_verdict import MapVerdict
     from bayesmap.sonar.mapping import ElfesMapper, NoEcho, RosRangeLayerMapper, ThrunMapper
     from bayesmap.sonar.pipeline import DEFAULT_PIPELINE, PIPELINES, Pipeline, build_map, map_log
-    from bayesmap.sonar.player import PlayerLog, read_player_log
+    from bayesmap.sonar.player import read_player_log
     from bayesmap.sonar.ring import load_ring, preset
     from bayesmap.sonar.traits import fit_traits
 
@@ -53,8 +55,8 @@ _EXPORTS = {
     "NoEcho": "mapping",
     "PIPELINES": "pipeline",
     "Pipeline": "pipeline",
-    "PlayerLog": "player",
     "Rejection": "filter",
+    "RingLog": "logs",
     "RingVerdict": "filter",
     "RosRangeLayerMapper": "mapping",
     "SonarGeometry": "geometry",
@@ -66,6 +68,7 @@ _EXPORTS = {
     "bags": "bags",
     "bottom_up": "bottom_up",
     "build_map": "pipeline",
+    "carmen": "carmen",
     "filter": "filter",
     "fit_traits": "traits",
     "geometry": "geometry",
@@ -77,6 +80,7 @@ _EXPORTS = {
     "pipeline": "pipeline",
     "player": "player",
     "preset": "ring",
+    "read_carmen_log": "carmen",
     "read_player_log": "player",
     "read_sonar_bag": "bags",
     "read_sonar_log": "logs",
@@ -94,8 +98,8 @@ __all__ = [
     "NoEcho",
     "PIPELINES",
     "Pipeline",
-    "PlayerLog",
     "Rejection",
+    "RingLog",
     "RingVerdict",
     "RosRangeLayerMapper",
     "SonarGeometry",
@@ -107,6 +111,7 @@ __all__ = [
     "bags",
     "bottom_up",
     "build_map",
+    "carmen",
     "filter",
     "fit_traits",
     "geometry",
@@ -118,6 +123,7 @@ __all__ = [
     "pipeline",
     "player",
     "preset",
+    "read_carmen_log",
     "read_player_log",
     "read_sonar_bag",
     "read_sonar_log",

@@ -47,9 +47,11 @@ from bayesmap._numbers import is_decimal
 from bayesmap._typing import FloatArray, Poses, ProgressHook, Ranges
 from bayesmap.errors import FormatError, InputError
 from bayesmap.geometry import MAX_POSE_JUMP, isolated_jumps, wrap_angle
+from bayesmap.sonar.geometry import SonarGeometry
 
 __all__ = [
     "ANGLE_UNITS",
+    "RingLog",
     "LENGTH_UNITS",
     "join_poses",
     "LogUnits",
@@ -144,6 +146,25 @@ class SonarLog(NamedTuple):
     ranges: Ranges
     rows: int
     skipped: tuple[SkippedRow, ...]
+
+
+class RingLog(NamedTuple):
+    """A robot's log that describes its own sonar ring: the rings with their poses, and the
+    ring (:mod:`~bayesmap.sonar.player`, :mod:`~bayesmap.sonar.carmen`).
+
+    Attributes
+    ----------
+    log
+        The rings in SI units (``rows`` counts the lines of the ring and of the odometry,
+        and the lines that could not be read).
+    ring
+        The ring the log describes (transducer positions and bearings; what the log does not
+        say, such as the max range, is the presets': :func:`~bayesmap.sonar.ring.ring_from_layout`);
+        ``None`` when the log describes none or its description was skipped.
+    """
+
+    log: SonarLog
+    ring: SonarGeometry | None
 
 
 class _Table(NamedTuple):

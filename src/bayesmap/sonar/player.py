@@ -37,14 +37,14 @@ from typing import Literal, NamedTuple
 from bayesmap._io import LineReader
 from bayesmap._numbers import is_decimal
 from bayesmap._typing import ProgressHook
-from bayesmap.errors import ConfigError, FormatError
+from bayesmap.errors import FormatError
 from bayesmap.sensing.sonar_rings import Layout
 from bayesmap.sonar.geometry import SonarGeometry
 from bayesmap.sonar.logs import (
     CHUNK_ROWS,
+    RingLog,
     RowBlocks,
     SkippedRow,
-    SonarLog,
     check_join_settings,
     finish_log,
     in_order_rows,
@@ -52,9 +52,9 @@ from bayesmap.sonar.logs import (
     report_skipped,
     row_values,
 )
-from bayesmap.sonar.ring import ring_from_layout
+from bayesmap.sonar.ring import logged_ring
 
-__all__ = ["FILE_VERSIONS", "PlayerLog", "is_player_log", "read_player_log"]
+__all__ = ["FILE_VERSIONS", "is_player_log", "read_player_log"]
 
 FILE_VERSIONS: dict[str, str] = {"0.3.0": "Player 2.0-3.x", "0.2.0": "Player 1.6"}
 """The ``## File version`` of each log layout read here, and the Player releases writing it."""
@@ -64,24 +64,6 @@ _VERSION_LINE = ("##", "File", "version")
 _COUNT = re.compile(r"[0-9]+")
 _DEVICES = {"0.3.0": ("sonar", "position2d"), "0.2.0": ("sonar", "position")}
 """The interfaces of the sonar ring and of the odometry in each layout."""
-
-
-class PlayerLog(NamedTuple):
-    """A Player log's sonar rings with their poses, and the ring the log describes.
-
-    Attributes
-    ----------
-    log
-        The rings in SI units (``rows`` counts the lines of the two devices and the lines
-        that could not be read).
-    ring
-        The ring from the log's first sonar geometry (transducer positions and bearings), with
-        the presets' beam width, ranges and noise (:func:`~bayesmap.sonar.ring.ring_from_layout`);
-        ``None`` when the log has no geometry or its geometry was skipped.
-    """
-
-    log: SonarLog
-    ring: SonarGeometry | None
 
 
 class _Message(NamedTuple):
@@ -333,14 +315,11 @@ def _ring(scan: _Scan, n: int) -> SonarGeometry | None:
     if scan.geometry is None:
         return None
     line, layout = scan.geometry
-    if len(layout) != n:
-        scan.bad(line, f"sonar geometry of {len(layout)} transducers for rings of {n} ranges")
+    ring = logged_ring(layout, n)
+    if isinstance(ring, str):
+        scan.bad(line, ring)
         return None
-    try:
-        return ring_from_layout(layout)
-    except ConfigError as error:
-        scan.bad(line, f"sonar geometry: {error}")
-        return None
+    return ring
 
 
 def read_player_log(
@@ -352,7 +331,7 @@ def read_player_log(
     time_tolerance: float = 0.05,
     max_pose_gap: float = 1.0,
     progress: ProgressHook | None = None,
-) -> PlayerLog:
+) -> RingLog:
     """Read the rings of ``sonar:<sonar_index>`` and the odometry of ``position2d`` (or, in
     Player 1.6 logs, ``position``) ``:<position_index>`` from a Player log.
 
@@ -397,4 +376,4 @@ def read_player_log(
         max_pose_gap,
     )
     hint = f"each sonar:{sonar_index} ring needs odometry of position device {position_index}"
-    return PlayerLog(finish_log(source, times, poses, ranges, scan.rows, skipped, hint), ring)
+    return RingLog(finish_log(source, times, poses, ranges, scan.rows, skipped, hint), ring)

@@ -37,6 +37,7 @@ from bayesmap.sonar.geometry import SonarGeometry
 __all__ = [
     "PRESETS",
     "load_ring",
+    "logged_ring",
     "preset",
     "preset_with_bearings",
     "ring_from_layout",
@@ -83,19 +84,31 @@ def preset_with_bearings(angles: tuple[float, ...], tolerance: float = 0.02) -> 
     return None
 
 
-def ring_from_layout(layout: Layout) -> SonarGeometry:
+def ring_from_layout(layout: Layout, beam_width: float | None = None) -> SonarGeometry:
     """A ring of transducers at ``layout``'s ``(x [m], y [m], heading [rad])``, in ring order.
 
-    Beam width, ranges and noise are the presets' (25°, 0.1–5 m, σ 2 cm).
+    Beam width (unless given, in radians), ranges and noise are the presets' (25°, 0.1–5 m,
+    σ 2 cm).
     """
     return SonarGeometry(
         angles=tuple(a for _, _, a in layout),
         offsets=tuple((x, y) for x, y, _ in layout),
-        beam_width=_DEFAULTS["beam_width"],
+        beam_width=_DEFAULTS["beam_width"] if beam_width is None else beam_width,
         min_range=_DEFAULTS["min_range"],
         max_range=_DEFAULTS["max_range"],
         sigma=_DEFAULTS["sigma"],
     )
+
+
+def logged_ring(layout: Layout, n: int, beam_width: float | None = None) -> SonarGeometry | str:
+    """The ring a robot's log describes (:func:`ring_from_layout`) for its rings of ``n``
+    ranges, or why the description cannot be that ring."""
+    if len(layout) != n:
+        return f"sonar geometry of {len(layout)} transducers for rings of {n} ranges"
+    try:
+        return ring_from_layout(layout, beam_width)
+    except ConfigError as error:
+        return f"sonar geometry: {error}"
 
 
 def _number(value: Any, where: str) -> float:
