@@ -3,8 +3,9 @@
 Every bnlearn file shipped with pgmpy 1.1 (``pgmpy/utils/example_models/*.bif.gz``) is
 unpacked to a temporary ``.bif`` and loaded from disk by each library: the median of
 ``--repeats`` runs (pgmpy: one run for files where its first run takes over 3 s). Then
-bayesmap writes each network as BIF, XMLBIF, XBN and Hugin NET (where its names are NET
-names) and reads the XMLBIF, XBN and NET files back, and pyAgrum loads the same NET file.
+bayesmap writes each network as BIF, XMLBIF, XBN, Hugin NET (where its names are NET
+names) and GeNIe XDSL (where they are SMILE identifiers) and reads all but the BIF back,
+and pyAgrum loads the same NET file.
 The table goes to the ``bn_io`` section of docs/benchmarks.md.
 
 Run from the repository root: ``python benchmarks/bn_io.py [--repeats 5]``.
@@ -57,6 +58,10 @@ def _pyagrum(path: Path, repeats: int) -> float | None:
         return None
 
 
+FILES = (".bif", ".xml", ".xbn", ".net", ".xdsl")
+"""The formats each network is written in; all but BIF are read back."""
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
@@ -81,16 +86,16 @@ def main() -> None:
             agrum = _pyagrum(path, args.repeats)
             net = io.read(path)
             writes: dict[str, float | None] = {}
-            for suffix in (".bif", ".xml", ".xbn", ".net"):
+            for suffix in FILES:
                 try:
                     writes[suffix] = _time(
                         lambda s=suffix, n=net: io.write(n, Path(tmp) / f"out{s}"), 3
                     )
-                except FormatError:  # a name NET cannot hold
+                except FormatError:  # a name NET or XDSL cannot hold
                     writes[suffix] = None
             reads: dict[str, float | None] = {
                 s: _time(lambda s=s: io.read(Path(tmp) / f"out{s}"), 3) if writes[s] else None
-                for s in (".xml", ".xbn", ".net")
+                for s in FILES[1:]
             }
             reads["pyAgrum .net"] = _pyagrum(Path(tmp) / "out.net", 3) if writes[".net"] else None
             row = (name, len(net), ours, theirs, agrum, writes, reads)
@@ -100,9 +105,9 @@ def main() -> None:
                 f"pgmpy {theirs * 1e3:9.1f} ms "
                 f"({theirs / ours:6.1f}x)  pyAgrum "
                 + (f"{agrum * 1e3:7.1f} ms" if agrum is not None else "  fails")
-                + "  write bif/xml/xbn/net "
+                + "  write bif/xml/xbn/net/xdsl "
                 + "/".join(_ms(w) for w in writes.values())
-                + " ms  read xml/xbn/net, pyAgrum net "
+                + " ms  read xml/xbn/net/xdsl, pyAgrum net "
                 + "/".join(_ms(r) for r in reads.values())
                 + " ms",
                 flush=True,
@@ -123,20 +128,21 @@ def _markdown(rows: list[tuple], repeats: int) -> str:
         f"Machine: {machine()}. Load of each bnlearn file from an unpacked `.bif` on disk, "
         f"median of {repeats} runs (pgmpy 1.1 `BIFReader(path).get_model()`: one run when it "
         f"takes over {PGMPY_SINGLE_RUN:.0f} s); pyAgrum {gum.__version__} `loadBN`; then bayesmap "
-        "writes the network in each format and reads its XMLBIF, XBN and NET files back, and "
-        "pyAgrum loads the NET file (medians of 3; – where the names are not NET names). "
+        "writes the network in each format and reads its XMLBIF, XBN, NET and XDSL files back, "
+        "and pyAgrum loads the NET file (medians of 3; – where the names are not NET or SMILE "
+        "names). "
         "Other jobs shared the two cores, so absolute times are noisy; the ratios are what "
         "matter.",
         "",
         "| network | variables | bayesmap load [ms] | pgmpy load [ms] | speed-up vs pgmpy "
-        "| pyAgrum load [ms] | write BIF / XMLBIF / XBN / NET [ms] "
-        "| load XMLBIF / XBN / NET [ms] | pyAgrum load NET [ms] |",
+        "| pyAgrum load [ms] | write BIF / XMLBIF / XBN / NET / XDSL [ms] "
+        "| load XMLBIF / XBN / NET / XDSL [ms] | pyAgrum load NET [ms] |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for name, size, ours, theirs, agrum, writes, reads in rows:
         agrum_text = f"{agrum * 1e3:.1f}" if agrum is not None else "cannot read"
         write_text = " / ".join(_ms(w) for w in writes.values())
-        read_text = " / ".join(_ms(reads[s]) for s in (".xml", ".xbn", ".net"))
+        read_text = " / ".join(_ms(reads[s]) for s in FILES[1:])
         lines.append(
             f"| {name} | {size} | {ours * 1e3:.1f} | {theirs * 1e3:.0f} | {theirs / ours:.0f}x "
             f"| {agrum_text} | {write_text} | {read_text} | {_ms(reads['pyAgrum .net'])} |"

@@ -25,7 +25,7 @@ import numpy as np
 from PIL import Image
 
 from bayesmap.bn import io as bn_io
-from bayesmap.bn.io import bif, xbn, xmlbif
+from bayesmap.bn.io import bif, xbn, xdsl, xmlbif
 from bayesmap.bn.io import net as hugin
 from bayesmap.bn.model import BayesNet
 from bayesmap.grid.occupancy import OccupancyGrid
@@ -81,12 +81,15 @@ class Target:
 
 
 # ---------------------------------------------------------------------------- networks
-def _network_seeds(dumps: Callable[..., str], root: str = "a b") -> list[bytes]:
+def _network_seeds(
+    dumps: Callable[..., str], root: str = "a b", states: tuple[str, str] = ("<0.5m", ">=0.5m")
+) -> list[bytes]:
     """A tiny network with awkward names and properties, and a chain of eight variables
-    (``root``: the tiny network's first variable; NET cannot name it ``a b``)."""
+    (``root`` and ``states``: the tiny network's first variable and its states; NET cannot
+    name it ``a b``, XDSL its states ``<0.5m``, ``>=0.5m`` either)."""
     tiny = BayesNet("tiny [/m]")
     tiny.properties["author"] = 'x "y" <z> [/m]'
-    tiny.add_variable(root, ["<0.5m", ">=0.5m"], cpt=[0.25, 0.75], kind="B")
+    tiny.add_variable(root, list(states), cpt=[0.25, 0.75], kind="B")
     tiny.add_variable(
         "c", ["x", "y", "z"], parents=[root], cpt=[[0.5, 0.125], [0.25, 0.5], [0.25, 0.375]]
     )
@@ -150,6 +153,12 @@ NET_POISONS: list[Mutator] = [
     _sub_one(r'states = \("[^"]*"', lambda m, r: b'states = (""'),
     _sub_one(r"\npotential \([^\n]*\n\{[^}]*\}", _duplicate),
     lambda data, rng: data + b'\nnode late { states = ("a); }',
+]
+XDSL_POISONS: list[Mutator] = [
+    _sub_one(_NUMBER, _bad_number),
+    _sub_one(r'<state id="[^"]*"', lambda m, r: b'<state id=""'),
+    _sub_one(r"(?s)<cpt id=[^>]*>.*?</cpt>", _duplicate),
+    _entity,
 ]
 XBN_POISONS: list[Mutator] = [
     _sub_one(_NUMBER, _bad_number),
@@ -325,6 +334,12 @@ def targets() -> dict[str, Target]:
         "sonar log": Target("sonar log", _read_sonar, [_sonar_seed()]),
         "net": Target(
             "net", _loads(hugin, "f.net"), _network_seeds(hugin.dumps, "a_b"), NET_POISONS
+        ),
+        "xdsl": Target(
+            "xdsl",
+            _loads(xdsl, "f.xdsl"),
+            _network_seeds(xdsl.dumps, "a_b", ("near", "far")),
+            XDSL_POISONS,
         ),
         "Player log": Target("Player log", _read_log_with(read_player_log), [_player_seed()]),
         "CARMEN log": Target("CARMEN log", _read_log_with(read_carmen_log), [_carmen_seed()]),

@@ -42,7 +42,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "bn": (
         "bayesmap.cli.bn:app",
-        "Inspect, query, draw and convert Bayesian-network files (XMLBIF, BIF, XBN, NET).",
+        "Inspect, query, draw and convert Bayesian-network files (XMLBIF, BIF, XBN, NET, XDSL).",
     ),
     "blackboard": (
         "bayesmap.cli.blackboard:app",

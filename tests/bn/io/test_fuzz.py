@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from _fuzzing import FUZZ, mutated, read_within_budget
 from bayesmap.bn import io
-from bayesmap.bn.io import bif, xbn, xmlbif
+from bayesmap.bn.io import bif, xbn, xdsl, xmlbif
 from bayesmap.bn.io import net as hugin
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
@@ -30,9 +30,9 @@ def _seed_network() -> BayesNet:
 
 SEEDS = {
     module.__name__.rsplit(".", 1)[-1]: module.dumps(_seed_network())
-    for module in (bif, xmlbif, xbn, hugin)
+    for module in (bif, xmlbif, xbn, hugin, xdsl)
 }
-MODULES = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn, "net": hugin}
+MODULES = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn, "net": hugin, "xdsl": xdsl}
 SPECIAL = st.sampled_from(
     list('{}()[];,|"=\\<>/&*\n\t 0123456789.-eabcxyz')
     + [
@@ -162,13 +162,15 @@ def test_failed_write_leaves_no_file(tmp_path) -> None:
         ("a.xbn.GZ", "xbn"),
         ("a.net", "net"),
         ("a.NET.gz", "net"),
+        ("a.xdsl", "xdsl"),
+        ("a.XDSL.gz", "xdsl"),
     ],
 )
 def test_extensions_choose_the_format(name: str, fmt: str) -> None:
     assert io.format_of(name).name == fmt
 
 
-@pytest.mark.parametrize("fmt", ["xmlbif", "bif", "xbn", "net"])
+@pytest.mark.parametrize("fmt", ["xmlbif", "bif", "xbn", "net", "xdsl"])
 def test_a_file_whose_extension_names_no_format_is_read_by_its_content(tmp_path, fmt) -> None:
     text = SEEDS[fmt]
     if fmt == "xmlbif":  # as JavaBayes writes it: a comment and a DTD before the root
@@ -195,7 +197,7 @@ def test_a_file_whose_extension_names_no_format_is_read_by_its_content(tmp_path,
     "text",
     [
         "// ~->[DNET-1]->~\nbnet x { }",  # Netica
-        "<smile version='1.0'/>",  # GeNIe
+        "<graphml/>",  # a graph without tables
         "",
         "networks are fun",
         "<?xml version='1.0'?>",

@@ -9,13 +9,13 @@ import threading
 import pytest
 
 from bayesmap.bn import io
-from bayesmap.bn.io import bif, xbn, xmlbif
+from bayesmap.bn.io import bif, xbn, xdsl, xmlbif
 from bayesmap.bn.io import net as hugin
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
 from bayesmap.limits import ReadLimits
 
-MODULES = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn, "net": hugin}
+MODULES = {"bif": bif, "xmlbif": xmlbif, "xbn": xbn, "net": hugin, "xdsl": xdsl}
 
 
 def _small_net() -> BayesNet:
@@ -181,6 +181,7 @@ def test_a_duplicate_bif_row_is_refused() -> None:
         ("xbn", "<STATENAME>x</STATENAME>", "<STATENAME></STATENAME>"),
         ("bif", "{ x, y }", '{ "", y }'),
         ("net", '("x" "y")', '("" "y")'),
+        ("xdsl", '<state id="x"/>', '<state id=""/>'),
     ],
 )
 def test_empty_names_are_refused(fmt: str, old: str, new: str) -> None:

@@ -1,11 +1,12 @@
-"""Network files: XMLBIF 0.3, BIF, XBN and Hugin NET, chosen by the file's extension.
+"""Network files: XMLBIF 0.3, BIF, XBN, Hugin NET and GeNIe XDSL, chosen by the file's extension.
 
 Models don't know their files: each format is a module (:mod:`~bayesmap.bn.io.xmlbif`,
-:mod:`~bayesmap.bn.io.bif`, :mod:`~bayesmap.bn.io.xbn`, :mod:`~bayesmap.bn.io.net`) with
-``read``/``write`` and ``loads``/``dumps``, and :data:`FORMATS` maps a format name to them
-and to its file extensions. :func:`read` and :func:`write` dispatch on the extension
-(``.xml``/``.xmlbif``/``.bifxml``/``.xbif`` → XMLBIF, ``.bif`` → BIF, ``.xbn`` → XBN,
-``.net`` → NET), each optionally followed by ``.gz``; :func:`read` of a file whose extension
+:mod:`~bayesmap.bn.io.bif`, :mod:`~bayesmap.bn.io.xbn`, :mod:`~bayesmap.bn.io.net`,
+:mod:`~bayesmap.bn.io.xdsl`) with ``read``/``write`` and ``loads``/``dumps``, and
+:data:`FORMATS` maps a format name to them and to its file extensions. :func:`read` and
+:func:`write` dispatch on the extension (``.xml``/``.xmlbif``/``.bifxml``/``.xbif`` →
+XMLBIF, ``.bif`` → BIF, ``.xbn`` → XBN, ``.net`` → NET, ``.xdsl`` → XDSL), each optionally
+followed by ``.gz``; :func:`read` of a file whose extension
 names no format tells the format from its content (:func:`sniff`).
 
 Examples
@@ -69,6 +70,7 @@ FORMATS: dict[str, Format] = {
     "bif": Format("bif", _deferred("bif", "loads"), _deferred("bif", "dumps"), (".bif",)),
     "xbn": Format("xbn", _deferred("xbn", "loads"), _deferred("xbn", "dumps"), (".xbn",)),
     "net": Format("net", _deferred("net", "loads"), _deferred("net", "dumps"), (".net",)),
+    "xdsl": Format("xdsl", _deferred("xdsl", "loads"), _deferred("xdsl", "dumps"), (".xdsl",)),
 }
 """Registered formats by name."""
 
@@ -113,7 +115,13 @@ _EXTENSIONS_HINT = (
     f"{sorted(ext for fmt in FORMATS.values() for ext in fmt.extensions)} "
     "(optionally followed by .gz), or from Python pass format="
 )
-_XML_ROOTS = {"BIF": "xmlbif", "NETWORK": "xmlbif", "ANALYSISNOTEBOOK": "xbn", "BNMODEL": "xbn"}
+_XML_ROOTS = {
+    "BIF": "xmlbif",
+    "NETWORK": "xmlbif",
+    "ANALYSISNOTEBOOK": "xbn",
+    "BNMODEL": "xbn",
+    "SMILE": "xdsl",
+}
 _XML_NOISE = re.compile(rb"<!--.*?-->|<[?!][^>]*>|\]>", re.DOTALL)
 """Comments, the XML declaration, processing instructions and DTD declarations."""
 _XML_ROOT = re.compile(rb"<(?:[\w.-]+:)?([A-Za-z_][\w.-]*)")
@@ -126,10 +134,10 @@ _NET_NOISE = re.compile(rb"(?:\s|%[^\n]*)*")
 def sniff(data: bytes) -> Format | None:
     """The format of a network file's ``data`` from its content, or ``None``.
 
-    XML is XMLBIF when its root element is ``<BIF>`` (or a bare ``<NETWORK>``) and XBN when
-    it is ``<ANALYSISNOTEBOOK>`` (or ``<BNMODEL>``); text whose first word, after blank
-    space and comments, is ``network`` is BIF, and ``net`` or ``class`` Hugin NET. Only
-    the first 64 KiB are looked at.
+    XML is XMLBIF when its root element is ``<BIF>`` (or a bare ``<NETWORK>``), XBN when
+    it is ``<ANALYSISNOTEBOOK>`` (or ``<BNMODEL>``) and XDSL when it is ``<smile>``; text
+    whose first word, after blank space and comments, is ``network`` is BIF, and ``net`` or
+    ``class`` Hugin NET. Only the first 64 KiB are looked at.
     """
     head = data[: 1 << 16].lstrip(b"\xef\xbb\xbf \t\r\n")
     if head.startswith(b"<"):
@@ -164,8 +172,8 @@ def read(
         fmt = sniff(data)
         if fmt is None:
             raise FormatError(
-                "cannot tell the format from the file name or its content (XMLBIF, BIF or "
-                f"XBN); {_EXTENSIONS_HINT}",
+                "cannot tell the format from the file name or its content (XMLBIF, BIF, "
+                f"XBN, NET or XDSL); {_EXTENSIONS_HINT}",
                 path=str(path),
             )
     return fmt.loads(data, path=str(path), limits=limits)
@@ -178,7 +186,7 @@ def write(net: BayesNet, path: str | Path, format: str | None = None) -> Path:
 
 
 def loads(text: str | bytes, format: str, *, limits: ReadLimits | None = None) -> BayesNet:
-    """Parse a network from file text in ``format`` (``"xmlbif"``, ``"bif"`` or ``"xbn"``)."""
+    """Parse a network from file text in ``format`` (a name in :data:`FORMATS`)."""
     return format_of("<string>", format).loads(text, limits=limits)
 
 

@@ -111,14 +111,14 @@ def serialise(root: etree._Element) -> str:
 
 def sub(
     parent: etree._Element,
-    name: str,
+    element_name: str,
     content: str | None = None,
     path: str | None = None,
     **attributes: str,
 ) -> etree._Element:
     """Append a child element; text XML cannot hold raises :class:`FormatError`."""
     try:
-        element = etree.SubElement(parent, name, attrib=attributes)
+        element = etree.SubElement(parent, element_name, attrib=attributes)
         if content is not None:
             element.text = content
     except ValueError as problem:
