@@ -4,8 +4,8 @@ Every bnlearn file shipped with pgmpy 1.1 (``pgmpy/utils/example_models/*.bif.gz
 unpacked to a temporary ``.bif`` and loaded from disk by each library: the median of
 ``--repeats`` runs (pgmpy: one run for files where its first run takes over 3 s). Then
 bayesmap writes each network as BIF, XMLBIF, XBN, Hugin NET (where its names are NET
-names) and GeNIe XDSL (where they are SMILE identifiers) and reads all but the BIF back,
-and pyAgrum loads the same NET file.
+names), GeNIe XDSL (where they are SMILE identifiers) and UAI, and reads all but the BIF
+back, and pyAgrum loads the same NET file.
 The table goes to the ``bn_io`` section of docs/benchmarks.md.
 
 Run from the repository root: ``python benchmarks/bn_io.py [--repeats 5]``.
@@ -58,7 +58,7 @@ def _pyagrum(path: Path, repeats: int) -> float | None:
         return None
 
 
-FILES = (".bif", ".xml", ".xbn", ".net", ".xdsl")
+FILES = (".bif", ".xml", ".xbn", ".net", ".xdsl", ".uai")
 """The formats each network is written in; all but BIF are read back."""
 
 
@@ -105,9 +105,9 @@ def main() -> None:
                 f"pgmpy {theirs * 1e3:9.1f} ms "
                 f"({theirs / ours:6.1f}x)  pyAgrum "
                 + (f"{agrum * 1e3:7.1f} ms" if agrum is not None else "  fails")
-                + "  write bif/xml/xbn/net/xdsl "
+                + "  write bif/xml/xbn/net/xdsl/uai "
                 + "/".join(_ms(w) for w in writes.values())
-                + " ms  read xml/xbn/net/xdsl, pyAgrum net "
+                + " ms  read xml/xbn/net/xdsl/uai, pyAgrum net "
                 + "/".join(_ms(r) for r in reads.values())
                 + " ms",
                 flush=True,
@@ -128,15 +128,15 @@ def _markdown(rows: list[tuple], repeats: int) -> str:
         f"Machine: {machine()}. Load of each bnlearn file from an unpacked `.bif` on disk, "
         f"median of {repeats} runs (pgmpy 1.1 `BIFReader(path).get_model()`: one run when it "
         f"takes over {PGMPY_SINGLE_RUN:.0f} s); pyAgrum {gum.__version__} `loadBN`; then bayesmap "
-        "writes the network in each format and reads its XMLBIF, XBN, NET and XDSL files back, "
+        "writes the network in each format and reads all but its BIF file back, "
         "and pyAgrum loads the NET file (medians of 3; – where the names are not NET or SMILE "
         "names). "
         "Other jobs shared the two cores, so absolute times are noisy; the ratios are what "
         "matter.",
         "",
         "| network | variables | bayesmap load [ms] | pgmpy load [ms] | speed-up vs pgmpy "
-        "| pyAgrum load [ms] | write BIF / XMLBIF / XBN / NET / XDSL [ms] "
-        "| load XMLBIF / XBN / NET / XDSL [ms] | pyAgrum load NET [ms] |",
+        "| pyAgrum load [ms] | write BIF / XMLBIF / XBN / NET / XDSL / UAI [ms] "
+        "| load XMLBIF / XBN / NET / XDSL / UAI [ms] | pyAgrum load NET [ms] |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for name, size, ours, theirs, agrum, writes, reads in rows:

@@ -25,7 +25,7 @@ import numpy as np
 from PIL import Image
 
 from bayesmap.bn import io as bn_io
-from bayesmap.bn.io import bif, xbn, xdsl, xmlbif
+from bayesmap.bn.io import bif, uai, xbn, xdsl, xmlbif
 from bayesmap.bn.io import net as hugin
 from bayesmap.bn.model import BayesNet
 from bayesmap.grid.occupancy import OccupancyGrid
@@ -159,6 +159,11 @@ XDSL_POISONS: list[Mutator] = [
     _sub_one(r'<state id="[^"]*"', lambda m, r: b'<state id=""'),
     _sub_one(r"(?s)<cpt id=[^>]*>.*?</cpt>", _duplicate),
     _entity,
+]
+UAI_POISONS: list[Mutator] = [
+    _sub_one(_NUMBER, _bad_number),
+    lambda data, rng: data.replace(b"BAYES", b"MARKOV", 1),  # not a Bayesian network
+    _sub_one(r"\n([0-9]+)\n ", lambda m, r: b"\n" + str(int(m.group(1)) + 1).encode() + b"\n "),
 ]
 XBN_POISONS: list[Mutator] = [
     _sub_one(_NUMBER, _bad_number),
@@ -341,6 +346,7 @@ def targets() -> dict[str, Target]:
             _network_seeds(xdsl.dumps, "a_b", ("near", "far")),
             XDSL_POISONS,
         ),
+        "uai": Target("uai", _loads(uai, "f.uai"), _network_seeds(uai.dumps), UAI_POISONS),
         "Player log": Target("Player log", _read_log_with(read_player_log), [_player_seed()]),
         "CARMEN log": Target("CARMEN log", _read_log_with(read_carmen_log), [_carmen_seed()]),
     }  # fmt: skip

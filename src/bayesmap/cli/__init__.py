@@ -42,7 +42,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "bn": (
         "bayesmap.cli.bn:app",
-        "Inspect, query, draw and convert Bayesian-network files (XMLBIF, BIF, XBN, NET, XDSL).",
+        "Inspect, query, draw and convert network files (XMLBIF, BIF, XBN, NET, XDSL, UAI).",
     ),
     "blackboard": (
         "bayesmap.cli.blackboard:app",

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 # ``bayesmap --help`` and the other command groups start without it.
 
 app = typer.Typer(
-    help="Inspect, query, draw and convert Bayesian-network files (XMLBIF, BIF, XBN, NET, XDSL).",
+    help="Inspect, query, draw and convert network files (XMLBIF, BIF, XBN, NET, XDSL, UAI).",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
@@ -91,7 +91,7 @@ def info(
     file: Annotated[
         Path,
         typer.Argument(
-            help="Network file (.xml/.xmlbif/.bifxml, .bif, .xbn, .net, .xdsl; .gz ok)."
+            help="Network file (.xml/.xmlbif/.bifxml, .bif, .xbn, .net, .xdsl, .uai; .gz ok)."
         ),
     ],
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
@@ -538,7 +538,7 @@ def convert(
     source: Annotated[Path, typer.Argument(help="Input network file.")],
     target: Annotated[Path, typer.Argument(help="Output file; the format follows its extension.")],
 ) -> None:
-    """Convert a network between XMLBIF, BIF, XBN, Hugin NET and GeNIe XDSL (by file extension)."""
+    """Convert a network between XMLBIF, BIF, XBN, Hugin NET, GeNIe XDSL and UAI (by extension)."""
     from bayesmap import bn
 
     net = _load(source)

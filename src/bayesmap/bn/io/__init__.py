@@ -1,13 +1,14 @@
-"""Network files: XMLBIF 0.3, BIF, XBN, Hugin NET and GeNIe XDSL, chosen by the file's extension.
+"""Network files: XMLBIF 0.3, BIF, XBN, Hugin NET, GeNIe XDSL and UAI, chosen by the extension.
 
 Models don't know their files: each format is a module (:mod:`~bayesmap.bn.io.xmlbif`,
 :mod:`~bayesmap.bn.io.bif`, :mod:`~bayesmap.bn.io.xbn`, :mod:`~bayesmap.bn.io.net`,
-:mod:`~bayesmap.bn.io.xdsl`) with ``read``/``write`` and ``loads``/``dumps``, and
-:data:`FORMATS` maps a format name to them and to its file extensions. :func:`read` and
-:func:`write` dispatch on the extension (``.xml``/``.xmlbif``/``.bifxml``/``.xbif`` →
-XMLBIF, ``.bif`` → BIF, ``.xbn`` → XBN, ``.net`` → NET, ``.xdsl`` → XDSL), each optionally
-followed by ``.gz``; :func:`read` of a file whose extension
-names no format tells the format from its content (:func:`sniff`).
+:mod:`~bayesmap.bn.io.xdsl`, :mod:`~bayesmap.bn.io.uai`) with ``read``/``write`` and
+``loads``/``dumps``, and :data:`FORMATS` maps a format name to them and to its file
+extensions. :func:`read` and :func:`write` dispatch on the extension
+(``.xml``/``.xmlbif``/``.bifxml``/``.xbif`` → XMLBIF, ``.bif`` → BIF, ``.xbn`` → XBN,
+``.net`` → NET, ``.xdsl`` → XDSL, ``.uai`` → UAI), each optionally followed by ``.gz``;
+:func:`read` of a file whose extension names no format tells the format from its content
+(:func:`sniff`).
 
 Examples
 --------
@@ -71,6 +72,7 @@ FORMATS: dict[str, Format] = {
     "xbn": Format("xbn", _deferred("xbn", "loads"), _deferred("xbn", "dumps"), (".xbn",)),
     "net": Format("net", _deferred("net", "loads"), _deferred("net", "dumps"), (".net",)),
     "xdsl": Format("xdsl", _deferred("xdsl", "loads"), _deferred("xdsl", "dumps"), (".xdsl",)),
+    "uai": Format("uai", _deferred("uai", "loads"), _deferred("uai", "dumps"), (".uai",)),
 }
 """Registered formats by name."""
 
@@ -129,6 +131,8 @@ _BIF_NOISE = re.compile(rb"(?:\s|//[^\n]*|/\*.*?\*/)*", re.DOTALL)
 """Blank space and C-style comments, which BIF allows before its ``network`` block."""
 _NET_NOISE = re.compile(rb"(?:\s|%[^\n]*)*")
 """Blank space and ``%`` comments, which NET allows before its ``net`` block."""
+_UAI_NOISE = re.compile(rb"(?:\s|#[^\n]*|c(?:[ \t][^\n]*)?\n)*")
+"""Blank space and comments (``#`` to the end of a line, lines of ``c``) before UAI's type."""
 
 
 def sniff(data: bytes) -> Format | None:
@@ -136,8 +140,9 @@ def sniff(data: bytes) -> Format | None:
 
     XML is XMLBIF when its root element is ``<BIF>`` (or a bare ``<NETWORK>``), XBN when
     it is ``<ANALYSISNOTEBOOK>`` (or ``<BNMODEL>``) and XDSL when it is ``<smile>``; text
-    whose first word, after blank space and comments, is ``network`` is BIF, and ``net`` or
-    ``class`` Hugin NET. Only the first 64 KiB are looked at.
+    whose first word, after blank space and comments, is ``network`` is BIF, ``net`` or
+    ``class`` Hugin NET, and ``BAYES`` or ``MARKOV`` UAI. Only the first 64 KiB are looked
+    at.
     """
     head = data[: 1 << 16].lstrip(b"\xef\xbb\xbf \t\r\n")
     if head.startswith(b"<"):
@@ -148,7 +153,10 @@ def sniff(data: bytes) -> Format | None:
     if re.match(rb"network\b", words):
         return FORMATS["bif"]
     words = _NET_NOISE.sub(b"", head, count=1)
-    return FORMATS["net"] if re.match(rb"(?:net|class)(?![\w.-])", words) else None
+    if re.match(rb"(?:net|class)(?![\w.-])", words):
+        return FORMATS["net"]
+    words = _UAI_NOISE.sub(b"", head, count=1)
+    return FORMATS["uai"] if re.match(rb"(?:BAYES|MARKOV)\s", words) else None
 
 
 def read(
@@ -173,7 +181,7 @@ def read(
         if fmt is None:
             raise FormatError(
                 "cannot tell the format from the file name or its content (XMLBIF, BIF, "
-                f"XBN, NET or XDSL); {_EXTENSIONS_HINT}",
+                f"XBN, NET, XDSL or UAI); {_EXTENSIONS_HINT}",
                 path=str(path),
             )
     return fmt.loads(data, path=str(path), limits=limits)
