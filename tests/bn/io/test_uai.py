@@ -142,3 +142,10 @@ def test_table_sizes_are_checked_before_they_are_read() -> None:
     with pytest.raises(FormatError, match="entries in the table of '2'.*max_table_entries"):
         uai.loads(TEXT, limits=ReadLimits(max_table_entries=11))
     assert len(uai.loads(TEXT, limits=ReadLimits(max_table_entries=12))) == 3
+
+
+def test_a_huge_number_of_states_is_refused_before_anything_is_made() -> None:
+    text = TEXT.replace("2 2 3", "2 2 27777777777777777777777", 1)
+    with pytest.raises(FormatError, match="states of variable 2.*max_table_entries") as info:
+        uai.loads(text)
+    assert info.value.line == 4

@@ -55,7 +55,7 @@ from bayesmap.bn.io._common import (
 )
 from bayesmap.bn.model import BayesNet
 from bayesmap.errors import FormatError
-from bayesmap.limits import ReadLimits
+from bayesmap.limits import ReadLimits, check_size
 
 __all__ = ["dumps", "loads", "read", "write"]
 
@@ -132,6 +132,17 @@ def loads(
     for i, card in enumerate(cards):
         if card == 0:
             raise tokens.error(f"variable {i} has no states", tokens.at - n + i)
+        # a number of states is one token, unlike the other formats' lists of names: check
+        # it against the table limit (its own table holds at least that many entries)
+        # before its state names are made
+        check_size(
+            f"states of variable {i}",
+            card,
+            budget.limits.max_table_entries,
+            "max_table_entries",
+            path=path,
+            line=tokens.line(tokens.at - n + i),
+        )
     functions = tokens.count("the number of functions")
     if functions != n:
         raise tokens.error(
