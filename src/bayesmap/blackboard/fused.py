@@ -64,7 +64,9 @@ from bayesmap.blackboard.sweep_model import (
     arena_contains,
     check_catalogue,
     contact_cutoff,
+    contact_squares,
     into_arena,
+    leg_contact_density,
 )
 from bayesmap.blackboard.tempering import geometric_ladder, tempered_run
 from bayesmap.errors import ConfigError, InputError
@@ -190,8 +192,11 @@ class FusedMap:
     each object whose posterior probability exceeds 1/2). A MAP object the β = 1 chain
     holds less than half the time — one that fits its few contacts only in a narrow range
     of poses, so the posterior's mass lies mostly without it — is kept apart in
-    ``doubtful``, not dropped. With ``samples`` = 0 there are no probabilities and every
-    MAP object is on the map.
+    ``doubtful``, not dropped; so is a MAP table whose contacts' best cause is one of its
+    legs only (:meth:`FusedMapper._touched_legs`: one leg's contacts fit a box's corner or
+    a pillar as well, which the model has no object for; docs/blackboard.md). With
+    ``samples`` = 0 there are no probabilities and every MAP object is on the map, but for
+    those one-leg tables.
 
     Attributes
     ----------
@@ -210,7 +215,8 @@ class FusedMap:
     info
         Counters of the final pass.
     doubtful
-        ``(d, 4)`` MAP objects of existence probability below 1/2.
+        ``(d, 4)`` MAP objects of existence probability below 1/2, and MAP tables touched
+        on one leg only.
     doubtful_existence
         ``(d,)`` their existence probabilities.
     """
@@ -687,6 +693,7 @@ class FusedMapper:
         existence, visits = self._existence(start, proposal, generator)
         info |= visits
         doubtful = existence < 0.5  # NaN (no samples) compares False: kept
+        doubtful |= self._touched_legs(best) < 2
         return FusedMap(
             best[~doubtful],
             existence[~doubtful],
@@ -696,6 +703,41 @@ class FusedMapper:
             best[doubtful],
             existence[doubtful],
         )
+
+    def _touched_legs(self, tables: FloatArray) -> IntArray:
+        """``(n,)`` how many legs of each of ``tables`` (n, 4) are the best cause of at
+        least one stored contact, among the walls, clutter and every leg of ``tables``
+        (4 for a solid type, which is one object whatever face was touched)."""
+        ctx = self._ctx
+        counts = np.zeros(len(tables), dtype=np.int64)
+        if not len(tables):
+            return counts
+        near = [np.sort(ctx.store.contacts_near(t[0], t[1], ctx.contact_radius)) for t in tables]
+        ids = np.unique(np.concatenate(near))
+        best = ctx.floor[ids].copy()
+        densities = []
+        for table, own in zip(tables, near, strict=True):
+            rows = ctx.store.rows_[own]
+            legs = contact_squares(table, self.catalogue)[0]
+            density = leg_contact_density(
+                rows[:, :2],
+                rows[:, 3],
+                rows[:, 5],
+                rows[:, 6],
+                legs,
+                np.full(4, table[2]),
+                ctx.model,
+            )
+            at = np.searchsorted(ids, own)
+            np.maximum.at(best, at, density.max(axis=1) if len(own) else np.zeros(0))
+            densities.append((at, density))
+        for n, (table, (at, density)) in enumerate(zip(tables, densities, strict=True)):
+            if self.catalogue[int(table[3])].solid:
+                counts[n] = 4
+                continue
+            cause = (density > 0) & (density >= best[at][:, None])
+            counts[n] = int(cause.any(axis=0).sum())
+        return counts
 
     def existence(self, tables: FloatArray, *, rng: RNGLike = None) -> FloatArray:
         """Existence probabilities ``(n,)`` of the objects ``tables`` (n, 4) ``x, y, θ, k``
