@@ -46,7 +46,7 @@ from bayesmap.blackboard.sweep_model import (
     wall_contact_density,
 )
 from bayesmap.errors import ConfigError, InputError
-from bayesmap.sim.tables_world import build_mixed
+from bayesmap.sim.tables_world import build_mixed, rectangle_corners
 from bayesmap.sim.whiskers import WhiskerParams, condition, observe
 
 DESK = ObjectType("desk", 1.2, 0.8, 0.1)
@@ -880,3 +880,48 @@ def test_duplicate_candidates_are_thinned_to_the_best_of_each_table() -> None:
     kept, weights = _suppress_duplicates(tables, np.arange(1.0, 7.0), scores, 0.1, 0.13, periods)
     np.testing.assert_array_equal(kept, [1, 5, 4, 3])
     np.testing.assert_allclose(weights, [1.0 + 2.0 + 3.0, 6.0, 5.0, 4.0])
+
+
+def test_a_desk_on_a_box_corner_is_contradicted_by_the_free_space() -> None:
+    """A solid box the catalogue does not list, toured on all sides: a desk with one leg in
+    the box's corner and the others on swept open floor is the best cause of contacts on
+    that leg only, and whiskers crossed its other legs' places, so ``finish`` would keep it
+    off the map (with the doubtful objects)."""
+    box = np.array([[3.0, 2.0, 0.3]])
+    world = build_mixed(box, np.array([[0.45, 0.45, 0.225]]), np.full(1, 0.3), ARENA)
+    mapper = FusedMapper((DESK,), ARENA)
+    rng = np.random.default_rng(3)
+    for x in np.linspace(0.4, 4.6, 6):
+        for y in np.linspace(0.4, 3.6, 5):
+            if math.hypot(x - 3.0, y - 2.0) < 0.5:  # not on the box
+                continue
+            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+                pose = np.array([x, y, heading])
+                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
+    corner = rectangle_corners(3.0, 2.0, 0.3, 0.45, 0.45)[0]  # the box's (+, +) corner
+    # a desk turned with the box, its (+a, +b) leg inside the box's corner, faces on its faces
+    c, s = math.cos(0.3), math.sin(0.3)
+    offset = 0.5 * np.array([DESK.length, DESK.width])  # centre to the leg's outer corner
+    centre = corner - np.array([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]])
+    phantom = np.array([[*centre, 0.3, 0.0]])
+    assert mapper._touched_legs(phantom).tolist() == [1]
+    assert mapper._contradicted_by_one_leg(phantom).tolist() == [True]
+
+
+def test_a_table_touched_on_one_leg_stays_when_its_other_legs_were_not_reached() -> None:
+    """A sparse tour along two sides of the room touches the stool on one leg only; no
+    whisker reached its other legs' places, so nothing contradicts it."""
+    store, truth = _store()
+    del store
+    world = build_mixed(
+        truth[:, :3], np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]]), np.full(2, 0.3), ARENA
+    )
+    mapper = FusedMapper(CATALOGUE, ARENA)
+    rng = np.random.default_rng(4)
+    for x in np.linspace(0.4, 4.6, 6):
+        for y in (0.4, 3.6):
+            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+                pose = np.array([x, y, heading])
+                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
+    assert mapper._touched_legs(truth).tolist() == [2, 1]
+    assert not mapper._contradicted_by_one_leg(truth).any()

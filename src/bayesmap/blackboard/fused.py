@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bayesmap._rng import RNGLike, as_generator
-from bayesmap._typing import FloatArray, IntArray
+from bayesmap._typing import BoolArray, FloatArray, IntArray
 from bayesmap.blackboard.data_driven import (
     BirthProposal,
     LegVotes,
@@ -72,6 +72,12 @@ from bayesmap.blackboard.tempering import geometric_ladder, tempered_run
 from bayesmap.errors import ConfigError, InputError
 
 __all__ = ["FusedMap", "FusedMapper", "FusedParams", "FusedStep"]
+
+
+ONE_LEG_MISSES = 2
+"""Missed sweeps (free sectors through a leg's place) that, with one touched leg, keep a
+table off the map: one miss happens to a real leg with probability ``p_miss`` (0.05), two
+with ``p_miss²``."""
 
 
 @dataclass(frozen=True)
@@ -193,10 +199,11 @@ class FusedMap:
     holds less than half the time — one that fits its few contacts only in a narrow range
     of poses, so the posterior's mass lies mostly without it — is kept apart in
     ``doubtful``, not dropped; so is a MAP table whose contacts' best cause is one of its
-    legs only (:meth:`FusedMapper._touched_legs`: one leg's contacts fit a box's corner or
+    legs only while whiskers swept through its other legs' places untouched
+    (:meth:`FusedMapper._contradicted_by_one_leg`: one leg's contacts fit a box's corner or
     a pillar as well, which the model has no object for; docs/blackboard.md). With
     ``samples`` = 0 there are no probabilities and every MAP object is on the map, but for
-    those one-leg tables.
+    those tables.
 
     Attributes
     ----------
@@ -216,7 +223,7 @@ class FusedMap:
         Counters of the final pass.
     doubtful
         ``(d, 4)`` MAP objects of existence probability below 1/2, and MAP tables touched
-        on one leg only.
+        on one leg only whose other legs' places were swept untouched.
     doubtful_existence
         ``(d,)`` their existence probabilities.
     """
@@ -693,7 +700,7 @@ class FusedMapper:
         existence, visits = self._existence(start, proposal, generator)
         info |= visits
         doubtful = existence < 0.5  # NaN (no samples) compares False: kept
-        doubtful |= self._touched_legs(best) < 2
+        doubtful |= self._contradicted_by_one_leg(best)
         return FusedMap(
             best[~doubtful],
             existence[~doubtful],
@@ -703,6 +710,19 @@ class FusedMapper:
             best[doubtful],
             existence[doubtful],
         )
+
+    def _contradicted_by_one_leg(self, tables: FloatArray) -> BoolArray:
+        """``(n,)`` whether each of ``tables`` rests on one touched leg (:meth:`_touched_legs`)
+        while whiskers swept through its other legs' places untouched at least twice
+        (:data:`ONE_LEG_MISSES`): the contacts fit one leg, which a box's corner or a pillar
+        fits as well, and the free space says the rest of the table is not there. A table
+        touched on one leg whose other legs no whisker reached is not contradicted, and
+        stays (a sparse tour passing one side of a real table)."""
+        if not len(tables):
+            return np.zeros(0, dtype=bool)
+        ctx = self._ctx
+        missed = np.array([ctx.table_free_space(t) for t in tables]) / ctx.log_p_miss
+        return (self._touched_legs(tables) < 2) & (missed >= ONE_LEG_MISSES)
 
     def _touched_legs(self, tables: FloatArray) -> IntArray:
         """``(n,)`` how many legs of each of ``tables`` (n, 4) are the best cause of at
