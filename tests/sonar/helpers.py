@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
@@ -12,8 +13,11 @@ from typing import NamedTuple
 
 import numpy as np
 import pytest
+from hypothesis import strategies as st
 
+from bayesmap.errors import FormatError
 from bayesmap.sensing.sonar_rings import PIONEER_RING16
+from bayesmap.sonar.logs import RingLog
 from bayesmap.sonar.pipeline import PIPELINES
 
 DATA = Path(__file__).parent / "data"
@@ -139,3 +143,31 @@ def write_log_lines(path: Path, lines: list[str]) -> Path:
     write them)."""
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
+
+
+def junk_lines(words: list[str]) -> st.SearchStrategy[str]:
+    """Lines a log reader must survive: any text, or ``words`` of its format in any order."""
+    return st.one_of(st.text(max_size=50), st.lists(st.sampled_from(words)).map(" ".join))
+
+
+def read_with_junk(
+    read: Callable[..., RingLog],
+    path: Path,
+    lines: list[str],
+    extra: list[tuple[int, str]],
+    strict: bool,
+    first: int = 0,
+) -> None:
+    """Insert ``extra`` lines (position, text) into ``lines``, none before line ``first``
+    (a header that must open the file), write them to ``path`` and read them with ``read``:
+    a clean :class:`FormatError`, or a log whose rows are all usable."""
+    lines = list(lines)
+    for at, line in extra:
+        lines.insert(max(at, first), line)
+    write_log_lines(path, lines)
+    try:
+        log = read(path, strict=strict).log
+    except FormatError:
+        return
+    assert np.all(np.diff(log.timestamps) > 0) and np.all(log.ranges >= 0)
+    assert len(log.timestamps) == len(log.poses) == len(log.ranges) >= 1

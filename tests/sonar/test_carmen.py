@@ -12,7 +12,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from tests.sonar.helpers import (
     carmen_lines,
+    junk_lines,
     player_lines,
+    read_with_junk,
     simulated_drive,
     write_log_lines,
 )
@@ -131,28 +133,21 @@ def test_detection(tmp_path: Path) -> None:
     assert calls[-1] == ("reading drive.log", size, size)
 
 
-junk = st.one_of(
-    st.text(max_size=50),
-    st.lists(st.sampled_from(["SONAR", "ODOM", "0.4363", "16", "2", "1.0", "-1", "inf", "x"])).map(
-        " ".join
-    ),
-)
-
-
 @settings(
     max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
-@given(extra=st.lists(st.tuples(st.integers(0, 60), junk), max_size=8), strict=st.booleans())
+@given(
+    extra=st.lists(
+        st.tuples(
+            st.integers(0, 60),
+            junk_lines(["SONAR", "ODOM", "0.4363", "16", "2", "1.0", "-1", "inf", "x"]),
+        ),
+        max_size=8,
+    ),
+    strict=st.booleans(),
+)
 def test_junk_lines_never_crash_the_reader(
     tmp_path: Path, extra: list[tuple[int, str]], strict: bool
 ) -> None:
     lines = carmen_lines(simulated_drive())[:60]
-    for at, line in extra:
-        lines.insert(at, line)
-    path = write_log_lines(tmp_path / "junk.log", lines)
-    try:
-        log = read_carmen_log(path, strict=strict).log
-    except FormatError:
-        return
-    assert np.all(np.diff(log.timestamps) > 0) and np.all(log.ranges >= 0)
-    assert len(log.timestamps) == len(log.poses) == len(log.ranges) >= 1
+    read_with_junk(read_carmen_log, tmp_path / "junk.log", lines, extra, strict)

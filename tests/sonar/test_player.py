@@ -10,7 +10,13 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from tests.sonar.helpers import player_lines, simulated_drive, write_log_lines
+from tests.sonar.helpers import (
+    junk_lines,
+    player_lines,
+    read_with_junk,
+    simulated_drive,
+    write_log_lines,
+)
 
 from bayesmap.errors import FormatError, InputError
 from bayesmap.sensing.sonar_rings import PIONEER_RING16
@@ -177,28 +183,21 @@ def test_a_gzipped_player_log_is_detected_and_read(tmp_path: Path) -> None:
     assert np.array_equal(plain.poses, unpacked.poses)
 
 
-junk = st.one_of(
-    st.text(max_size=50),
-    st.lists(st.sampled_from(["1", "0", "16", "sonar", "position2d", "001", "-1", "x"])).map(
-        " ".join
-    ),
-)
-
-
 @settings(
     max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
-@given(extra=st.lists(st.tuples(st.integers(0, 60), junk), max_size=8), strict=st.booleans())
+@given(
+    extra=st.lists(
+        st.tuples(
+            st.integers(0, 60),
+            junk_lines(["1", "0", "16", "sonar", "position2d", "001", "-1", "x"]),
+        ),
+        max_size=8,
+    ),
+    strict=st.booleans(),
+)
 def test_junk_lines_never_crash_the_reader(
     tmp_path: Path, extra: list[tuple[int, str]], strict: bool
 ) -> None:
     lines = player_lines(simulated_drive(), geometry=False)[:60]
-    for at, line in extra:
-        lines.insert(max(at, 2), line)
-    path = write_log_lines(tmp_path / "junk.log", lines)
-    try:
-        log = read_player_log(path, strict=strict).log
-    except FormatError:
-        return
-    assert np.all(np.diff(log.timestamps) > 0) and np.all(log.ranges >= 0)
-    assert len(log.timestamps) == len(log.poses) == len(log.ranges) >= 1
+    read_with_junk(read_player_log, tmp_path / "junk.log", lines, extra, strict, first=2)
