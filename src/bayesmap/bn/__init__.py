@@ -1,7 +1,7 @@
 """Discrete Bayesian networks: model, forms, exact and fixed-point inference, file formats.
 
 The engine of Post et al. 2016 (§2–3): build a :class:`BayesNet` in code or :func:`read` one
-from XMLBIF/BIF/XBN/NET, then ask it questions — :meth:`~BayesNet.posterior`,
+from XMLBIF/BIF/XBN/NET/XDSL/UAI, then ask it questions — :meth:`~BayesNet.posterior`,
 :meth:`~BayesNet.joint_posterior`, :meth:`~BayesNet.posterior_batch`, :meth:`~BayesNet.map`,
 :meth:`~BayesNet.marginal_map`, :meth:`~BayesNet.probability` of a proposition — exactly, or in
 Q-format fixed point.
