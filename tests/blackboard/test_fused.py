@@ -17,7 +17,12 @@ from bayesmap.blackboard.data_driven import (
     table_candidates,
 )
 from bayesmap.blackboard.evidence import EvidenceStore
-from bayesmap.blackboard.fused import FusedMapper, FusedParams, _suppress_duplicates
+from bayesmap.blackboard.fused import (
+    LEG_MISS_POWER,
+    FusedMapper,
+    FusedParams,
+    _suppress_duplicates,
+)
 from bayesmap.blackboard.rjmcmc import (
     CandidateScreen,
     ChainState,
@@ -886,7 +891,7 @@ def test_a_desk_on_a_box_corner_is_contradicted_by_the_free_space() -> None:
     """A solid box the catalogue does not list, toured on all sides: a desk with one leg in
     the box's corner and the others on swept open floor is the best cause of contacts on
     that leg only, and whiskers crossed its other legs' places, so ``finish`` would keep it
-    off the map (with the doubtful objects)."""
+    off the map (with the doubtful objects) by the one-touched-leg test."""
     box = np.array([[3.0, 2.0, 0.3]])
     world = build_mixed(box, np.array([[0.45, 0.45, 0.225]]), np.full(1, 0.3), ARENA)
     mapper = FusedMapper((DESK,), ARENA)
@@ -904,8 +909,10 @@ def test_a_desk_on_a_box_corner_is_contradicted_by_the_free_space() -> None:
     offset = 0.5 * np.array([DESK.length, DESK.width])  # centre to the leg's outer corner
     centre = corner - np.array([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]])
     phantom = np.array([[*centre, 0.3, 0.0]])
-    assert mapper._touched_legs(phantom).tolist() == [1]
-    assert mapper._contradicted_by_one_leg(phantom).tolist() == [True]
+    touches, misses = mapper._leg_evidence(phantom)
+    assert ((touches > 0).sum(axis=1)).tolist() == [1]
+    assert misses.sum() >= 2
+    assert mapper._contradicted_by_free_space(phantom).tolist() == [True]
 
 
 def test_a_table_touched_on_one_leg_stays_when_its_other_legs_were_not_reached() -> None:
@@ -923,5 +930,40 @@ def test_a_table_touched_on_one_leg_stays_when_its_other_legs_were_not_reached()
             for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
                 pose = np.array([x, y, heading])
                 mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
-    assert mapper._touched_legs(truth).tolist() == [2, 1]
-    assert not mapper._contradicted_by_one_leg(truth).any()
+    touches, misses = mapper._leg_evidence(truth)
+    assert ((touches > 0).sum(axis=1)).tolist() == [2, 1]
+    assert not misses.any()
+    assert not mapper._contradicted_by_free_space(truth).any()
+
+
+def test_a_desk_across_two_boxes_is_contradicted_and_a_real_desk_is_not() -> None:
+    """Two solid boxes 1.45 m apart, toured on all sides, and a real desk: a desk with two
+    legs in the boxes' facing corners is touched on those legs, but whiskers crossed its
+    other two legs' places untouched far more often than a real leg is missed (the binomial
+    test); the real desk, touched on every leg and never crossed, is not contradicted."""
+    boxes = np.array([[2.0, 2.8, 0.0], [3.45, 2.8, 0.0]])
+    desk = np.array([[1.5, 1.0, 0.0]])
+    world = build_mixed(
+        np.vstack([boxes, desk]),
+        np.array([[0.45, 0.45, 0.225], [0.45, 0.45, 0.225], [1.2, 0.8, 0.1]]),
+        np.full(3, 0.3),
+        ARENA,
+    )
+    mapper = FusedMapper((DESK,), ARENA)
+    rng = np.random.default_rng(5)
+    for x in np.linspace(0.4, 4.6, 7):
+        for y in np.linspace(0.4, 3.6, 6):
+            blocked = min(math.hypot(x - bx, y - by) for bx, by, _ in boxes) < 0.5
+            if blocked or (abs(x - 1.5) < 0.8 and abs(y - 1.0) < 0.6):
+                continue
+            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+                pose = np.array([x, y, heading])
+                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
+    # legs (-a, +b) and (+a, +b) sit in box 1's (+x, -y) and box 2's (-x, -y) corners
+    phantom = np.array([[2.725, 2.8 - 0.225 + 0.05 - 0.35, 0.0, 0.0]])
+    tables = np.vstack([phantom, [[*desk[0], 0.0]]])
+    touches, misses = mapper._leg_evidence(tables)
+    assert (touches[0] > 0).sum() >= 2  # not a one-leg phantom
+    assert misses[0].max() >= LEG_MISS_POWER and not misses[1].any()
+    assert (touches[1] > 0).all()
+    assert mapper._contradicted_by_free_space(tables).tolist() == [True, False]

@@ -37,6 +37,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.stats import binom
 
 from bayesmap._rng import RNGLike, as_generator
 from bayesmap._typing import BoolArray, FloatArray, IntArray
@@ -78,6 +79,11 @@ ONE_LEG_MISSES = 2
 """Missed sweeps (free sectors through a leg's place) that, with one touched leg, keep a
 table off the map: one miss happens to a real leg with probability ``p_miss`` (0.05), two
 with ``p_miss²``."""
+
+LEG_MISS_POWER = 4
+"""A leg of any MAP table is contradicted when its misses, given its touches, are as
+unlikely under a real leg as this many misses of an untouched one (``p_miss⁴`` ≈ 6e-6;
+binomial tail, :meth:`FusedMapper._contradicted_by_free_space`)."""
 
 
 @dataclass(frozen=True)
@@ -198,10 +204,12 @@ class FusedMap:
     each object whose posterior probability exceeds 1/2). A MAP object the β = 1 chain
     holds less than half the time — one that fits its few contacts only in a narrow range
     of poses, so the posterior's mass lies mostly without it — is kept apart in
-    ``doubtful``, not dropped; so is a MAP table whose contacts' best cause is one of its
-    legs only while whiskers swept through its other legs' places untouched
-    (:meth:`FusedMapper._contradicted_by_one_leg`: one leg's contacts fit a box's corner or
-    a pillar as well, which the model has no object for; docs/blackboard.md). With
+    ``doubtful``, not dropped; so is a MAP table that the free space contradicts: one
+    whose contacts' best cause is one of its legs only while whiskers swept through its
+    legs' places untouched, or one with a leg that whiskers crossed untouched far more
+    often than a real leg is missed (:meth:`FusedMapper._contradicted_by_free_space`: the
+    contacts on a box's corner or faces fit legs, and the model has no object for a box;
+    docs/blackboard.md). With
     ``samples`` = 0 there are no probabilities and every MAP object is on the map, but for
     those tables.
 
@@ -700,7 +708,7 @@ class FusedMapper:
         existence, visits = self._existence(start, proposal, generator)
         info |= visits
         doubtful = existence < 0.5  # NaN (no samples) compares False: kept
-        doubtful |= self._contradicted_by_one_leg(best)
+        doubtful |= self._contradicted_by_free_space(best)
         return FusedMap(
             best[~doubtful],
             existence[~doubtful],
@@ -711,27 +719,45 @@ class FusedMapper:
             existence[doubtful],
         )
 
-    def _contradicted_by_one_leg(self, tables: FloatArray) -> BoolArray:
-        """``(n,)`` whether each of ``tables`` rests on one touched leg (:meth:`_touched_legs`)
-        while whiskers swept through its other legs' places untouched at least twice
-        (:data:`ONE_LEG_MISSES`): the contacts fit one leg, which a box's corner or a pillar
-        fits as well, and the free space says the rest of the table is not there. A table
-        touched on one leg whose other legs no whisker reached is not contradicted, and
-        stays (a sparse tour passing one side of a real table)."""
-        if not len(tables):
-            return np.zeros(0, dtype=bool)
-        ctx = self._ctx
-        missed = np.array([ctx.table_free_space(t) for t in tables]) / ctx.log_p_miss
-        return (self._touched_legs(tables) < 2) & (missed >= ONE_LEG_MISSES)
+    def _contradicted_by_free_space(self, tables: FloatArray) -> BoolArray:
+        """``(n,)`` whether the free space contradicts each of ``tables`` (n, 4), by either
+        of two tests on its legs' touches and misses (:meth:`_leg_evidence`).
 
-    def _touched_legs(self, tables: FloatArray) -> IntArray:
-        """``(n,)`` how many legs of each of ``tables`` (n, 4) are the best cause of at
-        least one stored contact, among the walls, clutter and every leg of ``tables``
-        (4 for a solid type, which is one object whatever face was touched)."""
+        *One touched leg*: the contacts' best cause is one leg of the table only, and
+        whiskers swept through its legs' places untouched at least :data:`ONE_LEG_MISSES`
+        times. One leg's contacts fit a box's corner or a pillar as well, and the model
+        has no object for those. A table touched on one leg whose other legs no whisker
+        reached is not contradicted (a sparse tour passing one side of a real table).
+
+        *A leg that is not there*: some leg's misses ``m``, given its touches ``t``, lie in
+        the binomial tail P(M ≥ m | t + m sweeps crossed it, p_miss) ≤ p_miss ^
+        :data:`LEG_MISS_POWER`. Each sweep across a real leg touches it with probability
+        1 − p_miss; a table laid over the faces of a box (the model's only explanation for
+        a dense cluster of contacts) has legs that whiskers cross untouched again and again.
+
+        A solid type is one object, whatever face was touched, and passes the first test.
+        """
+        touches, misses = self._leg_evidence(tables)
+        solid = np.array([self.catalogue[int(t[3])].solid for t in tables], dtype=bool)
+        touched = (touches > 0).sum(axis=1)
+        one_leg = ~solid & (touched < 2) & (misses.sum(axis=1) >= ONE_LEG_MISSES)
+        p_miss = self.params.p_miss
+        tail = binom.sf(misses - 1.0, touches + misses, p_miss)
+        absent = (misses > 0) & (tail <= p_miss**LEG_MISS_POWER)
+        contradicted: BoolArray = one_leg | absent.any(axis=1)
+        return contradicted
+
+    def _leg_evidence(self, tables: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``(n, 4)`` touches and ``(n, 4)`` misses of each leg of ``tables`` (n, 4).
+
+        A leg's touches are the stored contacts (with their multiplicities) whose best cause,
+        among the walls, clutter and every leg of ``tables``, is that leg; its misses are
+        the stored sweeps whose free sector holds its place (term F3's count)."""
         ctx = self._ctx
-        counts = np.zeros(len(tables), dtype=np.int64)
+        touches = np.zeros((len(tables), 4))
+        misses = np.zeros((len(tables), 4))
         if not len(tables):
-            return counts
+            return touches, misses
         near = [np.sort(ctx.store.contacts_near(t[0], t[1], ctx.contact_radius)) for t in tables]
         ids = np.unique(np.concatenate(near))
         best = ctx.floor[ids].copy()
@@ -750,14 +776,12 @@ class FusedMapper:
             )
             at = np.searchsorted(ids, own)
             np.maximum.at(best, at, density.max(axis=1) if len(own) else np.zeros(0))
-            densities.append((at, density))
-        for n, (table, (at, density)) in enumerate(zip(tables, densities, strict=True)):
-            if self.catalogue[int(table[3])].solid:
-                counts[n] = 4
-                continue
+            densities.append((own, at, density))
+        for n, (table, (own, at, density)) in enumerate(zip(tables, densities, strict=True)):
             cause = (density > 0) & (density >= best[at][:, None])
-            counts[n] = int(cause.any(axis=0).sum())
-        return counts
+            touches[n] = ctx.store.counts_[own] @ cause
+            misses[n] = ctx.leg_misses(table)
+        return touches, misses
 
     def existence(self, tables: FloatArray, *, rng: RNGLike = None) -> FloatArray:
         """Existence probabilities ``(n,)`` of the objects ``tables`` (n, 4) ``x, y, θ, k``

@@ -314,13 +314,18 @@ class Context:
         return found
 
     def _free_space(self, table: FloatArray) -> float:
+        return float(self.leg_misses(table).sum()) * self.log_p_miss
+
+    def leg_misses(self, table: FloatArray) -> FloatArray:
+        """``(4,)`` stored sweeps (with their multiplicities) whose free sector holds each
+        leg of ``table``: the misses that term F3 charges ``log p_miss`` each."""
         ids = self.store.near(table[0], table[1], self.reach + self.half_diagonal + 0.05)
         if not len(ids):
-            return 0.0
+            return np.zeros(4)
         rows = self.store.rows_[ids]
         legs = leg_centres(table, self.catalogue)[0]
         swept = legs_swept(legs, rows[:, :2], rows[:, 2], rows[:, 3], rows[:, 4])
-        return float((swept * self.store.counts_[ids][None]).sum()) * self.log_p_miss
+        return swept @ self.store.counts_[ids]
 
     def _extend_floor(self, ids: IntArray) -> None:
         store = self.store
