@@ -10,9 +10,10 @@ an earlier round 101–106), run under ``--conditions`` (default noisy) with run
 exactly as ``bayesmap blackboard run --world W.json --condition C --seed 0`` runs it (write
 the world with ``bayesmap blackboard world W.json --seed N``). Reported per world and
 condition: tables, poses, fused precision, recall, wall phantoms, MAP objects left off the
-map as doubtful (existence < 1/2), and the run's CPU seconds (inflated on a loaded machine;
-the load average is listed). The table goes to docs/blackboard-results.md (section
-``blackboard-noisy-fresh``). Run from the repository root as
+map as doubtful (existence < 1/2, or contradicted by the free space), and the run's CPU
+seconds (inflated on a loaded machine; the load average is listed). The table goes to
+docs/blackboard-results.md (section ``blackboard-noisy-fresh``). Run from the repository
+root as
 ``python benchmarks/blackboard_noisy_fresh.py [--conditions noisy,normal,noiseless]``.
 """
 
@@ -65,8 +66,8 @@ def write(rows: list[dict[str, Any]]) -> None:
     lines = [
         f"{machine()}. Run seed 0; CPU seconds of the whole run (a loaded machine inflates "
         f"them; load average at start→end). Targets: precision and recall ≥ 0.6 (noisy), "
-        f"≥ 0.97 and no wall phantom (normal, noiseless); doubtful: MAP objects of existence "
-        f"below 1/2, left off the map. `{command}`",
+        f"≥ 0.97 and no wall phantom (normal, noiseless); doubtful: MAP objects left off the "
+        f"map (existence below 1/2, or contradicted by the free space). `{command}`",
         "",
         "| generator seed | condition | tables | arena [m] | poses | precision | recall "
         "| wall phantoms | doubtful | CPU s | load avg | target |",

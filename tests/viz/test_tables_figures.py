@@ -9,8 +9,11 @@ import numpy as np
 from bayesmap.blackboard.annealing import Snapshot
 from bayesmap.viz.render import figure_png
 from bayesmap.viz.tables import (
+    DOUBTFUL_COLOR,
+    MappedObjects,
     TableShape,
     annealing_gif,
+    fused_map_figure,
     ground_truth_figure,
     montage_figure,
     snapshot_figure,
@@ -77,3 +80,32 @@ def test_truth_of_a_mixed_size_world_is_drawn_at_each_table_size():
     ]
     assert [_square_tops(fig, 0.8) for fig in mixed] == [1, 1]
     assert _square_tops(ground_truth_figure(TRUTH, SHAPE, BOUNDS, poses), 0.8) == 0
+
+
+def test_the_fused_map_draws_the_doubtful_objects_dashed_and_says_so_in_its_legend():
+    """MAP objects left off the map are drawn in their own colour, dashed, labelled with
+    their type and existence; with none there is no such legend entry."""
+    sizes = np.array([[1.2, 0.8, 0.1], [0.8, 0.8, 0.08]])
+    mapped = MappedObjects(TRUTH[:1], sizes[:1], np.array([0.97]), ["desk"])
+    doubtful = MappedObjects(np.array([[4.6, 1.2, 0.2]]), sizes[1:], np.array([0.31]), ["stool"])
+
+    def dashed_and_legend(fig: matplotlib.figure.Figure) -> tuple[int, list[str]]:
+        grey = matplotlib.colors.to_rgba(DOUBTFUL_COLOR)
+        dashed = sum(
+            1
+            for c in fig.axes[0].collections
+            if np.allclose(c.get_edgecolor()[:1], grey) and c.get_linestyle()[0][1] is not None
+        )
+        return dashed, [t.get_text() for t in fig.legends[0].get_texts()]
+
+    with_doubtful = fused_map_figure(TRUTH, sizes, mapped, BOUNDS, "t", doubtful=doubtful)
+    dashed, legend = dashed_and_legend(with_doubtful)
+    assert dashed == 2  # the stool's top and its legs
+    assert "left off the map (doubtful)" in legend
+    texts = [t.get_text() for t in with_doubtful.axes[0].texts]
+    assert texts == ["desk\np=0.97", "stool\np=0.31"]
+    without = fused_map_figure(TRUTH, sizes, mapped, BOUNDS, "t")
+    assert dashed_and_legend(without) == (
+        0,
+        ["true table", "fused map (type, existence p)", "arena walls"],
+    )

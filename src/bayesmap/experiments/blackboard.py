@@ -51,7 +51,12 @@ from bayesmap.experiments._common import (
     no_progress,
     run_in_folder,
 )
-from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused
+from bayesmap.experiments.fused_run import (
+    figure_objects,
+    fused_metrics,
+    fused_params,
+    run_fused,
+)
 from bayesmap.experiments.table_metrics import MatchTolerance, recall_by_support, score_run
 from bayesmap.sim import whisker_worlds
 from bayesmap.sim.tables_world import TablesWorld, initial, pose_sequence, world_params
@@ -588,8 +593,6 @@ def _fused_condition(
         }
     )
     fused = result["fused"]
-    kinds = [catalogue[int(row[3])] for row in fused.tables]
-    sizes = np.array([[k.length, k.width, k.leg] for k in kinds]).reshape(-1, 3)
     m = metrics[name]
     title = (
         f"{name}: fused map of {len(poses)} poses — precision {m['fused_precision']:.2f}, "
@@ -598,12 +601,10 @@ def _fused_condition(
     figure = fused_map_figure(
         world.tables,
         world.table_sizes,
-        fused.tables[:, :3],
-        sizes,
-        fused.existence,
-        [k.name for k in kinds],
+        figure_objects(fused.objects()),
         world.bounds,
         title,
+        doubtful=figure_objects(fused.objects(doubtful=True)),
     )
     return write_bytes(out_dir / name / "fused_map.png", figure_png(figure))
 

@@ -97,10 +97,8 @@ def map_log(
         metrics.update(map_scores(fused, truth, match_tolerance(truth)))
     out = Path(out)
     write_json(out / "metrics.json", metrics)
-    write_json(
-        out / "map.json",
-        {"objects": objects, "doubtful": fused.objects(doubtful=True), "arena": room.arena},
-    )
+    doubtful = fused.objects(doubtful=True)
+    write_json(out / "map.json", {"objects": objects, "doubtful": doubtful, "arena": room.arena})
     title = f"{Path(log).name}: fused map ({len(objects)} objects, {len(data.poses)} poses)"
-    write_bytes(out / "map.png", map_figure(truth, objects, title))
+    write_bytes(out / "map.png", map_figure(truth, objects, title, doubtful))
     return metrics

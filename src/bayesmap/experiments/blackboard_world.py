@@ -35,7 +35,7 @@ from bayesmap.experiments._common import (
     no_progress,
     run_in_folder,
 )
-from bayesmap.experiments.fused_run import fused_metrics, fused_params, run_fused
+from bayesmap.experiments.fused_run import figure_objects, fused_metrics, fused_params, run_fused
 from bayesmap.experiments.table_metrics import MatchTolerance
 from bayesmap.sim.tables_world import TablesWorld
 from bayesmap.sim.whisker_worlds import WorldFile, load_world
@@ -237,7 +237,7 @@ def _run(
         if config.mode == "fused"
         else "paper, last pose's MAP"
     )
-    figure = map_figure(world, objects, title)
+    figure = map_figure(world, objects, title, doubtful)
     headline: dict[str, float | int | str] = {
         k: metrics[k]
         for k in ("fused_precision", "fused_recall", "precision", "recall")
@@ -260,18 +260,20 @@ def _run(
     )
 
 
-def map_figure(world: TablesWorld, objects: list[dict[str, Any]], title: str) -> bytes:
-    """PNG of mapped objects (records as in ``map.json``) over the world's true tables."""
-    rows = np.array([[o["x"], o["y"], o["theta"]] for o in objects]).reshape(-1, 3)
-    sizes = np.array([[o["length"], o["width"], o["leg"]] for o in objects]).reshape(-1, 3)
+def map_figure(
+    world: TablesWorld,
+    objects: list[dict[str, Any]],
+    title: str,
+    doubtful: list[dict[str, Any]] | None = None,
+) -> bytes:
+    """PNG of mapped objects (records as in ``map.json``) over the world's true tables, the
+    ``doubtful`` ones (left off the map) dashed."""
     fig = fused_map_figure(
         world.tables,
         world.table_sizes,
-        rows,
-        sizes,
-        np.array([o["existence_probability"] for o in objects]),
-        [str(o["type"]) for o in objects],
+        figure_objects(objects),
         world.bounds,
         title,
+        doubtful=figure_objects(doubtful or []),
     )
     return figure_png(fig)

@@ -21,6 +21,7 @@ from bayesmap.experiments.table_metrics import (
 )
 from bayesmap.sim.tables_world import TablesWorld
 from bayesmap.sim.whiskers import WhiskerParams, observe
+from bayesmap.viz.tables import MappedObjects
 
 __all__ = ["fused_metrics", "fused_params", "map_scores", "run_fused"]
 
@@ -146,3 +147,14 @@ def map_scores(fused: FusedMap, world: TablesWorld, tol: MatchTolerance) -> dict
         "fused_doubtful_existence": [float(p) for p in fused.doubtful_existence],
         "fused_object_true": true.tolist(),
     }
+
+
+def figure_objects(objects: list[dict[str, Any]]) -> MappedObjects:
+    """Object records (as in ``map.json`` and :meth:`FusedMap.objects`) as the fused map's
+    figure draws them."""
+    return MappedObjects(
+        np.array([[o["x"], o["y"], o["theta"]] for o in objects]).reshape(-1, 3),
+        np.array([[o["length"], o["width"], o["leg"]] for o in objects]).reshape(-1, 3),
+        np.array([o["existence_probability"] for o in objects]),
+        [str(o["type"]) for o in objects],
+    )

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from typing import NamedTuple, Protocol
 
 import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
@@ -27,6 +28,7 @@ from bayesmap.viz.render import figure_png
 
 __all__ = [
     "BoardView",
+    "MappedObjects",
     "TableShape",
     "annealing_gif",
     "fused_map_figure",
@@ -95,9 +97,10 @@ def draw_tables(
     alpha: float,
     filled: bool = True,
     linewidth: float = 0.8,
+    linestyle: str = "-",
 ) -> None:
-    """Draw tables (outline or translucent fill) with their four legs; a solid box or
-    pillar (legs that meet) as its outline alone, filled darker."""
+    """Draw tables (outline, of ``linestyle``, or translucent fill) with their four legs; a
+    solid box or pillar (legs that meet) as its outline alone, filled darker."""
     if not np.size(tables):
         return
     tops = _rectangles(tables, shape.length, shape.width)
@@ -114,16 +117,17 @@ def draw_tables(
             )
         )
     else:
-        ax.add_collection(
-            PolyCollection(
-                list(tops), facecolors="none", edgecolors=color, alpha=alpha, linewidths=linewidth
+        for parts in (tops, legs):
+            ax.add_collection(
+                PolyCollection(
+                    list(parts),
+                    facecolors="none",
+                    edgecolors=color,
+                    alpha=alpha,
+                    linewidths=linewidth,
+                    linestyles=linestyle,
+                )
             )
-        )
-        ax.add_collection(
-            PolyCollection(
-                list(legs), facecolors="none", edgecolors=color, alpha=alpha, linewidths=linewidth
-            )
-        )
 
 
 def _arena(ax: Axes, bounds: tuple[float, float, float, float], pad: float = 0.3) -> None:
@@ -361,6 +365,7 @@ def _draw_sized(
     alpha: float,
     filled: bool,
     linewidth: float = 0.8,
+    linestyle: str = "-",
 ) -> None:
     """Draw tables of several sizes (``sizes`` rows ``length, width, leg``)."""
     tables = np.asarray(tables, dtype=np.float64).reshape(-1, 3)
@@ -369,26 +374,45 @@ def _draw_sized(
         same = np.all(sizes == size, axis=1)
         shape = TableShape(float(size[0]), float(size[1]), float(size[2]))
         draw_tables(
-            ax, tables[same], shape, color=color, alpha=alpha, filled=filled, linewidth=linewidth
+            ax,
+            tables[same],
+            shape,
+            color=color,
+            alpha=alpha,
+            filled=filled,
+            linewidth=linewidth,
+            linestyle=linestyle,
         )
+
+
+class MappedObjects(NamedTuple):
+    """Mapped objects to draw: ``poses`` (n, 3) ``x, y, θ``, ``sizes`` (n, 3) ``length,
+    width, leg`` [m], ``existence`` (n,) probabilities and ``labels`` (n) type names."""
+
+    poses: FloatArray
+    sizes: FloatArray
+    existence: FloatArray
+    labels: Sequence[str]
+
+
+DOUBTFUL_COLOR = "0.45"
 
 
 def fused_map_figure(
     truth: FloatArray,
     truth_sizes: FloatArray,
-    objects: FloatArray,
-    object_sizes: FloatArray,
-    existence: FloatArray,
-    labels: Sequence[str],
+    mapped: MappedObjects,
     bounds: tuple[float, float, float, float],
     title: str,
+    *,
+    doubtful: MappedObjects | None = None,
 ) -> Figure:
     """The fused map over the truth: true tables filled (none: no truth), mapped objects
-    outlined.
+    outlined, and the ``doubtful`` ones — MAP objects left off the map — dashed in grey.
 
-    Each mapped object is labelled with its type and existence probability; the legend
-    sits below the axis label, outside the axes, so it never hides a table or the label;
-    the figure's height follows the arena's shape.
+    Each object is labelled with its type and existence probability; the legend sits below
+    the axis label, outside the axes, so it never hides a table or the label; the figure's
+    height follows the arena's shape.
     """
     aspect = (bounds[3] - bounds[1]) / max(bounds[2] - bounds[0], 1e-9)
     # the axes' height [in] follows the arena's (a long corridor gets a low strip, not a
@@ -396,18 +420,30 @@ def fused_map_figure(
     fig = Figure(figsize=(5.6, 1.1 + max(4.5 * min(aspect, 1.6), 0.5)), layout="constrained")
     ax = fig.subplots()
     _draw_sized(ax, truth, truth_sizes, color=TRUTH_COLOR, alpha=0.45, filled=True)
-    _draw_sized(ax, objects, object_sizes, color=MAP_COLOR, alpha=1.0, filled=False, linewidth=1.4)
-    for (x, y, _), p, label in zip(
-        np.asarray(objects).reshape(-1, 3), existence, labels, strict=True
-    ):
-        ax.text(x, y, f"{label}\np={p:.2f}", ha="center", va="center", fontsize=6, color=MAP_COLOR)
+    handles: list[Artist] = []
+    if len(truth):  # a map of a logged tour may have no truth to show
+        handles.append(Patch(facecolor=TRUTH_COLOR, alpha=0.45, label="true table"))
+    layers = [(mapped, MAP_COLOR, "-", "fused map (type, existence p)")]
+    if doubtful is not None and len(doubtful.poses):
+        layers.append((doubtful, DOUBTFUL_COLOR, "--", "left off the map (doubtful)"))
+    for objects, color, style, label in layers:
+        _draw_sized(
+            ax,
+            objects.poses,
+            objects.sizes,
+            color=color,
+            alpha=1.0,
+            filled=False,
+            linewidth=1.4,
+            linestyle=style,
+        )
+        rows = np.asarray(objects.poses).reshape(-1, 3)
+        for (x, y, _), p, name in zip(rows, objects.existence, objects.labels, strict=True):
+            ax.text(x, y, f"{name}\np={p:.2f}", ha="center", va="center", fontsize=6, color=color)
+        handles.append(Line2D([], [], color=color, lw=1.4, ls=style, label=label))
     _arena(ax, bounds)
     ax.set_title(title, fontsize=9)
-    handles = [
-        Patch(facecolor=TRUTH_COLOR, alpha=0.45, label="true table"),
-        Line2D([], [], color=MAP_COLOR, lw=1.4, label="fused map (type, existence p)"),
-        Line2D([], [], color="k", lw=1.5, label="arena walls"),
-    ][0 if len(truth) else 1 :]  # a map of a logged tour may have no truth to show
+    handles.append(Line2D([], [], color="k", lw=1.5, label="arena walls"))
     fig.legend(
         handles=handles, loc="outside lower center", ncol=len(handles), fontsize=7, frameon=False
     )
