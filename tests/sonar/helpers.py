@@ -26,11 +26,15 @@ DATA = Path(__file__).parent / "data"
 def pipelines_as_recorded(monkeypatch: pytest.MonkeyPatch) -> None:
     """Give ``default`` and ``streaming`` the symmetric occupied arc they had when the golden
     maps were recorded (before ``sigma_front``), and ``default``'s sweep the 3 m its
-    silences then cleared, so the records still pin every other step of the computation
-    bit for bit."""
+    silences then cleared, with no stop at the echoes' surfaces (``forward_echo_stop``), so
+    the records still pin every other step of the computation bit for bit."""
     for name in ("default", "streaming"):
         monkeypatch.setitem(PIPELINES, name, replace(PIPELINES[name], sigma_front=None))
-    monkeypatch.setitem(PIPELINES, "default", replace(PIPELINES["default"], forward_no_echo=3.0))
+    monkeypatch.setitem(
+        PIPELINES,
+        "default",
+        replace(PIPELINES["default"], forward_no_echo=3.0, forward_echo_stop=False),
+    )
 
 
 def recorder(name: str) -> ModuleType:

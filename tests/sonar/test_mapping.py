@@ -170,6 +170,41 @@ def test_bad_refinement_settings_are_refused(bad: dict[str, float]) -> None:
         ElfesMapper(_grid(), FRONT_AND_BACK, **bad)  # type: ignore[arg-type]
 
 
+def test_a_sweeps_silences_stop_at_a_surface_the_echoes_alone_hold() -> None:
+    """Three echoes of a wall 0.8 m ahead, then ten silences (its echo lost): the pass's
+    silences clear the wall, so the pass's map no longer holds it and a sweep that stops
+    free space at that map's surfaces clears it too; with ``forward_echo_stop`` the
+    silences stop at the wall the echoes alone hold, and its far side stays occupied."""
+    grid = OccupancyGrid(10.0, 4.0, 0.05, origin=(-3.0, -2.0))
+
+    def mapped(echo_stop: bool) -> tuple[np.ndarray, np.ndarray]:
+        mapper = ElfesMapper(
+            grid,
+            FRONT_AND_BACK,
+            no_echo="clear",
+            clear_distance=1.0,
+            forward_sweeps=1,
+            forward_free_stop=True,
+            forward_echo_stop=echo_stop,
+        )
+        for _ in range(3):
+            mapper.integrate([0.0, 0.0, 0.0], [0.8, 6.0])
+        for _ in range(10):
+            mapper.integrate([0.0, 0.0, 0.0], [6.0, 6.0])
+        streaming = mapper.log_odds_.copy()
+        mapper.sync()
+        assert mapper.echo_reference_ is None  # kept for the sweep only
+        return streaming, mapper.log_odds_.copy()
+
+    wall, near = grid.world_to_cell(0.85, 0.0), grid.world_to_cell(0.65, 0.0)
+    streaming, plain = mapped(False)
+    assert streaming[wall] < 0 and plain[wall] < 0  # the lost echoes erased the wall
+    streaming_too, stopped = mapped(True)
+    assert np.array_equal(streaming_too, streaming)  # the pass is the same
+    assert stopped[wall] > 0  # the silences stopped at the wall the echoes hold
+    assert stopped[near] == plain[near] < 0  # and still cleared the space before it
+
+
 def test_the_first_surface_is_found_only_inside_the_cone_and_within_reach() -> None:
     grid = _grid()
     occupied = np.zeros(grid.shape, dtype=bool)

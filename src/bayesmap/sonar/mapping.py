@@ -142,6 +142,9 @@ class _LogOddsMapper(_ConeMapper):
         self.swept_: np.ndarray = np.zeros(grid.shape, dtype=bool)
         self.reference_: Grid | None = None
         """A map of the whole log (a forward-model sweep's E-step), or ``None``: streaming."""
+        self.echo_reference_: Grid | None = None
+        """A map of the whole log's echoes alone, where a sweep's silences also stop, or
+        ``None``."""
         self.free_stop = False
 
     def _reach(self, ranges: FloatArray) -> FloatArray:
@@ -273,13 +276,18 @@ class _LogOddsMapper(_ConeMapper):
         within half the cone's half-width of its axis, more than ``2σ`` before the echo)
         either missed that surface (specular) or the surface is not there; its free space
         stops one cell beyond it, so the surface's own cell still hears the evidence
-        against it but the cells behind it do not.
+        against it but the cells behind it do not. A silence (no echo) also stops at a
+        surface ``echo_reference_`` holds, when there is one: a wall whose echoes the
+        silences of the pass cleared is still a surface the silences lost.
         """
         assert self.reference_ is not None
         sigma = max(self.geometry.sigma, self.grid.resolution)
         reach = ranges[cells.reading]
         central = np.abs(cells.theta) <= self.geometry.beam_width / 4.0
         held = self.reference_[cells.rows, cells.cols] > 0.5
+        if self.echo_reference_ is not None:
+            silent = reach >= self.geometry.max_range
+            held |= silent & (self.echo_reference_[cells.rows, cells.cols] > 0.5)
         surface = central & held & (cells.rho < reach - 2.0 * sigma)
         first = np.full(len(ranges), np.inf)
         np.minimum.at(first, cells.reading[surface], cells.rho[surface])
@@ -407,6 +415,13 @@ class ElfesMapper(_LogOddsMapper):
         with ``forward_free_stop`` a reading's free space ends at the first surface the
         map holds on its beam. The mapped rings are kept for it, packed: pose and ranges,
         the mask as bits, the finite free limits only (about 170 bytes a ring of 16).
+    forward_echo_stop
+        With ``forward_free_stop``: a no-echo reading's free space in the sweeps also ends
+        at the first surface a map of the log's echoes alone holds (built once per
+        :meth:`refine`, the pass's settings with no-echo readings ignored). The pass's
+        silences clear oblique walls whose echoes the ring lost (the narrower the beam,
+        the more often), so the pass's map may no longer hold the walls the sweep should
+        protect; the echoes that saw them from elsewhere still do (docs/sonar.md).
 
     Attributes
     ----------
@@ -439,6 +454,7 @@ class ElfesMapper(_LogOddsMapper):
         forward_beyond: float = 2.0,
         forward_free_stop: bool = False,
         forward_no_echo: float = 0.0,
+        forward_echo_stop: bool = False,
     ) -> None:
         super().__init__(
             grid, geometry, clamp, decay, footprint, free_lock, explain_away, explain_beyond
@@ -452,6 +468,7 @@ class ElfesMapper(_LogOddsMapper):
         self.forward_gamma = float(forward_gamma)
         self.forward_beyond = float(forward_beyond)
         self.forward_free_stop = bool(forward_free_stop)
+        self.forward_echo_stop = bool(forward_echo_stop)
         if not 0.0 <= forward_no_echo <= geometry.max_range:
             raise ConfigError(
                 f"forward_no_echo must be in [0, max range = {geometry.max_range}] m, "
@@ -536,6 +553,8 @@ class ElfesMapper(_LogOddsMapper):
         """
         if self.forward_sweeps == 0 or self._refined == len(self._mapped):
             return
+        if self.forward_free_stop and self.forward_echo_stop:
+            self.echo_reference_ = self._echo_map()
         streaming = (self.explain_away, self.explain_beyond, self.free_stop, self.rings_)
         silence = (self.no_echo, self.clear_distance)
         self.explain_away, self.explain_beyond = self.forward_gamma, self.forward_beyond
@@ -550,8 +569,22 @@ class ElfesMapper(_LogOddsMapper):
                 super().integrate_many(*rings.unpack())
         self.explain_away, self.explain_beyond, self.free_stop, self.rings_ = streaming
         self.no_echo, self.clear_distance = silence
-        self.reference_ = None
+        self.reference_ = self.echo_reference_ = None
         self._refined = len(self._mapped)
+
+    def _echo_map(self) -> Grid:
+        """Occupancy probabilities of the stored rings mapped as the pass maps them, but
+        with every no-echo reading ignored (``forward_echo_stop``); the layer is left as
+        it was."""
+        kept = (self.log_odds_, self.swept_, self.rings_, self.no_echo)
+        self.log_odds_ = np.full(self.grid.shape, self.prior_log_odds)
+        self.swept_ = np.zeros(self.grid.shape, dtype=bool)
+        self.no_echo = "ignore"
+        for rings in self._mapped:
+            super().integrate_many(*rings.unpack())
+        echoes = self.probability()
+        self.log_odds_, self.swept_, self.rings_, self.no_echo = kept
+        return echoes
 
     def sync(self) -> OccupancyGrid:
         """Refine (when ``forward_sweeps``), then write the map into the grid."""

@@ -318,7 +318,7 @@ class Pipeline:
         Share of an echo's occupied evidence along its arc by what the map already knows
         (exponent, 0: off), for arc cells beyond ``explain_beyond`` [m] (see
         ``ElfesMapper``).
-    forward_sweeps, forward_gamma, forward_beyond, forward_free_stop
+    forward_sweeps, forward_gamma, forward_beyond, forward_free_stop, forward_echo_stop
         The forward-model refinement of the eq. 1 map over the whole log (sweeps, 0: off;
         see ``ElfesMapper``).
     merge_repeats
@@ -349,6 +349,7 @@ class Pipeline:
     forward_beyond: float = 2.0
     forward_free_stop: bool = False
     forward_no_echo: float = 0.0
+    forward_echo_stop: bool = False
     merge_repeats: bool = False
     map_verdict: MapVerdict | None = None
     filter_options: tuple[tuple[str, float | None], ...] = ()
@@ -395,6 +396,7 @@ class Pipeline:
             forward_beyond=self.forward_beyond,
             forward_free_stop=self.forward_free_stop,
             forward_no_echo=min(self.forward_no_echo, geometry.max_range),
+            forward_echo_stop=self.forward_echo_stop,
         )
 
 
@@ -424,6 +426,7 @@ PIPELINES: dict[str, Pipeline] = {
         _STREAMING,
         forward_sweeps=1,
         forward_free_stop=True,
+        forward_echo_stop=True,
         map_verdict=MapVerdict(silence_confidence=0.999, silence_width=0.5, open_confidence=0.999),
     ),
     "streaming": _STREAMING,
