@@ -108,9 +108,14 @@ def map_command(
         k: metrics[k] for k in ("fused_precision", "fused_recall") if k in metrics
     }
     numbers = f": {headline_text(scores)}" if scores else ""
+    left_off = (
+        f" ({metrics['doubtful']} more left off as doubtful, dashed in map.png)"
+        if metrics["doubtful"]
+        else ""
+    )
     print_note(
         f"{metrics['poses']} poses, {metrics['contacts']} contacts, {metrics['objects']} "
-        f"objects mapped; wrote {out}/metrics.json, map.json, map.png{numbers}",
+        f"objects mapped{left_off}; wrote {out}/metrics.json, map.json, map.png{numbers}",
         out=console,
     )
 

@@ -79,7 +79,7 @@ def map_log(
     fused: FusedMap = mapper.finish(rng=rng)
     progress("mapping", len(data.poses) + 1, len(data.poses) + 1)
     truth = room.world(name=Path(world).stem)
-    objects = fused.objects()
+    objects, doubtful = fused.objects(), fused.objects(doubtful=True)
     metrics: dict[str, Any] = {
         "log": str(log),
         "world": str(world),
@@ -91,13 +91,13 @@ def map_log(
         "seed": seed,
         "catalogue": [t._asdict() for t in catalogue],
         "objects": len(objects),
+        "doubtful": len(doubtful),
         "warnings": [hint for hint in (angle_unit_hint(data, angle_unit),) if hint],
     }
     if len(truth.tables):
         metrics.update(map_scores(fused, truth, match_tolerance(truth)))
     out = Path(out)
     write_json(out / "metrics.json", metrics)
-    doubtful = fused.objects(doubtful=True)
     write_json(out / "map.json", {"objects": objects, "doubtful": doubtful, "arena": room.arena})
     title = f"{Path(log).name}: fused map ({len(objects)} objects, {len(data.poses)} poses)"
     write_bytes(out / "map.png", map_figure(truth, objects, title, doubtful))

@@ -10,8 +10,9 @@ metrics only; the paper's model knows one table size, the catalogue's largest).
 
 Random streams: ``SeedSequence(seed)`` child 0 draws the sensor noise, child 1 runs the
 chain. Outputs: ``metrics.json``, ``map.json`` (``objects``: ``type, length, width, x, y,
-theta, existence_probability``; ``doubtful``: the MAP objects of existence probability
-below 1/2, left off the map, as records of the same form) and ``map.png``.
+theta, existence_probability``; ``doubtful``: the MAP objects left off the map — existence
+probability below 1/2, or contradicted by the free space — as records of the same form) and
+``map.png`` (the doubtful objects dashed).
 """
 
 from __future__ import annotations
@@ -243,6 +244,8 @@ def _run(
         for k in ("fused_precision", "fused_recall", "precision", "recall")
         if k in metrics
     }
+    if doubtful:
+        headline["doubtful (dashed in map.png)"] = len(doubtful)
     unseen = len(world.tables) - int(metrics.get("tables_touched", len(world.tables)))
     if unseen:
         headline["note"] = (
