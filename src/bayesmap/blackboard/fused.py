@@ -230,8 +230,8 @@ class FusedMap:
     info
         Counters of the final pass.
     doubtful
-        ``(d, 4)`` MAP objects of existence probability below 1/2, and MAP tables touched
-        on one leg only whose other legs' places were swept untouched.
+        ``(d, 4)`` MAP objects of existence probability below 1/2, and MAP tables the free
+        space contradicts (:meth:`FusedMapper._contradicted_by_free_space`).
     doubtful_existence
         ``(d,)`` their existence probabilities.
     """
