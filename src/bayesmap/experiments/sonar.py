@@ -239,17 +239,22 @@ def _check_map_size(w: PolygonWorld, config: Config, source: str) -> None:
 
 
 def score_world(
-    config: Config, w: PolygonWorld, log: SimulatedLog, names: tuple[str, ...]
+    config: Config,
+    w: PolygonWorld,
+    log: SimulatedLog,
+    names: tuple[str, ...],
+    ring: SonarRing | None = None,
 ) -> tuple[dict[str, dict[str, float]], dict[str, np.ndarray], OccupancyGrid, np.ndarray]:
     """Map one simulated log with each named pipeline and score the maps.
 
-    Returns the metrics and (observed-masked) probability map of each pipeline, the grid
-    and the truth.
+    ``ring`` is the ring that logged it (default: ``config``'s Pioneer ring). Returns the
+    metrics and (observed-masked) probability map of each pipeline, the grid and the truth.
     """
-    geometry = ring_geometry(make_ring(config))
+    ring = make_ring(config) if ring is None else ring
+    geometry = ring_geometry(ring)
     size, origin = _map_frame(w)
     template = OccupancyGrid(*size, config.resolution, origin=origin)
-    truth, wall = truth_layers(w, template, log.poses, config.max_range)
+    truth, wall = truth_layers(w, template, log.poses, ring.max_range)
     driven = path_cells(template, log.odometry, config.footprint)
     metrics: dict[str, dict[str, float]] = {}
     maps: dict[str, np.ndarray] = {}
