@@ -44,10 +44,8 @@ from bayesmap.sonar.logs import (
     RowBlocks,
     SkippedRow,
     check_join_settings,
-    finish_log,
-    in_order_rows,
-    posed_rows,
     report_skipped,
+    ring_log,
     row_values,
 )
 from bayesmap.sonar.ring import logged_ring
@@ -256,13 +254,6 @@ def read_carmen_log(
             report_skipped(source, line, described, skipped)
         else:
             ring = described
-    times, ranges, poses = posed_rows(
-        (source, in_order_rows(source, scan.rings.table(scan.rows), skipped)),
-        (source, in_order_rows(source, pose_table, skipped)),
-        skipped,
-        strict,
-        time_tolerance,
-        max_pose_gap,
-    )
     hint = "each SONAR line needs ODOM lines around its time"
-    return RingLog(finish_log(source, times, poses, ranges, scan.rows, skipped, hint), ring)
+    join = (strict, time_tolerance, max_pose_gap)
+    return ring_log(source, scan.rings.table(scan.rows), pose_table, skipped, join, hint, ring)

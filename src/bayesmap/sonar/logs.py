@@ -22,9 +22,10 @@ warning gives the fraction dropped; with ``strict=True`` the first bad row in th
 the read with a :class:`~bayesmap.errors.FormatError` naming its file and line.
 
 The row machinery (:class:`RowBlocks`, :func:`row_values`, :func:`in_order_rows`,
-:func:`posed_rows`, :func:`finish_log`, :func:`report_skipped`) is shared with the Player
-log reader (:mod:`bayesmap.sonar.player`), so both treat bad rows alike; it is not part of
-the package's API (``__all__``).
+:func:`posed_rows`, :func:`finish_log`, :func:`report_skipped`, :func:`ring_log`) is shared
+with the Player and CARMEN log readers (:mod:`bayesmap.sonar.player`,
+:mod:`bayesmap.sonar.carmen`), so all treat bad rows alike; it is not part of the package's
+API (``__all__``).
 """
 
 from __future__ import annotations
@@ -469,6 +470,28 @@ def posed_rows(
         report_skipped(main, int(number), str(reason), skipped)
     _abort_if_strict(strict, skipped)
     return times[keep], range_raw[keep], joined[keep]
+
+
+def ring_log(
+    source: Path,
+    rings: _Table,
+    poses: _Table,
+    skipped: list[SkippedRow],
+    join: tuple[bool, float, float],
+    hint: str,
+    ring: SonarGeometry | None,
+) -> RingLog:
+    """The :class:`RingLog` of a file that holds both its rings and its odometry (a Player
+    or CARMEN log): each table put in time order (:func:`in_order_rows`), the rings joined
+    to the poses (:func:`posed_rows`; ``join`` is ``strict, time_tolerance,
+    max_pose_gap``) and the log finished (:func:`finish_log`, ``hint`` for an empty one)."""
+    times, ranges, joined = posed_rows(
+        (source, in_order_rows(source, rings, skipped)),
+        (source, in_order_rows(source, poses, skipped)),
+        skipped,
+        *join,
+    )
+    return RingLog(finish_log(source, times, joined, ranges, rings.rows, skipped, hint), ring)
 
 
 def finish_log(

@@ -46,10 +46,8 @@ from bayesmap.sonar.logs import (
     RowBlocks,
     SkippedRow,
     check_join_settings,
-    finish_log,
-    in_order_rows,
-    posed_rows,
     report_skipped,
+    ring_log,
     row_values,
 )
 from bayesmap.sonar.ring import logged_ring
@@ -367,13 +365,6 @@ def read_player_log(
     if len(pose_table.values) == 0:
         raise FormatError(f"no odometry of position device {position_index} ({seen})", path=source)
     ring = _ring(scan, scan.rings.columns - 1)
-    times, ranges, poses = posed_rows(
-        (source, in_order_rows(source, scan.rings.table(scan.rows), skipped)),
-        (source, in_order_rows(source, pose_table, skipped)),
-        skipped,
-        strict,
-        time_tolerance,
-        max_pose_gap,
-    )
     hint = f"each sonar:{sonar_index} ring needs odometry of position device {position_index}"
-    return RingLog(finish_log(source, times, poses, ranges, scan.rows, skipped, hint), ring)
+    join = (strict, time_tolerance, max_pose_gap)
+    return ring_log(source, scan.rings.table(scan.rows), pose_table, skipped, join, hint, ring)
