@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pytest
@@ -51,7 +52,7 @@ from bayesmap.blackboard.sweep_model import (
     wall_contact_density,
 )
 from bayesmap.errors import ConfigError, InputError
-from bayesmap.sim.tables_world import build_mixed, rectangle_corners
+from bayesmap.sim.tables_world import TablesWorld, build_mixed, rectangle_corners
 from bayesmap.sim.whiskers import WhiskerParams, condition, observe
 
 DESK = ObjectType("desk", 1.2, 0.8, 0.1)
@@ -64,6 +65,25 @@ MODEL = SweepModel(0.02, 0.01, 0.1, 0.05, 0.05, 0.02, -12.0, ARENA)
 NOISY_MODEL = MODEL._replace(sigma_r=0.5, sigma_phi=math.pi / 8, reach=1.0)
 """The noisy condition's model: σ_r = 0.5 m along 1 m whiskers, a surface beyond reach
 explains nothing."""
+
+
+def _tour(
+    mapper: FusedMapper,
+    world: TablesWorld,
+    xs: Sequence[float],
+    ys: Sequence[float],
+    rng: np.random.Generator,
+    blocked: Callable[[float, float], bool] = lambda x, y: False,
+) -> None:
+    """Step ``mapper`` through every grid position ``(x, y)`` not ``blocked``, x-major,
+    facing the four compass headings at each, with the sensor's default noise."""
+    for x in xs:
+        for y in ys:
+            if blocked(x, y):
+                continue
+            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+                pose = np.array([x, y, heading])
+                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
 
 
 def _store(seed: int = 0, sensor: WhiskerParams | None = None) -> tuple[EvidenceStore, np.ndarray]:
@@ -472,11 +492,7 @@ def test_fused_mapper_finds_both_types_and_says_which() -> None:
         CATALOGUE, ARENA, FusedParams(burn_in=300, explore=600, anneal=200, samples=600)
     )
     rng = np.random.default_rng(4)
-    for x in np.linspace(0.4, 4.6, 6):
-        for y in np.linspace(0.4, 3.6, 5):
-            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
-                pose = np.array([x, y, heading])
-                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
+    _tour(mapper, world, np.linspace(0.4, 4.6, 6), np.linspace(0.4, 3.6, 5), rng)
     fused = mapper.finish(rng=rng)
     assert len(fused.tables) == 2
     order = np.argsort(fused.tables[:, 0])
@@ -498,13 +514,8 @@ def test_a_solid_box_in_the_catalogue_is_mapped_as_the_box_not_a_table() -> None
         (DESK, box), ARENA, FusedParams(burn_in=300, explore=600, anneal=200, samples=600)
     )
     rng = np.random.default_rng(2)
-    for x in np.linspace(0.4, 4.6, 6):
-        for y in np.linspace(0.4, 3.6, 5):
-            if math.hypot(x - 3.6, y - 2.6) < 0.45:  # not on the box
-                continue
-            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
-                pose = np.array([x, y, heading])
-                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
+    xs, ys = np.linspace(0.4, 4.6, 6), np.linspace(0.4, 3.6, 5)
+    _tour(mapper, world, xs, ys, rng, lambda x, y: math.hypot(x - 3.6, y - 2.6) < 0.45)
     objects = sorted(mapper.finish(rng=rng).objects(), key=lambda o: o["x"])
     assert [o["type"] for o in objects] == [DESK.name, "box"]
     for found, true in zip(objects, truth, strict=True):
@@ -896,13 +907,8 @@ def test_a_desk_on_a_box_corner_is_contradicted_by_the_free_space() -> None:
     world = build_mixed(box, np.array([[0.45, 0.45, 0.225]]), np.full(1, 0.3), ARENA)
     mapper = FusedMapper((DESK,), ARENA)
     rng = np.random.default_rng(3)
-    for x in np.linspace(0.4, 4.6, 6):
-        for y in np.linspace(0.4, 3.6, 5):
-            if math.hypot(x - 3.0, y - 2.0) < 0.5:  # not on the box
-                continue
-            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
-                pose = np.array([x, y, heading])
-                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
+    xs, ys = np.linspace(0.4, 4.6, 6), np.linspace(0.4, 3.6, 5)
+    _tour(mapper, world, xs, ys, rng, lambda x, y: math.hypot(x - 3.0, y - 2.0) < 0.5)
     corner = rectangle_corners(3.0, 2.0, 0.3, 0.45, 0.45)[0]  # the box's (+, +) corner
     # a desk turned with the box, its (+a, +b) leg inside the box's corner, faces on its faces
     c, s = math.cos(0.3), math.sin(0.3)
@@ -925,11 +931,7 @@ def test_a_table_touched_on_one_leg_stays_when_its_other_legs_were_not_reached()
     )
     mapper = FusedMapper(CATALOGUE, ARENA)
     rng = np.random.default_rng(4)
-    for x in np.linspace(0.4, 4.6, 6):
-        for y in (0.4, 3.6):
-            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
-                pose = np.array([x, y, heading])
-                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
+    _tour(mapper, world, np.linspace(0.4, 4.6, 6), (0.4, 3.6), rng)
     touches, misses = mapper._leg_evidence(truth)
     assert ((touches > 0).sum(axis=1)).tolist() == [2, 1]
     assert not misses.any()
@@ -951,14 +953,12 @@ def test_a_desk_across_two_boxes_is_contradicted_and_a_real_desk_is_not() -> Non
     )
     mapper = FusedMapper((DESK,), ARENA)
     rng = np.random.default_rng(5)
-    for x in np.linspace(0.4, 4.6, 7):
-        for y in np.linspace(0.4, 3.6, 6):
-            blocked = min(math.hypot(x - bx, y - by) for bx, by, _ in boxes) < 0.5
-            if blocked or (abs(x - 1.5) < 0.8 and abs(y - 1.0) < 0.6):
-                continue
-            for heading in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
-                pose = np.array([x, y, heading])
-                mapper.step(pose, observe(world, pose, WhiskerParams(), rng=rng).sweeps, rng=rng)
+
+    def blocked(x: float, y: float) -> bool:  # on a box or the desk
+        on_box = min(math.hypot(x - bx, y - by) for bx, by, _ in boxes) < 0.5
+        return on_box or (abs(x - 1.5) < 0.8 and abs(y - 1.0) < 0.6)
+
+    _tour(mapper, world, np.linspace(0.4, 4.6, 7), np.linspace(0.4, 3.6, 6), rng, blocked)
     # legs (-a, +b) and (+a, +b) sit in box 1's (+x, -y) and box 2's (-x, -y) corners
     phantom = np.array([[2.725, 2.8 - 0.225 + 0.05 - 0.35, 0.0, 0.0]])
     tables = np.vstack([phantom, [[*desk[0], 0.0]]])
