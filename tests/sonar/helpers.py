@@ -26,10 +26,16 @@ DATA = Path(__file__).parent / "data"
 def pipelines_as_recorded(monkeypatch: pytest.MonkeyPatch) -> None:
     """Give ``default`` and ``streaming`` the symmetric occupied arc they had when the golden
     maps were recorded (before ``sigma_front``), and ``default``'s sweep the 3 m its
-    silences then cleared, with no stop at the echoes' surfaces (``forward_echo_stop``), so
-    the records still pin every other step of the computation bit for bit."""
+    silences then cleared, with no stop at the echoes' surfaces (``forward_echo_stop``), and
+    a verdict that counts every cell of the map as a surface (``transient_pairs`` 0), so the
+    records still pin every other step of the computation bit for bit."""
     for name in ("default", "streaming"):
-        monkeypatch.setitem(PIPELINES, name, replace(PIPELINES[name], sigma_front=None))
+        pipeline = PIPELINES[name]
+        assert pipeline.map_verdict is not None
+        verdict = replace(pipeline.map_verdict, transient_pairs=0)
+        monkeypatch.setitem(
+            PIPELINES, name, replace(pipeline, sigma_front=None, map_verdict=verdict)
+        )
     monkeypatch.setitem(
         PIPELINES,
         "default",

@@ -15,7 +15,13 @@ from bayesmap.grid import OccupancyGrid
 from bayesmap.sonar import map_verdict
 from bayesmap.sonar.filter import RingVerdict, Stage
 from bayesmap.sonar.geometry import SonarGeometry
-from bayesmap.sonar.map_verdict import MapVerdict, clearance, first_surface, judge_by_map
+from bayesmap.sonar.map_verdict import (
+    MapVerdict,
+    clearance,
+    first_surface,
+    judge_by_map,
+    transient_cells,
+)
 from bayesmap.sonar.mapping import ElfesMapper
 from bayesmap.sonar.pipeline import PIPELINES, MapRun, map_log
 
@@ -156,6 +162,63 @@ def test_three_pipelines_keep_the_recorded_outcomes_of_a_log_of_thousands_of_rin
         assert maker.outcome(name, poses, ranges) == recorded[name], name
 
 
+def _trace_across_the_axis() -> tuple[OccupancyGrid, np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """A grid whose map is sure of a short trace 2.05 m in front of the origin (+x)."""
+    grid = _grid()
+    probability = np.full(grid.shape, 0.5)
+    cells = grid.world_to_cell(np.full(5, 2.05), np.linspace(-0.2, 0.2, 5))
+    probability[cells] = 0.999
+    return grid, probability, cells
+
+
+_ALONG_X = np.c_[np.linspace(0.0, 0.03, 4), np.zeros((4, 2))]  # four rings facing +x
+_OBLIQUE = np.array([[2.05 - 2.0 * math.cos(0.5), -2.0 * math.sin(0.5), 0.5]])  # axis through it
+
+
+def test_a_surface_a_silence_crossed_along_the_bearing_an_echo_found_it_from_is_transient() -> None:
+    grid, probability, cells = _trace_across_the_axis()
+    # Twice echoed along +x, then twice crossed along +x by silences: a person walked on.
+    echoed_then_gone = np.array([[2.05, 6.0], [2.05, 6.0], [6.0, 6.0], [6.0, 6.0]])
+    moved = transient_cells(
+        probability, grid, FRONT_AND_BACK, _ALONG_X, echoed_then_gone, MapVerdict()
+    )
+    assert moved[cells].all()
+    assert moved.sum() <= 25  # the trace and what leans occupied 0.2 m around it only
+    # Echoed along +x, silent along a bearing 29° off: a wall seen obliquely, lost. It stays.
+    poses = np.vstack([_ALONG_X[:2], _OBLIQUE, _OBLIQUE])
+    oblique = np.array([[2.05, 6.0], [2.05, 6.0], [6.0, 6.0], [6.0, 6.0]])
+    static = transient_cells(probability, grid, FRONT_AND_BACK, poses, oblique, MapVerdict())
+    assert not static.any()
+    # One pair is not enough for the default's two; a setting of 0 turns the test off.
+    once = transient_cells(
+        probability, grid, FRONT_AND_BACK, _ALONG_X[1:3], echoed_then_gone[1:3], MapVerdict()
+    )
+    off = MapVerdict(transient_pairs=0)
+    assert not once.any()
+    assert not transient_cells(
+        probability, grid, FRONT_AND_BACK, _ALONG_X, echoed_then_gone, off
+    ).any()
+
+
+def test_the_verdict_does_not_call_a_silence_lost_on_a_trace_that_moved_on() -> None:
+    grid, probability, _ = _trace_across_the_axis()
+    poses = np.vstack([_ALONG_X, _OBLIQUE])
+    ranges = np.array([[2.05, 6.0], [2.05, 6.0], [6.0, 6.0], [6.0, 6.0], [6.0, 6.0]])
+    accepted = np.zeros(ranges.shape, dtype=bool)
+    stage = np.full(ranges.shape, int(Stage.TRAIT_VERIFICATION))
+
+    def judged(verdict: MapVerdict) -> tuple[bool, int]:
+        ok, why = judge_by_map(
+            probability, grid, FRONT_AND_BACK, poses, ranges, accepted, stage, verdict
+        )
+        return bool(ok[4, 0]), int(why[4, 0])
+
+    # The oblique silence's cone holds the trace: a lost echo if the trace were a surface,
+    # open space once the silences along +x showed it gone.
+    assert judged(MapVerdict(transient_pairs=0)) == (False, Stage.MAP_VERDICT)
+    assert judged(MapVerdict()) == (True, Stage.ACCEPTED)
+
+
 @pytest.mark.parametrize(
     "bad",
     [
@@ -272,6 +335,10 @@ def test_an_echo_beyond_a_wall_the_map_is_sure_of_keeps_the_filters_verdict() ->
         {"echo_confidence": 1.0},
         {"silence_width": 0.0},
         {"echo_margin": -0.1},
+        {"transient_pairs": -1},
+        {"transient_pairs": 1.5},
+        {"transient_bearing": 0.0},
+        {"transient_spread": -0.1},
     ],
 )
 def test_bad_map_verdict_settings_are_refused(bad: dict[str, float]) -> None:
@@ -311,7 +378,9 @@ def _judged_log(verdict: MapVerdict | None) -> tuple[ElfesMapper, object]:
 
 
 def test_map_log_judges_every_ring_by_the_map_the_pass_ended_with() -> None:
-    mapper, run = _judged_log(MapVerdict(silence_confidence=0.9, remap=False))
+    # (Silences along the bearing the wall echoed along would show it gone: counted off.)
+    judging = MapVerdict(silence_confidence=0.9, remap=False, transient_pairs=0)
+    mapper, run = _judged_log(judging)
     accepted, stage = run.accepted, run.stage  # type: ignore[attr-defined]
     # The silences facing the wall the echoes built lost their echo; those behind saw nothing.
     assert not accepted[8:, 0].any() and (stage[8:, 0] == Stage.MAP_VERDICT).all()
@@ -370,7 +439,9 @@ def _forward_run(front: list[float], verdict: MapVerdict) -> tuple[ElfesMapper, 
 
 
 _PASSER_BY = [2.0] * 3 + [6.0] * 9  # someone 2 m ahead for three rings, then open space
-_JUDGE = MapVerdict(silence_confidence=0.9, open_confidence=0.9)
+# Every reading of these logs looks along one bearing: silences there after echoes show a
+# surface gone (transient_cells, tested above), which is counted off here.
+_JUDGE = MapVerdict(silence_confidence=0.9, open_confidence=0.9, transient_pairs=0)
 
 
 def test_a_silence_facing_a_transient_trace_is_judged_open_by_the_refined_map() -> None:

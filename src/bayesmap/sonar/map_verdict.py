@@ -11,6 +11,14 @@ agrees with the map and is kept. This is the forward sensor model's question (Th
 *Learning occupancy grid maps with forward sensor models*: which cell would the beam have
 met first?) asked of the map the pass ended with.
 
+A surface the map holds may have moved on: a person who walked past leaves sure cells
+that no later reading of a sonar can erase when the silences that cross them are exactly
+the readings under judgement. Whether a pulse comes back from a surface depends on the
+angle it meets it at, so a static surface answers a transducer the same way whenever it
+is seen along the same bearing; a cell an echo found along one bearing and a silence
+crossed along the same bearing held something that was gone (:func:`transient_cells`).
+The verdict does not count such cells as surfaces.
+
 The thresholds are learnt on simulated logs with known truth (``python
 benchmarks/sonar_diagnose.py verdict``, docs/sonar.md *The map's verdict*).
 """
@@ -30,7 +38,18 @@ from bayesmap.grid import OccupancyGrid
 from bayesmap.sonar.filter import Stage
 from bayesmap.sonar.geometry import SonarGeometry
 
-__all__ = ["MapJudge", "MapVerdict", "clearance", "first_surface", "judge_by_map"]
+__all__ = [
+    "MapJudge",
+    "MapVerdict",
+    "clearance",
+    "first_surface",
+    "judge_by_map",
+    "judging_map",
+    "transient_cells",
+]
+
+
+_TWO_PI = 2.0 * math.pi
 
 
 @dataclass(frozen=True)
@@ -60,6 +79,15 @@ class MapVerdict:
         verdict judged them (the streaming map then judges; without ``remap`` a mapper with
         a sweep is judged by its refined map); without a sweep the map stays the streaming
         pass's.
+    transient_pairs
+        Pairs of an echo and a silence along the same bearing that make a cell transient
+        (:func:`transient_cells`); 0: every cell of the map counts.
+    transient_bearing
+        Width of the bearing bins that pair them [rad]: an echo and a silence pair when
+        their bins are the same or adjacent.
+    transient_spread
+        Cells the map leans occupied within this distance of a transient one are transient
+        too [m].
     """
 
     silence_confidence: float = 0.99
@@ -69,6 +97,9 @@ class MapVerdict:
     echo_confidence: float = 0.9
     echo_margin: float = 1.2
     remap: bool = False
+    transient_pairs: int = 2
+    transient_bearing: float = math.radians(5.0)
+    transient_spread: float = 0.2
 
     def __post_init__(self) -> None:
         for name in ("silence_confidence", "open_confidence", "echo_confidence"):
@@ -79,9 +110,19 @@ class MapVerdict:
             raise ConfigError(
                 f"map verdict: silence_width must be in (0, 1], got {self.silence_width}"
             )
-        for name in ("silence_margin", "echo_margin"):
+        for name in ("silence_margin", "echo_margin", "transient_spread"):
             if not getattr(self, name) >= 0.0:
                 raise ConfigError(f"map verdict: {name} must be >= 0 m, got {getattr(self, name)}")
+        if not (isinstance(self.transient_pairs, int) and self.transient_pairs >= 0):
+            raise ConfigError(
+                f"map verdict: transient_pairs must be a whole number >= 0, got "
+                f"{self.transient_pairs!r}"
+            )
+        if not 0.0 < self.transient_bearing <= _TWO_PI / 3.0:
+            raise ConfigError(
+                "map verdict: transient_bearing must be in (0, 2 pi / 3] rad, got "
+                f"{self.transient_bearing}"
+            )
 
 
 def clearance(occupied: BoolArray, grid: OccupancyGrid) -> Grid:
@@ -150,6 +191,127 @@ def first_surface(
 
 _RINGS_PER_CHUNK = 5_000
 """Rings :func:`judge_by_map` judges at once: its arrays stay a few MB however long the log."""
+
+
+def _flat_cells(grid: OccupancyGrid, x: FloatArray, y: FloatArray) -> IntArray:
+    """Row-major index of the cell holding each point, −1 outside the grid."""
+    rows, cols = grid.world_to_cell(x, y)
+    ny, nx = grid.shape
+    inside = grid.in_bounds(rows, cols)
+    return np.where(inside, rows * nx + cols, -1)
+
+
+def _counted(keys: list[IntArray]) -> tuple[IntArray, IntArray]:
+    """The distinct keys (sorted) and how often each occurs."""
+    if not keys:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    return np.unique(np.concatenate(keys), return_counts=True)
+
+
+def transient_cells(
+    probability: Grid,
+    grid: OccupancyGrid,
+    geometry: SonarGeometry,
+    poses: Poses,
+    ranges: Ranges,
+    verdict: MapVerdict,
+    rows: IntArray | None = None,
+) -> BoolArray:
+    """``(ny, nx)``: the cells of ``probability`` that held a moving obstacle.
+
+    Whether a pulse returns from a surface depends on the angle it meets the surface at
+    (the premise of specular loss, ICINCO 2007, p. 494), and that angle is fixed by the
+    bearing it is seen along. So a static surface gives one answer along one bearing: a
+    cell where an echo ended (its range along the axis) and which a silence's axis later
+    or earlier crossed along the same bearing — their bins of ``transient_bearing`` the
+    same or adjacent, the crossing within the max range less ``silence_margin``, where a
+    surface would have been heard — held something that was no longer there, or not yet:
+    a person walking by. A cell with at least ``transient_pairs`` such pairs (each echo
+    pairs with one silence: the smaller count per bin) is transient, and so is every cell
+    the map leans occupied (above 1/2) within ``transient_spread`` of one: a moving
+    obstacle leaves a connected trace that axes cross only here and there. Only cells the
+    map leans occupied can be transient; none with ``transient_pairs`` 0.
+
+    Parameters
+    ----------
+    probability
+        ``(ny, nx)`` the map of the whole log.
+    grid, geometry
+        Its grid and the ring.
+    poses, ranges
+        ``(m, 3)`` and ``(m, n)``: the log.
+    verdict
+        The thresholds.
+    rows
+        The rings counted (default: all), e.g. without repeats of a standing robot.
+    """
+    shape = grid.shape
+    if verdict.transient_pairs == 0:
+        return np.zeros(shape, dtype=bool)
+    leaning = np.asarray(probability > 0.5).ravel()
+    bins = max(round(_TWO_PI / verdict.transient_bearing), 3)
+    reach = geometry.max_range - verdict.silence_margin
+    step = grid.resolution / 2.0
+    chosen = np.arange(len(poses)) if rows is None else np.asarray(rows)
+    echo_keys: list[IntArray] = []
+    silence_keys: list[IntArray] = []
+    for start in range(0, len(chosen), _RINGS_PER_CHUNK):
+        chunk = chosen[start : start + _RINGS_PER_CHUNK]
+        centres, axis = geometry.sensors_many(np.asarray(poses, dtype=np.float64)[chunk])
+        centres, axis = centres.reshape(-1, 2), axis.ravel()
+        r = np.asarray(ranges, dtype=np.float64)[chunk].ravel()
+        bearing_bin = np.floor(np.mod(axis, _TWO_PI) * (bins / _TWO_PI)).astype(np.int64) % bins
+        cos, sin = np.cos(axis), np.sin(axis)
+        echo = geometry.echo(r) & ~geometry.measured_nothing(r)
+        ends = _flat_cells(
+            grid, centres[echo, 0] + r[echo] * cos[echo], centres[echo, 1] + r[echo] * sin[echo]
+        )
+        found = (ends >= 0) & leaning[np.maximum(ends, 0)]
+        echo_keys.append(ends[found] * bins + bearing_bin[echo][found])
+        silent = np.flatnonzero(~geometry.echo(r) & ~geometry.measured_nothing(r))
+        crossings: list[IntArray] = []
+        for t in np.arange(step, reach, step):
+            cells = _flat_cells(
+                grid, centres[silent, 0] + t * cos[silent], centres[silent, 1] + t * sin[silent]
+            )
+            hit = (cells >= 0) & leaning[np.maximum(cells, 0)]
+            crossings.append(cells[hit] * len(r) + silent[hit])
+        if crossings:
+            # each silence crosses a cell once, however many of its steps fall in it
+            crossed = np.unique(np.concatenate(crossings))
+            cells, reading = np.divmod(crossed, len(r))
+            silence_keys.append(cells * bins + bearing_bin[reading])
+    echoed, echo_count = _counted(echo_keys)
+    crossed_keys, crossed_count = _counted(silence_keys)
+    cell, bearing_bin = np.divmod(echoed, bins)
+    crossings_near = np.zeros(len(echoed), dtype=np.int64)
+    for shift in (-1, 0, 1):
+        wanted = cell * bins + (bearing_bin + shift) % bins
+        at = np.minimum(np.searchsorted(crossed_keys, wanted), max(len(crossed_keys) - 1, 0))
+        if len(crossed_keys):
+            crossings_near += np.where(crossed_keys[at] == wanted, crossed_count[at], 0)
+    pairs = np.bincount(
+        cell, weights=np.minimum(echo_count, crossings_near), minlength=leaning.size
+    )
+    moved = (pairs >= verdict.transient_pairs).reshape(shape)
+    if verdict.transient_spread > 0.0 and np.any(moved):
+        moved = clearance(moved, grid) <= verdict.transient_spread
+    return moved & leaning.reshape(shape)
+
+
+def judging_map(
+    probability: Grid,
+    grid: OccupancyGrid,
+    geometry: SonarGeometry,
+    poses: Poses,
+    ranges: Ranges,
+    verdict: MapVerdict,
+    rows: IntArray | None = None,
+) -> Grid:
+    """``probability`` with its :func:`transient_cells` unknown (1/2): the map the verdict
+    asks (same arguments)."""
+    moved = transient_cells(probability, grid, geometry, poses, ranges, verdict, rows)
+    return np.where(moved, 0.5, probability)
 
 
 class MapJudge:
@@ -293,7 +455,7 @@ def judge_by_map(
     time by one :class:`MapJudge`).
     """
     ok, why = np.array(accepted), np.array(stage)
-    MapJudge(probability, grid, geometry, verdict).judge(
-        np.asarray(poses, dtype=np.float64), np.asarray(ranges, dtype=np.float64), ok, why
-    )
+    p, r = np.asarray(poses, dtype=np.float64), np.asarray(ranges, dtype=np.float64)
+    judged = judging_map(probability, grid, geometry, p, r, verdict)
+    MapJudge(judged, grid, geometry, verdict).judge(p, r, ok, why)
     return ok, why

@@ -23,7 +23,7 @@ from bayesmap.errors import ConfigError, InputError
 from bayesmap.grid import OccupancyGrid
 from bayesmap.sonar.filter import SpecularFilter, Stage
 from bayesmap.sonar.geometry import SonarGeometry
-from bayesmap.sonar.map_verdict import MapJudge, MapVerdict
+from bayesmap.sonar.map_verdict import MapJudge, MapVerdict, judging_map
 from bayesmap.sonar.mapping import ElfesMapper, NoEcho, RosRangeLayerMapper, ThrunMapper
 
 __all__ = [
@@ -275,15 +275,18 @@ def _judge_by_map(
 
     The judging map is the one the pipeline ends with: a mapper that refines the whole log
     (``forward_sweeps``) refines first, unless ``remap`` is to feed the verdict to that
-    refinement, in which case the streaming map judges. The rings are judged a chunk at a
+    refinement, in which case the streaming map judges; its transient cells, counted over
+    the rings mapped (not the repeats), are unknown to the verdict
+    (:func:`~bayesmap.sonar.map_verdict.judging_map`). The rings are judged a chunk at a
     time (:class:`~bayesmap.sonar.map_verdict.MapJudge`), so memory does not grow with the log.
     """
     refine: Callable[[], None] | None = getattr(mapper, "refine", None)
     if not verdict.remap and refine is not None:
         refine()
     fresh = ~repeat
-    judge = MapJudge(mapper.probability(), mapper.grid, geometry, verdict)
-    judge.judge(poses, ranges, accepted, stage, rows=np.flatnonzero(fresh))
+    rows = np.flatnonzero(fresh)
+    judged = judging_map(mapper.probability(), mapper.grid, geometry, poses, ranges, verdict, rows)
+    MapJudge(judged, mapper.grid, geometry, verdict).judge(poses, ranges, accepted, stage, rows)
     # A repeat takes the verdict of the last ring mapped before it.
     last = np.maximum.accumulate(np.where(fresh, np.arange(len(fresh)), 0))
     accepted[:], stage[:] = accepted[last], stage[last]
