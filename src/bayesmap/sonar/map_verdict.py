@@ -201,11 +201,13 @@ def _flat_cells(grid: OccupancyGrid, x: FloatArray, y: FloatArray) -> IntArray:
     return np.where(inside, rows * nx + cols, -1)
 
 
-def _counted(keys: list[IntArray]) -> tuple[IntArray, IntArray]:
-    """The distinct keys (sorted) and how often each occurs."""
-    if not keys:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    return np.unique(np.concatenate(keys), return_counts=True)
+def _tally(counted: tuple[IntArray, IntArray], keys: IntArray) -> tuple[IntArray, IntArray]:
+    """``counted`` (distinct keys, sorted, and their counts) with ``keys`` added: memory
+    stays that of the distinct keys, however long the log."""
+    known, counts = counted
+    merged, where = np.unique(np.concatenate([known, keys]), return_inverse=True)
+    weights = np.concatenate([counts, np.ones(len(keys), dtype=np.int64)])
+    return merged, np.bincount(where, weights=weights, minlength=len(merged)).astype(np.int64)
 
 
 def transient_cells(
@@ -252,14 +254,16 @@ def transient_cells(
     bins = max(round(_TWO_PI / verdict.transient_bearing), 3)
     reach = geometry.max_range - verdict.silence_margin
     step = grid.resolution / 2.0
+    poses, ranges = np.asarray(poses, dtype=np.float64), np.asarray(ranges, dtype=np.float64)
     chosen = np.arange(len(poses)) if rows is None else np.asarray(rows)
-    echo_keys: list[IntArray] = []
-    silence_keys: list[IntArray] = []
+    nothing = np.zeros(0, dtype=np.int64)
+    echoed: tuple[IntArray, IntArray] = (nothing, nothing)
+    crossed: tuple[IntArray, IntArray] = (nothing, nothing)
     for start in range(0, len(chosen), _RINGS_PER_CHUNK):
         chunk = chosen[start : start + _RINGS_PER_CHUNK]
-        centres, axis = geometry.sensors_many(np.asarray(poses, dtype=np.float64)[chunk])
+        centres, axis = geometry.sensors_many(poses[chunk])
         centres, axis = centres.reshape(-1, 2), axis.ravel()
-        r = np.asarray(ranges, dtype=np.float64)[chunk].ravel()
+        r = ranges[chunk].ravel()
         bearing_bin = np.floor(np.mod(axis, _TWO_PI) * (bins / _TWO_PI)).astype(np.int64) % bins
         cos, sin = np.cos(axis), np.sin(axis)
         echo = geometry.echo(r) & ~geometry.measured_nothing(r)
@@ -267,7 +271,7 @@ def transient_cells(
             grid, centres[echo, 0] + r[echo] * cos[echo], centres[echo, 1] + r[echo] * sin[echo]
         )
         found = (ends >= 0) & leaning[np.maximum(ends, 0)]
-        echo_keys.append(ends[found] * bins + bearing_bin[echo][found])
+        echoed = _tally(echoed, ends[found] * bins + bearing_bin[echo][found])
         silent = np.flatnonzero(~geometry.echo(r) & ~geometry.measured_nothing(r))
         crossings: list[IntArray] = []
         for t in np.arange(step, reach, step):
@@ -278,17 +282,16 @@ def transient_cells(
             crossings.append(cells[hit] * len(r) + silent[hit])
         if crossings:
             # each silence crosses a cell once, however many of its steps fall in it
-            crossed = np.unique(np.concatenate(crossings))
-            cells, reading = np.divmod(crossed, len(r))
-            silence_keys.append(cells * bins + bearing_bin[reading])
-    echoed, echo_count = _counted(echo_keys)
-    crossed_keys, crossed_count = _counted(silence_keys)
-    cell, bearing_bin = np.divmod(echoed, bins)
-    crossings_near = np.zeros(len(echoed), dtype=np.int64)
-    for shift in (-1, 0, 1):
-        wanted = cell * bins + (bearing_bin + shift) % bins
-        at = np.minimum(np.searchsorted(crossed_keys, wanted), max(len(crossed_keys) - 1, 0))
-        if len(crossed_keys):
+            cells, reading = np.divmod(np.unique(np.concatenate(crossings)), len(r))
+            crossed = _tally(crossed, cells * bins + bearing_bin[reading])
+    (echo_keys, echo_count), (crossed_keys, crossed_count) = echoed, crossed
+    cell, bearing_bin = np.divmod(echo_keys, bins)
+    crossings_near = np.zeros(len(echo_keys), dtype=np.int64)
+    if len(crossed_keys):
+        last = len(crossed_keys) - 1
+        for shift in (-1, 0, 1):  # the same bin and its neighbours
+            wanted = cell * bins + (bearing_bin + shift) % bins
+            at = np.minimum(np.searchsorted(crossed_keys, wanted), last)
             crossings_near += np.where(crossed_keys[at] == wanted, crossed_count[at], 0)
     pairs = np.bincount(
         cell, weights=np.minimum(echo_count, crossings_near), minlength=leaning.size
