@@ -192,6 +192,11 @@ def first_surface(
 _RINGS_PER_CHUNK = 5_000
 """Rings :func:`judge_by_map` judges at once: its arrays stay a few MB however long the log."""
 
+_RINGS_PER_TALLY = 1_000
+"""Rings :func:`transient_cells` steps along at once: each silence's axis is stepped to the
+max range at half a cell (some 90 points a reading), so its chunks are smaller than the
+verdict's."""
+
 
 def _flat_cells(grid: OccupancyGrid, x: FloatArray, y: FloatArray) -> IntArray:
     """Row-major index of the cell holding each point, −1 outside the grid."""
@@ -259,8 +264,8 @@ def transient_cells(
     nothing = np.zeros(0, dtype=np.int64)
     echoed: tuple[IntArray, IntArray] = (nothing, nothing)
     crossed: tuple[IntArray, IntArray] = (nothing, nothing)
-    for start in range(0, len(chosen), _RINGS_PER_CHUNK):
-        chunk = chosen[start : start + _RINGS_PER_CHUNK]
+    for start in range(0, len(chosen), _RINGS_PER_TALLY):
+        chunk = chosen[start : start + _RINGS_PER_TALLY]
         centres, axis = geometry.sensors_many(poses[chunk])
         centres, axis = centres.reshape(-1, 2), axis.ravel()
         r = ranges[chunk].ravel()
@@ -272,18 +277,19 @@ def transient_cells(
         )
         found = (ends >= 0) & leaning[np.maximum(ends, 0)]
         echoed = _tally(echoed, ends[found] * bins + bearing_bin[echo][found])
-        silent = np.flatnonzero(~geometry.echo(r) & ~geometry.measured_nothing(r))
+        silent = ~geometry.echo(r) & ~geometry.measured_nothing(r)
+        x, y, cos, sin = centres[silent, 0], centres[silent, 1], cos[silent], sin[silent]
+        silent_bin = bearing_bin[silent]
+        previous = np.full(len(x), -1)
         crossings: list[IntArray] = []
         for t in np.arange(step, reach, step):
-            cells = _flat_cells(
-                grid, centres[silent, 0] + t * cos[silent], centres[silent, 1] + t * sin[silent]
-            )
-            hit = (cells >= 0) & leaning[np.maximum(cells, 0)]
-            crossings.append(cells[hit] * len(r) + silent[hit])
+            cells = _flat_cells(grid, x + t * cos, y + t * sin)
+            # an axis leaves a cell for good, so a cell its last step held is not crossed anew
+            hit = (cells >= 0) & (cells != previous) & leaning[np.maximum(cells, 0)]
+            crossings.append(cells[hit] * bins + silent_bin[hit])
+            previous = cells
         if crossings:
-            # each silence crosses a cell once, however many of its steps fall in it
-            cells, reading = np.divmod(np.unique(np.concatenate(crossings)), len(r))
-            crossed = _tally(crossed, cells * bins + bearing_bin[reading])
+            crossed = _tally(crossed, np.concatenate(crossings))
     (echo_keys, echo_count), (crossed_keys, crossed_count) = echoed, crossed
     cell, bearing_bin = np.divmod(echo_keys, bins)
     crossings_near = np.zeros(len(echo_keys), dtype=np.int64)
