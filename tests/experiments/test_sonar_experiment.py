@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,12 +15,14 @@ from bayesmap.experiments.sonar import (
     map_metrics,
     metric_rows,
     path_cells,
+    ring_geometry,
     run,
     score_world,
 )
 from bayesmap.grid import OccupancyGrid
-from bayesmap.sim.polygons import random_building, world
+from bayesmap.sim.polygons import random_building, random_hall, world
 from bayesmap.sim.sonar_log import Realism, SimulatedLog, simulate_log
+from bayesmap.sonar.pipeline import PIPELINES, grid_for_poses, map_log
 
 
 def test_map_metrics_against_hand_counts() -> None:
@@ -100,6 +103,34 @@ def test_default_and_streaming_pipelines_win_on_a_building_nobody_tuned_on() -> 
         assert metrics[mine]["path_occupied"] == 0  # people crossing the path leave no trace
     # The default's forward-model sweep refines the streaming map: it must not make it worse.
     assert kappa["default"] >= kappa["streaming"]
+
+
+@pytest.mark.slow
+def test_surfaces_that_moved_on_cost_a_hall_nobody_tuned_on_no_precision() -> None:
+    # People walk through a random hall never used in choosing the verdict's settings. The
+    # verdict that leaves unknown the cells an echo found and a silence crossed along the
+    # same bearing must change some verdicts, reject no larger share of good readings, and
+    # find nearly as many specular ones as the verdict that takes every cell for a surface.
+    config = Config(realism=Realism(ring_rate=4.0))
+    ring = make_ring(config)
+    log = simulate_log(random_hall(47), ring, config.realism, rng=48)
+    geometry, pipeline = ring_geometry(ring), PIPELINES["default"]
+    accepted = {}
+    for pairs in (pipeline.map_verdict.transient_pairs, 0):
+        outcome = map_log(
+            log.odometry,
+            log.ranges,
+            pipeline.make_mapper(grid_for_poses(log.odometry, 6.0, config.resolution), geometry),
+            pipeline.make_filter(geometry),
+            merge_repeats=pipeline.merge_repeats,
+            map_verdict=replace(pipeline.map_verdict, transient_pairs=pairs),
+        )
+        accepted[pairs] = outcome.accepted
+    (on, with_), (off, without) = [(pairs, ~kept) for pairs, kept in accepted.items()]
+    assert on > 0 and np.any(with_ != without)
+    hits, hits_off = (with_ & log.specular).sum(), (without & log.specular).sum()
+    assert hits / with_.sum() >= hits_off / without.sum()
+    assert hits >= hits_off - 0.02 * log.specular.sum()
 
 
 def _default_beside_baselines(config: Config, name: str) -> tuple[SimulatedLog, dict]:
