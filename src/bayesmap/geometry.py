@@ -183,7 +183,7 @@ def cast_on_segments(
         d = d_all[start : start + step, None, :]
         denom = d[..., 0] * e[None, :, 1] - d[..., 1] * e[None, :, 0]
         w = p[None] - o
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # masked below
             t = (w[..., 0] * e[None, :, 1] - w[..., 1] * e[None, :, 0]) / denom
             u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / denom
         ok = (np.abs(denom) > parallel) & (t >= near) & (t <= far) & (u >= 0.0) & (u <= 1.0)
