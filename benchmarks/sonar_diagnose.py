@@ -1,4 +1,5 @@
-"""Diagnostics behind docs/sonar.md's open-hall and truth-label notes (prints; writes no docs).
+"""Diagnostics behind docs/sonar.md's open-hall and truth-label notes (prints; only
+``transient`` writes a figure).
 
 ``python benchmarks/sonar_diagnose.py variants WORLDS SEEDS [NAME:OPTION=VALUE,...;...]``
 maps one simulated log per world and seed (``numpy.random.default_rng(seed)``, seeds the
@@ -40,6 +41,13 @@ specular readings it keeps, by kind.
 default pipeline (filter and map, CPU seconds) on one log per world and prints readings per
 CPU second with the load average (a loaded machine inflates CPU time too).
 
+``python benchmarks/sonar_diagnose.py transient WORLDS SEED [FOLDER]`` maps one log per
+world with the default pipeline and draws the map with the cells its verdict set aside as
+surfaces that moved on (:func:`~bayesmap.sonar.map_verdict.transient_cells`) beside the
+people's true paths, as ``FOLDER/sonar_transient_<world>.png`` (default ``docs``); it
+prints how many of those cells lie within 0.3 m of where a person stood (a person's radius
+and a cell) and how many on a true obstacle.
+
 WORLDS is a comma-separated list of registered world names.
 """
 
@@ -72,8 +80,14 @@ from bayesmap.sim.polygons import world  # noqa: E402
 from bayesmap.sim.sonar import EchoKind, cast_rays  # noqa: E402
 from bayesmap.sim.sonar_log import simulate_log  # noqa: E402
 from bayesmap.sonar.filter import RingVerdict, Stage  # noqa: E402
-from bayesmap.sonar.map_verdict import MapVerdict, judge_by_map  # noqa: E402
+from bayesmap.sonar.map_verdict import (  # noqa: E402
+    MapVerdict,
+    clearance,
+    judge_by_map,
+    transient_cells,
+)
 from bayesmap.sonar.pipeline import PIPELINES, build_map, grid_for_poses, map_log  # noqa: E402
+from bayesmap.viz.sonar import transient_png  # noqa: E402
 
 BASELINE = "elfes-ignore-no-echo"
 
@@ -394,6 +408,57 @@ def speed(worlds: str, seed: str) -> None:
             )
 
 
+def transient(worlds: str, seed: str, folder: str = "docs") -> None:
+    """Draw each world's default map with its transient cells and the people's paths."""
+    config, ring, geometry = _ring_setup()
+    pipeline = PIPELINES["default"]
+    assert pipeline.map_verdict is not None
+    for name in worlds.split(","):
+        w = world(name)
+        log = simulate_log(w, ring, config.realism, rng=np.random.default_rng(int(seed)))
+        mapper, run = _mapped(log, ring, config, geometry, pipeline)
+        grid, probability = mapper.grid, mapper.probability()
+        moved = transient_cells(
+            probability,
+            grid,
+            geometry,
+            log.odometry,
+            log.ranges,
+            pipeline.map_verdict,
+            np.flatnonzero(~run.repeat),
+        )
+        stood = log.people.reshape(-1, 2)
+        stood = stood[np.all(np.isfinite(stood), axis=1)]
+        rows, cols = grid.world_to_cell(stood[:, 0], stood[:, 1])
+        inside = grid.in_bounds(rows, cols)
+        where_people = np.zeros(grid.shape, dtype=bool)
+        where_people[rows[inside], cols[inside]] = True
+        near_people = clearance(where_people, grid) <= config.realism.person_radius + 0.1
+        solid, _ = truth_layers(w, grid, log.poses, ring.max_range)
+        leaning = probability > 0.5
+        print(
+            f"{name} seed {seed}: {int(moved.sum())} transient cells of {int(leaning.sum())} "
+            f"the map leans occupied; within 0.3 m of a person "
+            f"{int((moved & near_people).sum())}, on a true obstacle "
+            f"{int((moved & (solid > 0.5)).sum())}; cells leaning occupied within 0.3 m of a "
+            f"person and not on an obstacle: {int((leaning & near_people & (solid <= 0.5)).sum())}",
+            flush=True,
+        )
+        tracks = [t[np.all(np.isfinite(t), axis=1)] for t in log.people.transpose(1, 0, 2)]
+        out = Path(folder) / f"sonar_transient_{name}.png"
+        out.write_bytes(
+            transient_png(
+                probability,
+                moved,
+                grid.extent,
+                walls=w.segments,
+                tracks=tracks,
+                title=f"{name}, seed {seed}: default map, surfaces that moved on in orange",
+            )
+        )
+        print(f"wrote {out}", flush=True)
+
+
 def main(argv: list[str]) -> None:
     if len(argv) >= 3 and argv[0] == "variants":
         variants(argv[1], argv[2], argv[3] if len(argv) > 3 else "")
@@ -407,6 +472,8 @@ def main(argv: list[str]) -> None:
         wrong(argv[1], argv[2])
     elif len(argv) == 3 and argv[0] == "speed":
         speed(argv[1], argv[2])
+    elif len(argv) in (3, 4) and argv[0] == "transient":
+        transient(*argv[1:])
     else:
         raise SystemExit(__doc__)
 

@@ -13,10 +13,10 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.image import AxesImage
 
-from bayesmap._typing import FloatArray, Grid
+from bayesmap._typing import BoolArray, FloatArray, Grid
 from bayesmap.viz.render import figure_png
 
-__all__ = ["map_png", "maps_side_by_side"]
+__all__ = ["map_png", "maps_side_by_side", "transient_png"]
 
 
 def _draw(
@@ -47,6 +47,13 @@ def _draw(
     ax.set_xlabel("x [m]", fontsize=7)
     ax.set_ylabel("y [m]", fontsize=7)
     return image
+
+
+def _key(fig: Figure, image: AxesImage, axes: Axes | np.ndarray) -> None:
+    """The grey-level key of the maps on ``axes``."""
+    key = fig.colorbar(image, ax=axes, shrink=0.8, ticks=[0.0, 0.25, 0.5, 0.75, 1.0])
+    key.set_label("P(occupied)\nwhite free, grey unknown, black occupied", fontsize=7)
+    key.ax.tick_params(labelsize=6)
 
 
 _KEY_HEIGHT = 3.0
@@ -100,9 +107,7 @@ def maps_side_by_side(
     for ax in axes.ravel()[n:]:
         ax.axis("off")
     if image is not None:
-        key = fig.colorbar(image, ax=axes, shrink=0.8, ticks=[0.0, 0.25, 0.5, 0.75, 1.0])
-        key.set_label("P(occupied)\nwhite free, grey unknown, black occupied", fontsize=7)
-        key.ax.tick_params(labelsize=6)
+        _key(fig, image, axes)
     if title:
         fig.suptitle(title, fontsize=9)
     return figure_png(fig, 90, tight=False)
@@ -117,3 +122,54 @@ def map_png(
 ) -> bytes:
     """PNG bytes of one occupancy map, with the robot path if given."""
     return maps_side_by_side([(title, probability)], extent, path=path, columns=1, panel_width=6.0)
+
+
+def transient_png(
+    probability: Grid,
+    transient: BoolArray,
+    extent: tuple[float, float, float, float],
+    *,
+    walls: FloatArray | None = None,
+    tracks: Sequence[FloatArray] = (),
+    title: str = "",
+) -> bytes:
+    """PNG bytes of one occupancy map with the cells the map's verdict set aside as surfaces
+    that moved on (:func:`~bayesmap.sonar.map_verdict.transient_cells`) in orange.
+
+    Parameters
+    ----------
+    probability, transient
+        ``(ny, nx)`` the map and its transient cells, row 0 at the bottom.
+    extent
+        ``(xmin, xmax, ymin, ymax)`` [m] of the map.
+    walls
+        Optional ``(n, 4)`` true wall segments [m], drawn in red.
+    tracks
+        Optional ``(m, 2)`` paths of whatever moved (people walking by) [m], drawn in green.
+    title
+        Figure title.
+    """
+    width, height = extent[1] - extent[0], extent[3] - extent[2]
+    fig = Figure(figsize=(7.0, max(7.0 * height / max(width, 1e-9) + 0.8, _KEY_HEIGHT)))
+    ax = fig.subplots()
+    image = _draw(ax, probability, extent, walls, None)
+    overlay = np.zeros((*np.shape(transient), 4))
+    overlay[np.asarray(transient, dtype=bool)] = (1.0, 0.5, 0.0, 0.85)
+    ax.imshow(overlay, origin="lower", extent=extent, interpolation="nearest")
+    for k, track in enumerate(tracks):
+        ax.plot(
+            track[:, 0],
+            track[:, 1],
+            color="tab:green",
+            lw=0.8,
+            alpha=0.7,
+            label="paths of what moved (truth)" if k == 0 else None,
+        )
+    if walls is not None:
+        ax.plot([], [], color="tab:red", lw=0.8, label="walls (truth)")
+    ax.plot([], [], "s", color=(1.0, 0.5, 0.0), ms=5, label="moved on (transient cells)")
+    ax.legend(fontsize=6, loc="upper right", framealpha=0.9)
+    _key(fig, image, ax)
+    if title:
+        ax.set_title(title, fontsize=8)
+    return figure_png(fig, 110)
