@@ -23,7 +23,10 @@ rounds of all six, their order rotating, after one untimed round of the first):
   the same pattern, as in ``bn_inference.py``.
 
 Median CPU ms (``time.process_time``) of the bayesmap question, and pgmpy's median asked
-back to back and among the peers, so that cold × pgmpy can be read both ways. Run
+back to back and among the peers, so that cold × pgmpy can be read both ways. And the same
+questions *warm* (every pattern asked once before, so each question runs its compiled
+program) with nothing or the allocating loop before: whether the rise is paid by the
+planning code a cold question runs or by what every question runs. Run
 ``python benchmarks/bn_cold_between.py`` (writes the ``bn_cold_between`` section of
 docs/benchmarks.md; network names as arguments only print).
 """
@@ -114,6 +117,24 @@ def cold_times(name: str, asked: list[Question], before: Callable[[Question], An
     return spent
 
 
+def warm_ms(name: str, asked: list[Question]) -> dict[str, float]:
+    """Median CPU ms of the same questions once every pattern has been asked (each one
+    *warm*), with nothing and with the allocating loop right before, rotating rounds."""
+    net = bn.read(MODELS / f"{name}.bif.gz")
+    for question in asked:
+        net.posterior(*question)
+    spent: dict[str, list[float]] = {"nothing": [], "allocating": []}
+    for r in range(ROUNDS):
+        for condition in sorted(spent, reverse=r % 2 == 1):
+            for question in asked[1:]:
+                if condition == "allocating":
+                    allocating()
+                start = time.process_time()
+                net.posterior(*question)
+                spent[condition].append(time.process_time() - start)
+    return {c: statistics.median(v) * 1e3 for c, v in spent.items()}
+
+
 def measure(name: str, rng: np.random.Generator) -> dict[str, Any]:
     net = bn.read(MODELS / f"{name}.bif.gz")
     asked = questions(name, net, rng)
@@ -156,6 +177,7 @@ def measure(name: str, rng: np.random.Generator) -> dict[str, Any]:
         alone_pgmpy.append(time.process_time() - start)
     row: dict[str, Any] = {c: statistics.median(v) * 1e3 for c, v in spent.items()}
     row["network"] = name
+    row["warm"] = warm_ms(name, asked)
     row["pgmpy_alone"] = statistics.median(alone_pgmpy) * 1e3
     row["pgmpy_peers"] = statistics.median(pgmpy_spent) * 1e3
     return row
@@ -174,19 +196,23 @@ def markdown(rows: list[dict[str, Any]], load: tuple[float, float]) -> str:
         f"4 MiB buffer; a Python loop of {LOOP:,} integer additions; a Python function "
         f"filling and dropping a dict of {LOOP:,} tuples and strings; the same, then 1,500 "
         "tuples, 300 dicts and 300 lists made and dropped; a fresh pyAgrum and a "
-        "pgmpy question of the same pattern (as in `bn_inference.py`). pgmpy: its median "
+        "pgmpy question of the same pattern (as in `bn_inference.py`). *warm*: the same "
+        "questions once every pattern has been asked, with nothing or the allocating loop "
+        "before (rotating rounds). pgmpy: its median "
         "asked back to back, and among the peers; × pgmpy: the two ways of reading it.",
         "",
         "| network | nothing | 4 MiB sweep | arithmetic loop | allocating loop "
-        "| allocating loop, then small objects | peers "
+        "| allocating loop, then small objects | peers | warm: nothing | warm: allocating loop "
         "| pgmpy alone | pgmpy among peers | × pgmpy, back to back | × pgmpy, among peers |",
-        "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|",
+        "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|",
     ]
     for r in rows:
-        base = r["nothing"]
+        base, warm = r["nothing"], r["warm"]
         cells = [f"{base:.3f}"] + [f"{r[c]:.3f} ({r[c] / base - 1:+.0%})" for c in CONDITIONS[1:]]
         lines.append(
-            f"| {r['network']} | " + " | ".join(cells) + f" | {r['pgmpy_alone']:.3f} "
+            f"| {r['network']} | " + " | ".join(cells) + f" | {warm['nothing']:.3f} "
+            f"| {warm['allocating']:.3f} ({warm['allocating'] / warm['nothing'] - 1:+.0%}) "
+            f"| {r['pgmpy_alone']:.3f} "
             f"| {r['pgmpy_peers']:.3f} | {r['pgmpy_alone'] / base:.1f} "
             f"| {r['pgmpy_peers'] / r['peers']:.1f} |"
         )
