@@ -70,7 +70,7 @@ def load_command(name: str) -> TyperCommand | TyperGroup:
         target.rich_markup_mode = None  # plain help throughout (see the module docstring)
         command: Any = typer.main.get_group(target)
     else:
-        single = typer.Typer(rich_markup_mode=None)
+        single = typer.Typer(rich_markup_mode=None, add_completion=False)
         single.command(name=name)(target)
         command = typer.main.get_command(single)
     command.name = name
