@@ -41,6 +41,7 @@ from bayesmap.bn.fixed_point import (
     constant,
     normalise,
     ratio,
+    renormalise,
 )
 from bayesmap.bn.plans import BATCH, Plan, QueryKind, symbol
 from bayesmap.errors import InputError
@@ -338,7 +339,9 @@ class FixedPoint:
         what: tuple[str, str | None],
     ) -> FixedResult:
         """The unnormalised joint summed where the proposition holds and where it does not
-        (within the condition), then divided."""
+        (within the condition), then divided. The two sums are a block of their own, brought
+        back to the format's mantissa before the division: a sum of many full-width entries
+        shifted by the fractional bits would overflow 64 bits (Q2.30 and wider)."""
         q = self.q
         mask, inside = free
         if joint is None:
@@ -356,7 +359,7 @@ class FixedPoint:
             joint.exp.reshape(1),
             np.array([joint.error[yes].sum(), joint.error[no].sum()]),
         )
-        answer = normalise(q, split, (0,), what[0])
+        answer = normalise(q, renormalise(q, split), (0,), what[0])
         return FixedResult(q, answer.raw[0], answer.values[0], answer.bound[0])
 
     def scalar(
