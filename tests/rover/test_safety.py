@@ -311,11 +311,16 @@ def test_each_distinct_point_of_the_paths_is_measured_once_with_the_same_verdict
     pivots); every path's clearance and verdict equal the per-sample computation's."""
     rng = np.random.default_rng(3)
     pose = (0.3, -0.2, 0.7)
-    cells = rng.uniform(-1.5, 1.5, size=(40, 2))
-    hits = rng.uniform(-1.5, 1.5, size=(6, 2))
-    unknown = rng.uniform(-1.5, 1.5, size=(25, 2))
+
+    def around(n: int) -> np.ndarray:  # points clear of the rover where it stands
+        points = rng.uniform(-2.0, 2.0, size=(8 * n, 2))
+        return points[np.hypot(points[:, 0] - pose[0], points[:, 1] - pose[1]) > 0.9][:n]
+
+    cells, hits, unknown = around(40), around(6), around(25)
     safety = footprint_safety(pose, THETA, cells, 0.5, hits, FIELD, PARAMS, unknown)
-    centres = predicted_centres(pose, THETA, PARAMS)  # (M, K, 2), every sample
+    assert not safety.retreat  # else only ``here`` would be compared
+    # (M, K, 2), every sample of the paths the check predicts (cautious: hazards in view)
+    centres = predicted_centres(pose, THETA, PARAMS, cautious=safety.cautious)
     px, py = centres[..., 0:1], centres[..., 1:2]
     gap = (
         np.minimum(
@@ -330,11 +335,9 @@ def test_each_distinct_point_of_the_paths_is_measured_once_with_the_same_verdict
     )
     allowed = ~unseen.any(axis=(1, 2))
     assert safety.here == gap[0, 0]
-    if not safety.retreat:
-        np.testing.assert_array_equal(safety.clearance, gap.min(axis=1))
-        np.testing.assert_array_equal(
-            safety.safe, (gap.min(axis=1) >= PARAMS.safety_margin) & allowed
-        )
+    np.testing.assert_array_equal(safety.clearance, gap.min(axis=1))
+    np.testing.assert_array_equal(safety.safe, (gap.min(axis=1) >= PARAMS.safety_margin) & allowed)
+    assert safety.safe.any() and not safety.safe.all()  # both verdicts are compared
 
 
 def test_the_distinct_points_known_from_the_templates_give_back_every_sample() -> None:
