@@ -26,6 +26,17 @@ def test_map_update_is_odds_product(p: float, s1: float, s2: float) -> None:
     other = bayes_map_update(bayes_map_update(p, s2, prior), s1, prior)
     assert float(one) == pytest.approx(float(other), abs=1e-9)  # order does not matter
     assert float(bayes_map_update(p, prior, prior)) == pytest.approx(p)  # prior = no information
+    # Bayes' rule with the likelihoods the evidence stands for: P(R | O) ∝ s / P(O) and
+    # P(R | not O) ∝ (1 - s) / (1 - P(O)), the inverse model's constant prior divided out
+    yes, no = p * s1 / prior, (1 - p) * (1 - s1) / (1 - prior)
+    assert float(bayes_map_update(p, s1, prior)) == pytest.approx(yes / (yes + no), rel=1e-12)
+
+
+def test_map_update_by_hand() -> None:
+    assert float(bayes_map_update(0.5, 0.8, 0.5)) == pytest.approx(0.8)
+    # prior 0.2: evidence 0.5 is odds 1 against the prior's 1/4, four times the map's odds
+    assert float(bayes_map_update(0.2, 0.5, 0.2)) == pytest.approx(0.5)
+    assert float(bayes_map_update(0.6, 0.1, 0.2)) == pytest.approx(0.4)  # 1.5 · 1/9 · 4 = 2/3
 
 
 def test_free_beam_lowers_and_contact_raises_evidence() -> None:
