@@ -6,7 +6,7 @@ import io
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from bayesmap.errors import ConfigError, FormatError, InputError
@@ -180,6 +180,7 @@ _GRID_BYTES = _saved_grid_bytes()
     st.integers(0, len(_GRID_BYTES)),
     st.lists(st.tuples(st.integers(0, len(_GRID_BYTES) - 1), st.integers(0, 255)), max_size=4),
 )
+@example(cut=len(_GRID_BYTES), flips=[])  # the file untouched: it loads
 def test_npz_corrupt_bytes_raise_only_format_error(
     tmp_path_factory: pytest.TempPathFactory, cut: int, flips: list[tuple[int, int]]
 ) -> None:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -117,6 +117,7 @@ def test_bad_yaml_raises_format_error(tmp_path: Path, yaml_text: str) -> None:
     max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
 @given(st.binary(max_size=200), st.text(max_size=120))
+@example(image=b"P5\n2 2\n255\n" + bytes([0, 254, 205, 0]), yaml_text="")  # one that loads
 def test_fuzzed_files_raise_only_format_error(tmp_path: Path, image: bytes, yaml_text: str) -> None:
     (tmp_path / "f.pgm").write_bytes(image)
     for text in (yaml_text, "image: f.pgm\nresolution: 0.5\norigin: [0, 0, 0]\n" + yaml_text):

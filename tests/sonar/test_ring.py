@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from bayesmap.errors import BayesmapError, ConfigError, FormatError, InputError
@@ -140,6 +140,7 @@ ring_doc = st.dictionaries(
 
 @settings(max_examples=150, deadline=None)
 @given(data=st.one_of(ring_doc, values, st.lists(values, max_size=3)))
+@example(data={"transducers": [{"x": 0, "y": 0, "heading": 0}, {"x": 0, "y": 0, "heading": 1}]})
 def test_fuzzed_ring_documents_fail_only_with_bayesmap_errors(data: object) -> None:
     try:
         ring = ring_from_mapping(data, "fuzz")
