@@ -3,12 +3,28 @@
 from __future__ import annotations
 
 import importlib
+import pkgutil
 import subprocess
 import sys
 
 import pytest
 
-PACKAGES = ("sonar", "sensing", "sim", "viz", "bn", "grid", "rover", "blackboard", "sweeps")
+import bayesmap
+
+
+def _packages(path: list[str], prefix: str) -> list[str]:
+    """Every subpackage below ``path`` (nested ones too), by name under ``bayesmap.``."""
+    found = []
+    for info in pkgutil.iter_modules(path):
+        if info.ispkg and not info.name.startswith("_"):
+            name = prefix + info.name
+            found.append(name)
+            module = importlib.import_module(f"bayesmap.{name}")
+            found += _packages(list(module.__path__), name + ".")
+    return found
+
+
+PACKAGES = tuple(_packages(list(bayesmap.__path__), ""))
 
 
 @pytest.mark.parametrize("name", PACKAGES)
