@@ -258,16 +258,25 @@ def test_sigma_follows_the_range_unit() -> None:
 
 def test_a_map_folder_is_replaced_whole_with_a_manifest(tmp_path: Path) -> None:
     """The outputs appear together, listed in manifest.json; a second run replaces them whole;
-    a folder of someone else's files is refused rather than overwritten."""
+    a folder of someone else's files, or a run's folder a file was put in since (the log,
+    say), is refused rather than overwritten."""
     out = tmp_path / "map"
     assert _map(out).exit_code == 0
     manifest = json.loads((out / "manifest.json").read_text())
     listed = {entry["path"] for entry in manifest["files"]}
     assert {"map.png", "map.yaml", "map.pgm", "summary.json"} <= listed
     assert manifest["configuration"]["resolution_m"] == 0.2
-    (out / "stale.txt").write_text("from an earlier run")
+    (out / "log.txt").write_text("put here since")
+    result = _map(out, "--no-filter")
+    assert result.exit_code != 0 and "holds 'log.txt'" in result.output
+    assert (out / "log.txt").read_text() == "put here since"
+    (out / "log.txt").unlink()
     assert _map(out, "--no-filter").exit_code == 0
-    assert not (out / "stale.txt").exists() and (out / "summary.json").exists()
+    replaced = json.loads((out / "manifest.json").read_text())
+    assert replaced["started"] >= manifest["finished"]
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["manifest.json", *(entry["path"] for entry in replaced["files"])]
+    )
     foreign = tmp_path / "mine"
     foreign.mkdir()
     (foreign / "notes.txt").write_text("keep me")

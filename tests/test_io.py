@@ -154,6 +154,20 @@ def test_run_folders_refuse_to_replace_what_is_not_a_run(tmp_path):
     assert _leftovers(tmp_path) == []
 
 
+def test_a_run_never_replaces_a_file_its_previous_run_did_not_write(tmp_path):
+    _run(tmp_path / "out", {"metrics.json": "1", "maps/a.png": "x"})
+    (tmp_path / "out" / "maps" / "log.txt").write_text("the only copy")  # an input, say
+    (tmp_path / "out" / "notes").mkdir()
+    with pytest.raises(ConfigError, match=r"holds 'maps/log.txt', 'notes', which its previous"):
+        _run(tmp_path / "out", {"metrics.json": "2"})
+    assert (tmp_path / "out" / "maps" / "log.txt").read_text() == "the only copy"
+    assert (tmp_path / "out" / "metrics.json").read_text() == "1"
+    (tmp_path / "out" / "manifest.json").write_text("{")
+    with pytest.raises(ConfigError, match="manifest.json that cannot be read"):
+        _run(tmp_path / "out", {"metrics.json": "2"})
+    assert _leftovers(tmp_path) == []
+
+
 def test_a_folder_that_cannot_be_written_is_one_error(tmp_path, monkeypatch):
     def refuse(**_: object) -> str:
         raise PermissionError(13, "Permission denied")

@@ -453,10 +453,12 @@ def run_folder(
     Raises
     ------
     ConfigError
-        ``target`` is a file, lies under a file, or is a folder that is not a run.
+        ``target`` is a file, lies under a file, or is a folder that is not a run or holds
+        anything its manifest does not list (a user's file put there since, an input of
+        this very run): replacing the folder would delete it.
     """
     final = Path(target)
-    check_own_folder(final, MANIFEST, "output folder", "run")
+    _check_run_folder(final)
     make_folder(final.parent)
     prefix = f".{final.name}."
     sweep_abandoned(final.parent, prefix)
@@ -482,7 +484,7 @@ def run_folder(
             "files": _inventory(work),
         }
         write_json(work / MANIFEST, manifest)
-        check_own_folder(final, MANIFEST, "output folder", "run")
+        _check_run_folder(final)
         _move_into_place(work, final, prefix)
     except BaseException:
         shutil.rmtree(work, ignore_errors=True)
@@ -505,6 +507,38 @@ def check_own_folder(folder: Path, marker: str, noun: str, what: str) -> None:
         f"the {noun} {str(folder)!r} exists and holds something other than a bayesmap "
         f"{what} (it has no {marker}); choose another path or empty it"
     )
+
+
+def _check_run_folder(folder: Path) -> None:
+    """ConfigError unless ``folder`` may be replaced by a new run: missing, empty, or a
+    previous run holding nothing but what its manifest lists."""
+    check_own_folder(folder, MANIFEST, "output folder", "run")
+    if not (folder / MANIFEST).is_file():
+        return
+    try:
+        listed = {str(f["path"]) for f in json.loads((folder / MANIFEST).read_bytes())["files"]}
+    except (OSError, ValueError, KeyError, TypeError):
+        raise ConfigError(
+            f"the output folder {str(folder)!r} has a {MANIFEST} that cannot be read; "
+            "choose another path or empty it"
+        ) from None
+    kept = {MANIFEST, *listed}
+    for name in listed:  # the folders on the way to a listed file
+        parts = name.split("/")
+        kept.update("/".join(parts[:k]) for k in range(1, len(parts)))
+    others = sorted(
+        relative
+        for path in folder.rglob("*")
+        if (relative := path.relative_to(folder).as_posix()) not in kept
+    )
+    if others:
+        shown = ", ".join(repr(name) for name in others[:3])
+        more = f" and {len(others) - 3} more" if len(others) > 3 else ""
+        raise ConfigError(
+            f"the output folder {str(folder)!r} holds {shown}{more}, which its previous run "
+            "did not write, and a new run replaces the folder whole; move them out or "
+            "choose another path"
+        )
 
 
 def _move_into_place(work: Path, final: Path, prefix: str) -> None:
