@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 from typer.testing import CliRunner
 
+from bayesmap._io import verify_run_folder
 from bayesmap.blackboard.fused import FusedMapper
 from bayesmap.blackboard.logs import write_sweep_log
 from bayesmap.cli import app
@@ -157,6 +158,14 @@ def test_map_of_a_logged_tour_is_the_mappers_own_and_is_scored(tmp_path: Path) -
     assert metrics["contacts"] == sum(int(np.isfinite(s[:, 3]).sum()) for s in sweeps)
     assert metrics["doubtful"] == 0 and "left off" not in result.output
     assert (out / "map.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert verify_run_folder(out)["seed"] == 4  # written whole, with its manifest
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    args = ["blackboard", "map", str(log), "--world", str(world), "--out", str(mine)]
+    refused = runner.invoke(app, args)
+    assert refused.exit_code == 1 and "no manifest.json" in refused.output
+    assert sorted(p.name for p in mine.iterdir()) == ["notes.txt"]
 
 
 def test_a_log_in_a_room_without_truth_and_its_mistakes(tmp_path: Path) -> None:

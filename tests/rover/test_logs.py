@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from bayesmap._io import verify_run_folder
 from bayesmap.cli import app
 from bayesmap.errors import FormatError, InputError
 from bayesmap.grid import OccupancyGrid
@@ -76,8 +77,15 @@ def test_map_command_replays_a_log_with_a_fitted_calibration(tmp_path: Path) -> 
     box = grid.world_to_cell(6.6, 10.0)  # the face of the 1 m box at (7, 10) it drove at
     before = grid.world_to_cell(5.5, 10.0)
     assert grid.probability[box] > 0.5 > 0.1 > grid.probability[before]
+    verify_run_folder(out)  # written whole, with its manifest
     strict = runner.invoke(app, [*args, *units, "--strict"])
     assert strict.exit_code == 1 and "line 11" in strict.output
+    assert json.loads((out / "summary.json").read_text()) == summary  # the failed run left it
+    (out / "drive.csv").write_bytes((tmp_path / "drive.csv").read_bytes())  # the log moved in
+    moved = ["rover", "map", str(out / "drive.csv"), "--out", str(out), *units]
+    refused = runner.invoke(app, moved)
+    assert refused.exit_code != 0 and "holds 'drive.csv'" in refused.output
+    assert (out / "drive.csv").exists()
     in_cm = runner.invoke(app, [*args, *units, "--resolution", "50"])
     assert in_cm.exit_code == 1 and "Traceback" not in in_cm.output
     assert "--resolution is 50 m" in in_cm.output and "cm or mm" in in_cm.output

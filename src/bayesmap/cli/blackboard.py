@@ -3,6 +3,8 @@ from a logged whisker tour."""
 
 from __future__ import annotations
 
+import shlex
+import sys
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -98,6 +100,7 @@ def map_command(
                 length_unit=length_unit,
                 angle_unit=angle_unit,
                 progress=hook,
+                command=shlex.join(["bayesmap", *sys.argv[1:]]),
             )
     except BayesmapError as error:
         print_error(" ".join(str(error).split()), out=console)

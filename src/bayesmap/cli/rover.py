@@ -7,6 +7,8 @@ The simulator, the experiments and matplotlib are imported inside the commands, 
 from __future__ import annotations
 
 import json
+import shlex
+import sys
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -125,6 +127,7 @@ def map_command(
                 resolution=resolution,
                 strict=strict,
                 progress=hook,
+                command=shlex.join(["bayesmap", *sys.argv[1:]]),
             )
     except BayesmapError as error:
         raise _fail(error) from None

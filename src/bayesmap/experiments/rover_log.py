@@ -13,14 +13,14 @@ from typing import Any
 
 import numpy as np
 
-from bayesmap._io import write_bytes, write_json
+from bayesmap._io import run_folder, write_bytes, write_json
 from bayesmap._typing import ProgressHook
 from bayesmap.errors import InputError
 from bayesmap.experiments._common import no_progress
 from bayesmap.grid import OccupancyGrid
 from bayesmap.grid.ros import write_ros_map
 from bayesmap.limits import cell_side_problem
-from bayesmap.rover.logs import read_calibration, read_rover_log
+from bayesmap.rover.logs import RoverLog, read_calibration, read_rover_log
 from bayesmap.rover.mapping import IRMapper
 from bayesmap.rover.params import RoverParams
 from bayesmap.sensing.ir import RAW_FIT
@@ -44,10 +44,13 @@ def map_log(
     resolution: float = 0.5,
     strict: bool = False,
     progress: ProgressHook = no_progress,
+    command: str = "bayesmap.experiments.rover_log.map_log",
 ) -> dict[str, Any]:
     """Replay ``log`` into maps under ``out``; return the summary written to summary.json.
 
-    ``progress`` is called while the log is read (bytes) and mapped (rows)."""
+    ``out`` is a run folder (:func:`bayesmap._io.run_folder`): written whole with its
+    manifest when the maps are done, or not at all; ``command`` is recorded as what
+    produced it. ``progress`` is called while the log is read (bytes) and mapped (rows)."""
     problem = cell_side_problem(resolution)
     if problem is not None:
         raise InputError(f"--resolution {problem}")
@@ -56,28 +59,50 @@ def map_log(
         if calibration is None
         else read_calibration(calibration, distance_unit=distance_unit)
     )
-    params = RoverParams(ir_fit=fit)
-    data = read_rover_log(
-        log,
-        len(params.sensor_angles),
-        position_unit=position_unit,
-        heading_unit=heading_unit,
-        strict=strict,
-        progress=progress,
-    )
-    reach = params.r_max + params.sensor_offset + 3.0 * params.sigma_xy
-    low = np.floor((data.poses[:, :2].min(axis=0) - reach) / resolution) * resolution
-    high = np.ceil((data.poses[:, :2].max(axis=0) + reach) / resolution) * resolution
-    width, height = (float(v) for v in high - low)
-    grid = OccupancyGrid(
-        width, height, resolution, origin=(float(low[0]), float(low[1])), prior=params.prior
-    )
-    mapper = IRMapper(grid, params)
-    for row, (raw, pose) in enumerate(zip(data.raw, data.poses, strict=True), start=1):
-        mapper.update(raw, pose)
-        if row % _PROGRESS_ROWS == 0 or row == len(data.poses):
-            progress("mapping", row, len(data.poses))
-    out = Path(out)
+    settings = {
+        "log": str(log),
+        "calibration": None if calibration is None else str(calibration),
+        "distance_unit": distance_unit,
+        "position_unit": position_unit,
+        "heading_unit": heading_unit,
+        "resolution_m": resolution,
+        "strict": strict,
+    }
+    with run_folder(out, command=command, configuration=settings, seed=None) as folder:
+        params = RoverParams(ir_fit=fit)
+        data = read_rover_log(
+            log,
+            len(params.sensor_angles),
+            position_unit=position_unit,
+            heading_unit=heading_unit,
+            strict=strict,
+            progress=progress,
+        )
+        reach = params.r_max + params.sensor_offset + 3.0 * params.sigma_xy
+        low = np.floor((data.poses[:, :2].min(axis=0) - reach) / resolution) * resolution
+        high = np.ceil((data.poses[:, :2].max(axis=0) + reach) / resolution) * resolution
+        width, height = (float(v) for v in high - low)
+        grid = OccupancyGrid(
+            width, height, resolution, origin=(float(low[0]), float(low[1])), prior=params.prior
+        )
+        mapper = IRMapper(grid, params)
+        for row, (raw, pose) in enumerate(zip(data.raw, data.poses, strict=True), start=1):
+            mapper.update(raw, pose)
+            if row % _PROGRESS_ROWS == 0 or row == len(data.poses):
+                progress("mapping", row, len(data.poses))
+        return _write_maps(folder.path, log, calibration, fit, params, grid, data)
+
+
+def _write_maps(
+    out: Path,
+    log: Path,
+    calibration: Path | None,
+    fit: tuple[float, float, float],
+    params: RoverParams,
+    grid: OccupancyGrid,
+    data: RoverLog,
+) -> dict[str, Any]:
+    """Write the map (npz, ROS YAML + PGM), its figure and summary.json into ``out``."""
     grid.save_npz(out / "map.npz")
     yaml_path, _ = write_ros_map(
         out / "map",
