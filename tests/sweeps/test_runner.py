@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
+from bayesmap.errors import ConfigError
 from bayesmap.sweeps import aggregate, expand, run_sweep
 from bayesmap.sweeps.protocol import TASK_RECORD, task_complete
 from bayesmap.sweeps.runner import LOCAL_CLUSTER_CONFIG, task_folder
@@ -41,6 +42,21 @@ def test_runs_every_task_once_and_resumes(tmp_path):
     victim = next(iter(plan.tasks))
     (task_folder(tmp_path, victim) / TASK_RECORD).write_text("{not json")
     assert run_sweep(plan, tmp_path, serial=True).ran == (victim,)
+
+
+def test_a_sweep_is_extended_but_never_overwritten_by_another(tmp_path):
+    run_sweep(_plan(tmp_path, seeds=1), tmp_path, serial=True)
+    worlds = {p.name: p.read_text() for p in (tmp_path / "worlds").iterdir()}
+    more = run_sweep(_plan(tmp_path, worlds=3, seeds=2), tmp_path, serial=True)  # extended
+    assert len(more.skipped) == 2 and len(more.ran) == 4
+    assert all((tmp_path / "worlds" / name).read_text() == text for name, text in worlds.items())
+    with pytest.raises(ConfigError, match=r"world-000.json differs .* --root-seed"):
+        run_sweep(_plan(tmp_path, root_seed=2), tmp_path, serial=True)
+    other = expand("sweeps.toy2", toy, worlds=1, seeds=1, root_seed=1, out_dir=tmp_path)
+    with pytest.raises(ConfigError, match="holds a sweep of 'sweeps.toy', not 'sweeps.toy2'"):
+        run_sweep(other, tmp_path, serial=True)
+    assert all((tmp_path / "worlds" / name).read_text() == text for name, text in worlds.items())
+    assert json.loads((tmp_path / "sweep.json").read_text())["experiment"] == "sweeps.toy"
 
 
 def test_a_failed_task_is_reported_and_the_others_finish(tmp_path):

@@ -24,6 +24,7 @@ back with its outcome (:mod:`~bayesmap.sweeps.timing`).
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import time
 import traceback
@@ -290,9 +291,10 @@ def run_sweep(
     hook = progress or no_progress
     out_dir = Path(out_dir)
     check_own_folder(out_dir, SWEEP_RECORD, "sweep folder", "sweep")
+    _check_resumable(out_dir, plan)
     write_json(out_dir / SWEEP_RECORD, {"bayesmap": __version__, **plan.to_json()})
     for world in plan.worlds:
-        if not world.path.is_file() or world.path.read_text(encoding="utf-8") != world.text:
+        if not world.path.is_file():
             write_text(world.path, world.text)
     started, unix_started = time.perf_counter(), time.time()
     skipped = tuple(k for k in plan.tasks if protocol.task_complete(task_folder(out_dir, k)))
@@ -334,6 +336,35 @@ def run_sweep(
         started=unix_started,
         finished=time.time(),
     )
+
+
+def _check_resumable(out_dir: Path, plan: SweepPlan) -> None:
+    """ConfigError unless a sweep already in ``out_dir`` is one ``plan`` may resume: the
+    same experiment, and every world file it wrote the same as the plan's (more seeds or
+    worlds extend a sweep; another experiment or ``--root-seed`` would overwrite the worlds
+    its finished tasks ran on)."""
+    record = out_dir / SWEEP_RECORD
+    if not record.is_file():
+        return
+    try:
+        earlier = json.loads(record.read_bytes())["experiment"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise ConfigError(
+            f"the sweep folder {str(out_dir)!r} has a {SWEEP_RECORD} that cannot be read; "
+            "choose another folder"
+        ) from None
+    if earlier != plan.experiment:
+        raise ConfigError(
+            f"the sweep folder {str(out_dir)!r} holds a sweep of {earlier!r}, not "
+            f"{plan.experiment!r}; choose another folder"
+        )
+    for world in plan.worlds:
+        if world.path.is_file() and world.path.read_text(encoding="utf-8") != world.text:
+            raise ConfigError(
+                f"{world.path} differs from the world this sweep would write there (another "
+                "--root-seed, --worlds or bayesmap version?), and the sweep's finished tasks "
+                "ran on it; resume with the same options or choose another folder"
+            )
 
 
 def _run_on(
