@@ -137,6 +137,15 @@ def _logged_tour(tmp_path: Path) -> tuple[Path, Path, np.ndarray, list[np.ndarra
     return write_sweep_log(tmp_path / "tour.csv", poses, sweeps), world, poses, sweeps
 
 
+def test_a_world_is_written_only_to_a_json_file(tmp_path: Path) -> None:
+    log = tmp_path / "tour.csv"
+    log.write_text("pose,x\n")
+    result = runner.invoke(app, ["blackboard", "world", str(log)])
+    assert result.exit_code == 2 and "ends in .json" in result.output
+    assert log.read_text() == "pose,x\n"
+    assert runner.invoke(app, ["blackboard", "world", str(tmp_path / "w.json")]).exit_code == 0
+
+
 def test_map_of_a_logged_tour_is_the_mappers_own_and_is_scored(tmp_path: Path) -> None:
     log, world, poses, sweeps = _logged_tour(tmp_path)
     out = tmp_path / "out"

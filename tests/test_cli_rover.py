@@ -32,6 +32,27 @@ def test_generate_then_run_writes_metrics_figures_and_map(tmp_path: Path) -> Non
     assert read_ros_map(out / "map.yaml").occupancy is not None
 
 
+def test_generated_worlds_come_whole_and_never_mix_with_others(tmp_path: Path) -> None:
+    out = tmp_path / "worlds"
+    args = ["rover", "generate", "--out", str(out), "--size", "5"]
+    assert runner.invoke(app, [*args, "--count", "101"]).exit_code == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names[:2] == ["manifest.json", "world_000.json"] and names[-1] == "world_100.json"
+    assert runner.invoke(app, [*args, "--count", "2", "--seed", "5"]).exit_code == 0
+    assert sorted(p.name for p in out.iterdir()) == [
+        "manifest.json",
+        "world_00.json",
+        "world_01.json",
+    ]
+    assert json.loads((out / "world_01.json").read_text())["name"].startswith(
+        "rover-generated-v2-s5"
+    )
+    (out / "notes.txt").write_text("mine")
+    refused = runner.invoke(app, [*args, "--count", "1"])
+    assert refused.exit_code == 1 and "holds 'notes.txt'" in refused.output
+    assert (out / "world_01.json").exists() and (out / "notes.txt").read_text() == "mine"
+
+
 def test_a_bad_world_is_one_line_without_traceback(tmp_path: Path) -> None:
     world = tmp_path / "w.json"
     world.write_text('{"size": [20, 20], "obstacles": [], "start": [1, 1, "[red]x"]}')

@@ -134,6 +134,8 @@ def world_command(
     """Generate a world: 4–10 tables of mixed sizes at any angle in a 4–10 m arena."""
     from bayesmap.sim.whisker_worlds import StressOptions, generate_world, save_world
 
+    if out.suffix.lower() != ".json":  # a world file is JSON: never write one over a log
+        raise typer.BadParameter(f"a world file ends in .json, got {str(out)!r}", param_hint="OUT")
     options = StressOptions() if stress else StressOptions(near_wall=0.0, close_pairs=0.0)
     save_world(generate_world(seed, options), out)
     print_note(f"wrote {out}", out=console)

@@ -79,17 +79,27 @@ def generate_command(
     """Write COUNT generated stress worlds (walls, L-shapes, corridors, passages, boxes, tilted)."""
     from numpy.random import SeedSequence
 
+    from bayesmap._io import run_folder
     from bayesmap.sim.rover_worlds import generate_world, save_world
 
-    for k in range(count):
-        try:
-            spec = generate_world(
-                SeedSequence([seed, k]), size=size, name=f"rover-generated-v2-s{seed}-{k:02d}"
-            )
-            path = save_world(out / f"world_{k:02d}.json", spec)
-        except BayesmapError as error:
-            raise _fail(error) from None
-        typer.echo(f"{path}: {spec.world.width:.1f} m, {spec.world.n_obstacles} obstacles")
+    digits = max(2, len(str(count - 1)))
+    settings = {"count": count, "seed": seed, "size_m": size}
+    command = shlex.join(["bayesmap", *sys.argv[1:]])
+    try:  # the folder appears whole, with its manifest, replacing an earlier generation
+        with run_folder(out, command=command, configuration=settings, seed=seed) as folder:
+            for k in range(count):
+                spec = generate_world(
+                    SeedSequence([seed, k]),
+                    size=size,
+                    name=f"rover-generated-v2-s{seed}-{k:0{digits}d}",
+                )
+                path = save_world(folder.path / f"world_{k:0{digits}d}.json", spec)
+                typer.echo(
+                    f"{folder.final(path)}: {spec.world.width:.1f} m, "
+                    f"{spec.world.n_obstacles} obstacles"
+                )
+    except BayesmapError as error:
+        raise _fail(error) from None
 
 
 @app.command("map")

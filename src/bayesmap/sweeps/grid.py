@@ -225,8 +225,9 @@ def expand(
         The experiment's name and module (:func:`bayesmap.experiments.load`).
     worlds
         ``None``: the experiment's own world; an int ``N``: ``N`` worlds from the
-        experiment's ``generate_world``; a folder: every ``*.json`` world file in it,
-        checked by the experiment's ``load_world`` (see :mod:`bayesmap.sweeps.protocol`).
+        experiment's ``generate_world``; a folder: every ``*.json`` world file in it (a
+        run's ``manifest.json`` aside), checked by the experiment's ``load_world`` (see
+        :mod:`bayesmap.sweeps.protocol`).
     seeds
         Run seeds per world and condition (``K``); each from ``SeedSequence.spawn``.
     root_seed

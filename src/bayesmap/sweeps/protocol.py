@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 import pydantic
 
+from bayesmap._io import MANIFEST
 from bayesmap.errors import ConfigError, FormatError
 from bayesmap.experiments import ExperimentResult
 
@@ -148,7 +149,9 @@ def sweep_worlds(
     source = Path(worlds)
     if not source.is_dir():
         raise ConfigError(f"--worlds {source}: not a number and not a folder")
-    files = sorted(p for p in source.iterdir() if p.suffix.lower() == WORLD_SUFFIX)
+    files = sorted(
+        p for p in source.iterdir() if p.suffix.lower() == WORLD_SUFFIX and p.name != MANIFEST
+    )  # a folder of generated worlds is a run folder, with its manifest
     if not files:
         raise ConfigError(f"--worlds {source}: no world files (*{WORLD_SUFFIX}) in the folder")
     found: list[SweepWorld | None] = []
