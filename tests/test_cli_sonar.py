@@ -203,15 +203,20 @@ def test_a_cell_side_in_cm_is_refused(tmp_path: Path) -> None:
     assert not (tmp_path / "o").exists()
 
 
-def test_max_range_in_the_wrong_unit_warns(tmp_path: Path) -> None:
+def test_max_range_in_the_wrong_unit_is_refused(tmp_path: Path) -> None:
     args = [
         "sonar", "map", str(DATA / "example_log.txt"), "--angles-deg", ANGLES,
         "--range-unit", "mm", "--position-unit", "mm", "--heading-unit", "deg",
-        "--max-range", "5", "--resolution", "0.2", "--out", str(tmp_path),
+        "--resolution", "0.2", "--out", str(tmp_path / "out"), "--max-range",
     ]  # fmt: skip
-    result = runner.invoke(app, args)
+    result = runner.invoke(app, [*args, "5"])  # 5 m meant, read as 5 mm
+    assert result.exit_code == 1 and not (tmp_path / "out").exists()
+    assert "--max-range 5 in --range-unit mm is 0.005 m, shorter than any sonar" in _text(result)
+    result = runner.invoke(app, [*args, "5", "--range-unit", "m"])  # ranges in mm as metres
     assert result.exit_code == 0, _text(result)
-    assert "is --max-range in --range-unit" in _text(result)
+    assert "100 % of readings are at or above the max range (5 m)" in _text(result)
+    result = runner.invoke(app, [*args, "5e7"])
+    assert result.exit_code == 1 and "is 50000 m, beyond any sonar's reach" in _text(result)
 
 
 def test_ring_preset_pipeline_choice_and_literal_messages(tmp_path: Path) -> None:

@@ -98,6 +98,7 @@ TWO = "transducers:\n  - {x: 0, y: 0, heading: 0}\n  - {x: 0, y: 0, heading: 90}
             "min_range 6000 mm and max_range 5000 mm",
         ),
         (f"max_range: 5000\n{TWO}", FormatError, "max_range 5000 m .* is length_unit right"),
+        (f"max_range: 0.05\nmin_range: 0.01\n{TWO}", FormatError, "0.05 m, shorter than any sonar"),
         (f"sigma: 0\n{TWO}", FormatError, "sigma must be above 0, got sigma 0 m"),
         (
             "transducers:\n  - {x: 1.0e9, y: 0, heading: 0}\n  - {x: 0, y: 0, heading: 1}",

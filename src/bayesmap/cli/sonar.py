@@ -36,7 +36,7 @@ from bayesmap.sonar.pipeline import (
     build_map,
 )
 from bayesmap.sonar.player import is_player_log, read_player_log
-from bayesmap.sonar.ring import PRESETS, load_ring, preset_with_bearings
+from bayesmap.sonar.ring import PRESETS, load_ring, preset_with_bearings, reach_problem
 
 app = typer.Typer(
     help="Build occupancy maps from sonar-ring logs, with specular-reading rejection.",
@@ -100,6 +100,12 @@ def _geometry(
         _usage("give the ring either as --ring or as --angles-deg, not both")
     _check_overrides(max_range, beam_width_deg, sigma)
     metres = LENGTH_UNITS[range_unit]
+    problem = None if max_range is None else reach_problem(max_range * metres)
+    if problem is not None:
+        raise InputError(
+            f"--max-range {max_range:g} in --range-unit {range_unit} is "
+            f"{max_range * metres:g} m, {problem}; is --range-unit right?"
+        )
     if ring is not None:
         geometry = load_ring(ring)
     elif angles_deg is not None:

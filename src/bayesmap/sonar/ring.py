@@ -53,6 +53,19 @@ MAX_SONAR_REACH = 50.0
 """Longest max range and farthest transducer offset [m] a ring file may give: air sonars
 read to about 10 m and sit on a robot's body, so a larger number is a length in cm or mm
 given without its ``length_unit``."""
+MIN_SONAR_REACH = 0.1
+"""Shortest max range [m] a ring may have: air sonars read to 0.5 m at least, so a smaller
+number is a length in m given as cm or mm."""
+
+
+def reach_problem(max_range: float) -> str | None:
+    """Why a ring's max range [m] cannot be a sonar's (a unit mistake), or ``None``."""
+    if max_range > MAX_SONAR_REACH:
+        return "beyond any sonar's reach"
+    if max_range < MIN_SONAR_REACH:
+        return "shorter than any sonar's reach"
+    return None
+
 
 _TOP_KEYS = {"name", "length_unit", "angle_unit", "transducers", *_SHARED}
 
@@ -199,10 +212,11 @@ def _check_shared(shared: dict[str, float], source: str, length_unit: str, angle
             f"{source}: need 0 <= min_range < max_range, got {length('min_range')} and "
             f"{length('max_range')}"
         )
-    if shared["max_range"] > MAX_SONAR_REACH:
+    problem = reach_problem(shared["max_range"])
+    if problem is not None:
         raise FormatError(
-            f"{source}: {length('max_range')} is {shared['max_range']:g} m, beyond any "
-            "sonar's reach; is length_unit right?"
+            f"{source}: {length('max_range')} is {shared['max_range']:g} m, {problem}; "
+            "is length_unit right?"
         )
     if not shared["sigma"] > 0:
         raise FormatError(f"{source}: sigma must be above 0, got {length('sigma')}")
