@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -69,5 +71,9 @@ def test_bad_cells_are_named() -> None:
         case_array(net, pd.DataFrame({x: [0, 7]}))
     with pytest.raises(InputError, match="not a state"):
         case_array(net, pd.DataFrame({x: [0.5]}))
+    with warnings.catch_warnings():  # an infinite code is named, not cast with a warning
+        warnings.simplefilter("error")
+        with pytest.raises(InputError, match="inf is not a state"):
+            case_array(net, pd.DataFrame({x: [0.0, np.inf]}))
     with pytest.raises(InputError, match="is not a variable"):
         case_array(net, pd.DataFrame({"zz": [0]}))

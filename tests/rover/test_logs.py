@@ -5,6 +5,7 @@ from __future__ import annotations
 import gzip
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -53,6 +54,12 @@ def test_fit_recovers_the_paper_calibration() -> None:
     np.testing.assert_allclose(raw_from_range(distance, fit), raw_from_range(distance), atol=0.5)
     with pytest.raises(InputError):
         fit_calibration([1.0, 2.0], [0.5, 1.0])
+    with pytest.raises(InputError, match="every raw reading of the IR calibration is 0"):
+        fit_calibration([0.0, 0.0, 0.0, 0.0], [0.5, 1.0, 1.5, 2.0])
+    with warnings.catch_warnings():  # three pairs fit exactly: no covariance, no warning
+        warnings.simplefilter("error")
+        three = np.array([0.3, 0.8, 1.6])
+        np.testing.assert_allclose(fit_calibration(raw_from_range(three), three), RAW_FIT)
 
 
 def test_map_command_replays_a_log_with_a_fitted_calibration(tmp_path: Path) -> None:

@@ -70,8 +70,8 @@ def case_array(net: BayesNet, frame: pd.DataFrame) -> tuple[IntArray, list[str]]
         ):
             numbers = values.to_numpy(dtype=np.float64, na_value=np.nan)
             wrong = ~blank & ((numbers != np.round(numbers)) | (numbers < 0))
-            wrong |= ~blank & (numbers >= len(states))
-            codes = np.where(blank, -1, np.nan_to_num(numbers, nan=-1)).astype(np.int64)
+            wrong |= ~blank & (numbers >= len(states))  # inf too
+            codes = np.where(blank | wrong, -1, numbers).astype(np.int64)  # no inf cast
         else:
             text = values.astype("string").str.strip()
             blank |= (text == "").fillna(True).to_numpy(dtype=bool)

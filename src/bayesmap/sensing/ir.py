@@ -9,10 +9,11 @@ probability that the range sensor state is correct (eq. 31); ``o`` the contact f
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import curve_fit
+from scipy.optimize import OptimizeWarning, curve_fit
 
 from bayesmap._typing import BoolArray, FloatArray
 from bayesmap.errors import InputError
@@ -212,11 +213,19 @@ def fit_calibration(raw: npt.ArrayLike, distance: npt.ArrayLike) -> Calibration:
             f"an IR calibration needs at least 3 finite (raw, distance > 0) pairs, got {ok.sum()}"
         )
 
+    if np.ptp(y[ok]) == 0:
+        raise InputError(
+            f"every raw reading of the IR calibration is {y[ok][0]:g}: a calibration needs "
+            "readings that change with distance"
+        )
+
     def model(r: FloatArray, a: float, b: float, c: float) -> FloatArray:
         return (a * r + b) / (r + c)
 
     try:
-        found, _ = curve_fit(model, x[ok], y[ok], p0=RAW_FIT, maxfev=20000)
+        with warnings.catch_warnings():  # three pairs fit exactly, with no covariance: fine
+            warnings.simplefilter("ignore", OptimizeWarning)
+            found, _ = curve_fit(model, x[ok], y[ok], p0=RAW_FIT, maxfev=20000)
     except (RuntimeError, ValueError) as error:
         raise InputError(
             f"the IR calibration pairs admit no fit r_raw = (a r + b)/(r + c): {error}"
