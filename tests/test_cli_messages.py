@@ -65,6 +65,18 @@ def test_convert_into_a_path_under_a_file_is_a_clear_error(tmp_path: Path) -> No
     assert result.exit_code == 1 and "is a folder" in result.output
 
 
+def test_convert_refuses_its_own_input_and_says_what_uai_drops(tmp_path: Path) -> None:
+    path = _net(tmp_path)
+    before = path.read_bytes()
+    result = runner.invoke(app, ["bn", "convert", str(path), str(tmp_path / "." / path.name)])
+    assert result.exit_code == 2 and "is the input file" in result.output
+    assert path.read_bytes() == before
+    result = runner.invoke(app, ["bn", "convert", str(path), str(tmp_path / "n.uai")])
+    assert result.exit_code == 0 and "keeps no variable or state names" in result.output
+    result = runner.invoke(app, ["bn", "convert", str(path), str(tmp_path / "n.xml")])
+    assert result.exit_code == 0 and "warning" not in result.output
+
+
 def _main(monkeypatch, capsys, *args: str) -> tuple[int, str]:
     """Run the ``bayesmap`` entry point in-process: exit code and stderr."""
     monkeypatch.setattr(sys, "argv", ["bayesmap", *args])

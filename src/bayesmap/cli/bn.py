@@ -541,9 +541,16 @@ def convert(
     """Convert a network between XMLBIF, BIF, XBN, Hugin NET, GeNIe XDSL and UAI (by extension)."""
     from bayesmap import bn
 
+    if target.exists() and source.exists() and target.resolve() == source.resolve():
+        _fail(f"{target} is the input file; write the conversion to another path", code=2)
     net = _load(source)
     try:
         bn.write(net, target)
     except BayesmapError as error:
         _fail(error)
     print_note(f"wrote {target} ({len(net)} variables)")
+    if target.suffix.lower() == ".uai":  # the format has numbers only
+        print_note(
+            f"warning: {target} keeps no variable or state names (UAI has none): they read "
+            "back as 0, 1, ...; keep the original to query by name"
+        )
