@@ -46,6 +46,14 @@ def test_failures_are_listed_and_the_exit_status_says_so(tmp_path):
     assert len(pd.read_parquet(tmp_path / "tidy.parquet")) == 8
 
 
+def test_a_report_of_a_sweep_with_no_finished_task_is_an_error(tmp_path):
+    result = _sweep(tmp_path / "s", "--condition", "bad:fail=true")
+    assert result.exit_code == 1 and "the toy experiment was told to fail" in result.output
+    report = runner.invoke(app, ["report", str(tmp_path / "s"), "--out", str(tmp_path / "r.html")])
+    assert report.exit_code == 1 and "none of the sweep's 4 tasks has finished" in report.output
+    assert not (tmp_path / "r.html").exists()
+
+
 def test_bad_requests_get_one_line_errors_and_write_nothing(tmp_path):
     cases = [
         (["--set", "nope=1"], "unknown setting(s) nope"),

@@ -143,10 +143,12 @@ def sweep(
             outcome = run_sweep(
                 plan, out, scheduler=scheduler, workers=workers, serial=serial, progress=hook
             )
-        table = aggregate.tidy(plan, out)
-        aggregate.write_tables(table, out)
-        sections = sections_from_sweep(out)
-        report = write_report(sections, out / "report.html", title=f"{experiment} sweep")
+        finished = bool(outcome.ran or outcome.skipped)
+        if finished:
+            table = aggregate.tidy(plan, out)
+            aggregate.write_tables(table, out)
+            sections = sections_from_sweep(out)
+            report = write_report(sections, out / "report.html", title=f"{experiment} sweep")
     except BayesmapError as error:
         raise _error(str(error)) from error
     console.print(
@@ -165,6 +167,9 @@ def sweep(
         )
     for key, message in outcome.failed.items():
         console.print(Text.assemble(("failed ", "red"), f"{key}: {message}"))
+    if not finished:
+        console.print(Text("no run finished: no tables and no report were written"))
+        raise typer.Exit(1)
     lines = paired_lines(sections[0])
     if lines:
         console.print(Text("paired comparisons (same worlds and seeds), mean difference:"))

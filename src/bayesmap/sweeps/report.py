@@ -79,6 +79,12 @@ def sections_from_sweep(sweep_dir: Path) -> list[Section]:
     except (OSError, ValueError, KeyError, TypeError) as error:
         raise FormatError(f"unreadable sweep record: {error}", path=record) from None
     module = load(plan.experiment)
+    if not any(protocol.task_complete(task_folder(sweep_dir, k)) for k in plan.tasks):
+        raise FormatError(
+            f"none of the sweep's {len(plan.tasks)} tasks has finished (no readable "
+            f"task.json under tasks/); run the same 'bayesmap sweep' command to finish them",
+            path=sweep_dir,
+        )
     table = aggregate.tidy(plan, sweep_dir)
     failures_path = sweep_dir / FAILURES
     failures = json.loads(failures_path.read_text()) if failures_path.exists() else {}
