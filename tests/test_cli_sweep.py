@@ -61,6 +61,9 @@ def test_bad_requests_get_one_line_errors_and_write_nothing(tmp_path):
         (["--set", "scale=[1"], "not valid YAML"),
         (["--condition", "x:scale=[big]"], "condition 'x'"),
         (["--set", "scale=2", "--set", "scale=3"], "--set scale is given more than once"),
+        (["--scheduler", "tcp://127.0.0.1:1"], "give it without --serial"),  # _sweep: serial
+        (["--workers", "2"], "--serial runs every task in this process"),
+        (["--workers", "0"], "--workers must be at least 1, got 0"),
     ]
     for extra, message in cases:
         result = _sweep(tmp_path / "out", *extra)

@@ -59,6 +59,8 @@ def query(*args: str) -> dict:
         (["-t", "Rain", "--cases", "cases.csv"], "go together"),
         (["--cases", "c.csv", "--out", "o.csv"], "needs --target"),
         (["-t", "Rain", "--cases", "c.csv", "--out", "o.csv", "--map"], "drop --map"),
+        (["-t", "Rain", "--chunk-rows", "5"], "--chunk-rows sizes a batch"),
+        (["-t", "Rain", "--scheduler", "tcp://127.0.0.1:1"], "--scheduler answers a batch"),
     ],
 )
 def test_contradicting_or_repeated_options_exit_2(lawn: Path, args: list[str], needle: str) -> None:

@@ -208,6 +208,8 @@ def query(
     targets = list(target or [])
     if scheduler is not None and cases is None:
         _fail("--scheduler answers a batch: give --cases and --out too", USAGE)
+    if chunk_rows is not None and cases is None:
+        _fail("--chunk-rows sizes a batch's chunks: give --cases and --out too", USAGE)
     _check_usage(targets, map_, proposition, given, cases, out, fixed_point, evidence, soft)
     repeated = sorted({t for t in targets if targets.count(t) > 1})
     if repeated:

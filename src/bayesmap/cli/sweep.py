@@ -107,6 +107,15 @@ def sweep(
         problem = None if scheduler is None else scheduler_problem(scheduler)
         if problem is not None:
             raise ConfigError(problem)
+        if workers is not None and workers < 1:
+            raise ConfigError(f"--workers must be at least 1, got {workers}")
+        if scheduler is not None and (serial or workers is not None):
+            raise ConfigError(
+                "--scheduler runs the tasks on that cluster's workers; give it without "
+                + ("--serial" if serial else "--workers")
+            )
+        if serial and workers is not None:
+            raise ConfigError("--serial runs every task in this process; give it without --workers")
         plan = expand(
             experiment,
             module,
