@@ -117,8 +117,11 @@ def test_bad_ring_files_say_where_and_what(
 
 
 def test_missing_ring_file_names_the_presets(tmp_path: Path) -> None:
-    with pytest.raises(InputError, match="pioneer16"):
+    with pytest.raises(InputError, match="pioneer16") as info:
         load_ring(tmp_path / "nope.yaml")
+    assert "did you mean" not in str(info.value)
+    with pytest.raises(InputError, match="did you mean the preset 'pioneer16'"):
+        load_ring("pionner16")
 
 
 values = st.one_of(

@@ -230,9 +230,13 @@ def load_ring(spec: str | Path) -> SonarGeometry:
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as error:
+        import difflib  # only on the error path
+
+        close = difflib.get_close_matches(str(spec).lower(), list(PRESETS), n=1)
+        hint = f"; did you mean the preset {close[0]!r}?" if close else ""
         raise InputError(
             f"cannot read ring file {path}: {error.strerror or error} "
-            f"(or name a preset: {', '.join(PRESETS)})"
+            f"(or name a preset: {', '.join(PRESETS)}){hint}"
         ) from None
     try:
         data = yaml.load(text, Loader=PlainNumberLoader)

@@ -133,8 +133,12 @@ def test_bad_patterns_are_config_errors():
     net = random_net(2, n_vars=5)
     with pytest.raises(ConfigError, match="both a target and evidence"):
         generate(net, ["X4"], ["X4"])
-    with pytest.raises(ConfigError, match="no variable"):
+    with pytest.raises(ConfigError, match="no variable 'X9'"):
         generate(net, ["X9"], ["X0"])
+    with pytest.raises(ConfigError, match="no variable 'x0'; did you mean 'X0'"):
+        generate(net, ["X4"], ["x0"])
+    with pytest.raises(ConfigError, match=r"'x1' \(soft evidence\); did you mean 'X1'"):
+        generate(net, ["X4"], ["X0"], soft=["x1"])
     with pytest.raises(ConfigError, match="fixed-point format|Q<integer"):
         generate(net, ["X4"], ["X0"], "half")
     with pytest.raises(ConfigError, match="prefix"):

@@ -46,6 +46,7 @@ from bayesmap.bn.codegen.program import (
 )
 from bayesmap.bn.model import BayesNet
 from bayesmap.bn.plans import QueryKind
+from bayesmap.bn.suggest import unknown
 from bayesmap.errors import ConfigError
 
 __all__ = ["SOFT_SUFFIX", "Arith", "CSources", "SoftNetwork", "generate"]
@@ -142,7 +143,10 @@ def generate(
     check_pattern(net, targets, evidence_vars)
     for variable in soft:
         if variable not in net:
-            raise ConfigError(f"network {net.name!r} has no variable {variable!r} (soft evidence)")
+            raise ConfigError(
+                f"network {net.name!r} has no variable {variable!r} (soft evidence); "
+                + unknown("variable", variable, net.variables)
+            )
     if len(set(soft)) != len(soft):
         raise ConfigError(f"a soft-evidence variable is listed twice in {list(soft)}")
     augmented = SoftNetwork.build(net, soft).net

@@ -32,6 +32,7 @@ from bayesmap.bn import elimination
 from bayesmap.bn.compiled import Compiled
 from bayesmap.bn.model import BayesNet, DataSource
 from bayesmap.bn.plans import Factor, Plan
+from bayesmap.bn.suggest import unknown
 from bayesmap.errors import ConfigError
 
 SOFT_SUFFIX = "~soft"
@@ -323,7 +324,10 @@ def check_pattern(net: BayesNet, targets: Sequence[str], observable: Sequence[st
         raise ConfigError("code generation needs at least one target variable")
     for name in (*targets, *observable):
         if name not in net:
-            raise ConfigError(f"network {net.name!r} has no variable {name!r}")
+            raise ConfigError(
+                f"network {net.name!r} has no variable {name!r}; "
+                + unknown("variable", name, net.variables)
+            )
     overlap = sorted(set(targets) & set(observable))
     if overlap:
         raise ConfigError(
