@@ -224,3 +224,18 @@ def test_headings_in_degrees_read_as_radians_get_a_hint(
     with caplog.at_level("WARNING", logger="bayesmap.rover.logs"):
         read_rover_log(tmp_path / "drive.csv", 3, heading_unit="deg")
     assert not caplog.records
+
+
+def test_a_bad_field_is_named_by_its_column_and_a_doubled_column_is_refused(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "drive.csv"
+    path.write_text("x,y,heading,ir_0,ir_1,ir_2\n1,1,0,10,abc,30\n1,1,0,10,20,300\n1,1,0,1,2,3\n")
+    data = read_rover_log(path, 3)
+    assert [(row.line, row.reason) for row in data.skipped] == [
+        (2, "column ir_1: 'abc' is not a finite plain decimal number"),
+        (3, "column ir_2: the IR reading 300 is outside 0..255"),
+    ]
+    path.write_text("x,y,heading,ir_0,ir_1,ir_2,ir_0\n1,1,0,10,20,30,40\n")
+    with pytest.raises(FormatError, match="names the column ir_0 more than once"):
+        read_rover_log(path, 3)

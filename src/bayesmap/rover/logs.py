@@ -76,6 +76,13 @@ def _columns(path: Path, header: list[str], line: int, wanted: list[str]) -> lis
             path=path,
             line=line,
         )
+    twice = [name for name in wanted if names.count(name) > 1]
+    if twice:
+        raise FormatError(
+            f"the header names the column {twice[0]} more than once; which one is meant?",
+            path=path,
+            line=line,
+        )
     return [names.index(name) for name in wanted]
 
 
@@ -122,7 +129,7 @@ def read_rover_log(
                 index = _columns(file, header, number, wanted)
                 continue
             rows += 1
-            reason = _row_problem(fields, len(header), index)
+            reason = _row_problem(fields, len(header), index, wanted)
             if isinstance(reason, str):
                 skip(number, reason)
                 continue
@@ -166,18 +173,22 @@ def read_rover_log(
     return RoverLog(poses, table[:, 3:], tuple(skipped))
 
 
-def _row_problem(fields: list[str], columns: int, index: list[int]) -> list[float] | str:
-    """The wanted numbers of a data row, or why the row is bad."""
+def _row_problem(
+    fields: list[str], columns: int, index: list[int], names: list[str]
+) -> list[float] | str:
+    """The wanted numbers of a data row (columns ``names`` at ``index``), or why the row
+    is bad, naming the column."""
     if len(fields) != columns:
         return f"{len(fields)} fields, the header has {columns}"
-    wanted = [fields[k].strip() for k in index]
-    if not all(is_decimal(field) for field in wanted):
-        return "a field is not a finite plain decimal number"
-    row = [float(field) for field in wanted]
-    if not all(math.isfinite(v) for v in row):
-        return "a field is not a finite plain decimal number"
-    if not all(0.0 <= v <= 255.0 for v in row[3:]):
-        return "an IR reading outside 0..255"
+    row = []
+    for name, k in zip(names, index, strict=True):
+        field = fields[k].strip()
+        value = float(field) if is_decimal(field) else math.nan
+        if not math.isfinite(value):
+            return f"column {name}: {field!r} is not a finite plain decimal number"
+        if name.startswith("ir_") and not 0.0 <= value <= 255.0:
+            return f"column {name}: the IR reading {field} is outside 0..255"
+        row.append(value)
     return row
 
 
