@@ -82,6 +82,7 @@ GOOD = (
         (GOOD.replace("0.4,3", "abc,3"), "row 1, column range: 'abc' is not a number"),
         (GOOD.replace("0.4,3", "inf,3"), "row 1: range must be a finite number"),
         (GOOD.replace("0.4,3", "-0.4,3"), "row 1: range must be >= 0"),
+        (GOOD.replace("0.4,3", "400,3"), "row 1: range is over 10 whisker lengths"),
         (GOOD.replace("0.4,3", "0.4,"), "row 1: a contact needs a normal"),
         (GOOD.replace("-0.5,1,,", "-0.5,0,,"), "row 2: length must be > 0"),
         (GOOD.replace("0,1,1,0,-1.5", "0,1,2,0,-1.5"), "row 2: the pose's x, y and heading"),

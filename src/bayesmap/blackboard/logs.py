@@ -74,8 +74,9 @@ def read_sweep_log(
         An unknown unit.
     FormatError
         The file cannot be read, lacks a column, holds a value that is not a number where
-        one is needed, a non-positive whisker length, a negative range, a contact without
-        a normal, or a pose whose rows disagree; the message names the row and column.
+        one is needed, a non-positive whisker length, a negative range or one over ten
+        whisker lengths, a contact without a normal, or a pose whose rows disagree; the
+        message names the row and column.
     """
     if length_unit not in LENGTH_UNITS or angle_unit not in ANGLE_UNITS:
         raise InputError(
@@ -101,6 +102,12 @@ def read_sweep_log(
     _require(values["length"] <= 0, where, "length must be > 0")
     contact = np.isfinite(values["range"])
     _require(contact & (values["range"] < 0), where, "range must be >= 0 (blank: no contact)")
+    _require(  # noise carries a contact past the tip (σ 0.5 m on 1 m whiskers), not this far
+        contact & (values["range"] > 10.0 * values["length"]),
+        where,
+        "range is over 10 whisker lengths: a contact lies on the whisker (are range and "
+        "length in one unit?)",
+    )
     _require(contact & ~np.isfinite(values["normal"]), where, "a contact needs a normal")
     largest = max(float(np.nanmax(np.abs(values[c]), initial=0.0)) for c in ANGLES)
     for column in LENGTHS:
