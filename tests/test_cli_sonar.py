@@ -380,6 +380,8 @@ def test_a_carmen_log_is_mapped_as_the_player_log_of_the_same_drive(tmp_path: Pa
         (["--time-unit", "ns"], "a Player log is in metres, radians and seconds"),
         (["--format", "text", "--sonar-index", "1"], "--sonar-index is for Player logs"),
         (["--format", "player", "--topics", "/a,/b"], "--format player is for log files"),
+        (["--pose-tolerance", "nan"], "--pose-tolerance must be a number of seconds, got nan"),
+        (["--max-cells", "-1"], "greater than or equal to 1"),
     ],
 )
 def test_options_that_do_not_go_with_the_format_exit_2(
@@ -389,6 +391,12 @@ def test_options_that_do_not_go_with_the_format_exit_2(
     result = _map_file(log, tmp_path / "o", *extra)
     assert result.exit_code == 2 and words in _text(result)
     assert "Traceback" not in _text(result) and not (tmp_path / "o").exists()
+
+
+def test_a_beam_width_of_a_half_turn_or_more_is_refused_in_degrees(tmp_path: Path) -> None:
+    log = write_log_lines(tmp_path / "drive.log", player_lines(simulated_drive())[:40])
+    result = _map_file(log, tmp_path / "o", "--beam-width-deg", "720")
+    assert result.exit_code == 1 and "--beam-width-deg must be below 180" in _text(result)
 
 
 def test_a_carmen_log_with_options_of_other_formats_exits_2(tmp_path: Path) -> None:

@@ -176,7 +176,9 @@ def check_suffix(path: Path) -> str:
     """The suffix of a cases or answers file (``.csv`` or ``.parquet``), else InputError."""
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
-        raise InputError(f"{path}: cases files are .csv or .parquet, not {suffix or 'no suffix'!r}")
+        raise InputError(
+            f"{path}: cases and answers files are .csv or .parquet, not {suffix or 'no suffix'!r}"
+        )
     return suffix
 
 

@@ -150,6 +150,10 @@ def _check_overrides(
     ):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise InputError(f"{name} must be a positive number, got {value}")
+    if beam_width_deg is not None and not beam_width_deg < 180.0:
+        raise InputError(
+            f"--beam-width-deg must be below 180 (a half turn), got {beam_width_deg:g}"
+        )
 
 
 def _check_ranges(data: SonarLog, geometry: SonarGeometry, range_unit: str, log: Path) -> None:
@@ -253,7 +257,7 @@ def map_command(
         ),
     ] = 1.0,
     max_cells: Annotated[
-        int, typer.Option("--max-cells", help="Refuse maps with more cells than this.")
+        int, typer.Option("--max-cells", min=1, help="Refuse maps with more cells than this.")
     ] = 25_000_000,
     topics: Annotated[
         str | None,
@@ -311,6 +315,12 @@ def map_command(
     with _user_errors():
         if frames is not None and topics is None:
             _usage("--frames is for ROS bags: give --topics, the Range topic(s) the frames share")
+        for option, seconds in (
+            ("--pose-tolerance", pose_tolerance),
+            ("--max-pose-gap", max_pose_gap),
+        ):
+            if not math.isfinite(seconds):
+                _usage(f"{option} must be a number of seconds, got {seconds}")
         kind = _log_kind(
             log,
             log_format,
