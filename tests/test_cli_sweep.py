@@ -35,6 +35,10 @@ def test_a_sweep_writes_tables_and_a_report_and_resumes(tmp_path):
     out = tmp_path / "elsewhere.html"
     report = runner.invoke(app, ["report", str(tmp_path), "--out", str(out)])
     assert report.exit_code == 0 and out.read_text().startswith("<!DOCTYPE html>")
+    pdf = runner.invoke(app, ["report", str(tmp_path), "--out", str(tmp_path / "r.pdf")])
+    assert pdf.exit_code == 2 and "an HTML page" in pdf.output
+    record = runner.invoke(app, ["report", str(tmp_path / "sweep.json"), "--out", str(out)])
+    assert record.exit_code == 2 and "give the sweep's folder" in record.output
 
 
 def test_failures_are_listed_and_the_exit_status_says_so(tmp_path):

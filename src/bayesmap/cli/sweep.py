@@ -199,6 +199,12 @@ def report(
     """Write one self-contained HTML page of a sweep's tables and figures."""
     from bayesmap.sweeps.report import sections_from_sweep, write_report
 
+    if out.suffix.lower() not in (".html", ".htm"):
+        raise _error(f"--out {out}: the report is an HTML page; give a path ending in .html", USAGE)
+    if sweep_dir.is_file():
+        raise _error(
+            f"{sweep_dir} is a file; give the sweep's folder (bayesmap sweep --out)", USAGE
+        )
     try:
         sections = sections_from_sweep(sweep_dir)
         path = write_report(sections, out, title=f"{sections[0].experiment} sweep")
