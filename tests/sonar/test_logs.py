@@ -67,6 +67,15 @@ def test_strict_mode_aborts_at_the_first_bad_row() -> None:
     assert info.value.line == 13 and "example_log.txt" in str(info.value)
 
 
+def test_a_pose_file_without_poses_is_named(tmp_path: Path) -> None:
+    for text, words in (("", "no pose rows"), ("# t x y\n1 a 2 3\n", r"no usable pose rows \(1")):
+        poses = tmp_path / "poses.txt"
+        poses.write_text(text)
+        with pytest.raises(FormatError, match=words) as info:
+            read_sonar_log(DATA / "example_ranges.csv", 16, poses_path=poses)
+        assert info.value.path == str(poses)
+
+
 def test_two_files_joined_by_timestamp_report_missing_poses() -> None:
     units = LogUnits(range_unit="cm", position_unit="cm", heading_unit="rad")
     log = read_sonar_log(

@@ -416,6 +416,14 @@ def read_sonar_log(
         pose_file = Path(poses_path)
         pose_table = _parse(pose_file, 4, 0, skipped, strict=strict)
         _abort_if_strict(strict, skipped)
+        if not len(pose_table.values):
+            dropped = sum(1 for row in skipped if row.path == str(pose_file))
+            raise FormatError(
+                f"no usable pose rows ({dropped} skipped; rows are 't x y heading')"
+                if dropped
+                else "no pose rows (rows are 't x y heading')",
+                path=pose_file,
+            )
         table = _parse(main, 1 + n_ranges, n_ranges, skipped, progress, strict=strict)
         _warn_heading_unit(pose_file, pose_table.values[:, 3], units.heading_unit)
         pose_si = pose_table.values * np.array([seconds, length, length, angle])
