@@ -239,3 +239,12 @@ def test_a_bad_field_is_named_by_its_column_and_a_doubled_column_is_refused(
     path.write_text("x,y,heading,ir_0,ir_1,ir_2,ir_0\n1,1,0,10,20,30,40\n")
     with pytest.raises(FormatError, match="names the column ir_0 more than once"):
         read_rover_log(path, 3)
+
+
+def test_a_drive_in_metres_read_as_millimetres_is_pointed_out(tmp_path: Path, caplog) -> None:
+    path = tmp_path / "drive.csv"
+    rows = [f"{1 + 0.1 * k:.1f},2.0,0.0,10,20,30" for k in range(30)]
+    path.write_text("x,y,heading,ir_0,ir_1,ir_2\n" + "\n".join(rows) + "\n")
+    with caplog.at_level("WARNING"):
+        read_rover_log(path, 3, position_unit="mm")
+    assert "the positions span 0.0029 m over 30 rows" in caplog.text

@@ -393,3 +393,16 @@ def test_semicolons_separate_fields_as_commas_do(tmp_path: Path) -> None:
     )
     assert semi.skipped == () and np.array_equal(semi.ranges, comma.ranges)
     assert np.array_equal(semi.poses, comma.poses)
+
+
+def test_positions_in_metres_read_as_millimetres_are_pointed_out(tmp_path: Path, caplog) -> None:
+    rows = [f"{k * 0.1:.1f} {k * 0.2:.2f} 1.0 0.0 " + " ".join(["2.0"] * 8) for k in range(30)]
+    path = tmp_path / "drive.txt"
+    path.write_text("\n".join(rows) + "\n")
+    with caplog.at_level("WARNING"):
+        read_sonar_log(path, 8, units=LogUnits(position_unit="mm"))
+    assert "give --position-unit m (not mm)" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        read_sonar_log(path, 8, units=LogUnits(position_unit="m"))
+    assert "position-unit" not in caplog.text

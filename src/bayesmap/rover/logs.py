@@ -41,6 +41,7 @@ from bayesmap.sonar.logs import (
     RowBlocks,
     SkippedRow,
     heading_unit_hint,
+    position_unit_hint,
 )
 
 __all__ = ["RoverLog", "read_calibration", "read_rover_log"]
@@ -157,9 +158,12 @@ def read_rover_log(
             file,
             float(np.median(steps)),
         )
-    hint = heading_unit_hint(table[:, 2], heading_unit)
-    if hint is not None:
-        logger.warning("%s: %s", file, hint)
+    for hint in (
+        position_unit_hint(xy, position_unit),
+        heading_unit_hint(table[:, 2], heading_unit),
+    ):
+        if hint is not None:
+            logger.warning("%s: %s", file, hint)
     if len(skipped) > SHOWN_SKIPS:
         logger.warning(
             "%s: %d of %d rows skipped; the first %d are named above, all in summary.json",

@@ -61,6 +61,7 @@ __all__ = [
     "SonarLog",
     "TIME_UNITS",
     "heading_unit_hint",
+    "position_unit_hint",
     "read_sonar_log",
     "write_sonar_log",
 ]
@@ -89,6 +90,21 @@ def heading_unit_hint(headings: FloatArray, unit: str) -> str | None:
     return (
         f"headings reach {largest:.4g} rad: if they are in degrees, give --heading-unit deg "
         "(decideg for tenths)"
+    )
+
+
+def position_unit_hint(xy: FloatArray, unit: str) -> str | None:
+    """A hint when positions ``(n, 2)`` [m], logged in ``unit`` (``cm`` or ``mm``), span
+    under 5 cm over 20 rows or more: metres read as cm or mm. (A robot that stood still the
+    whole log spans as little, so this is a hint, not an error.)"""
+    if unit == "m" or len(xy) < 20:
+        return None
+    span = float(np.max(np.ptp(xy, axis=0)))
+    if span >= 0.05:
+        return None
+    return (
+        f"the positions span {span:.3g} m over {len(xy)} rows: if they are in metres, give "
+        f"--position-unit m (not {unit})"
     )
 
 
@@ -408,7 +424,7 @@ def read_sonar_log(
         _abort_if_strict(strict, skipped)
         if glitches.any():  # no copy of the whole table when nothing leaps (the peak memory)
             data = data[~glitches]
-        _warn_heading_unit(main, data[:, 3], units.heading_unit)
+        _warn_units(main, np.column_stack([data[:, 1:3] * length, data[:, 3]]), units)
         # A copy: a view would keep the whole parsed table alive beside the log.
         times, range_raw = data[:, 0] * seconds, data[:, 4:]
         poses = np.column_stack([data[:, 1:3] * length, data[:, 3] * angle])
@@ -425,7 +441,8 @@ def read_sonar_log(
                 path=pose_file,
             )
         table = _parse(main, 1 + n_ranges, n_ranges, skipped, progress, strict=strict)
-        _warn_heading_unit(pose_file, pose_table.values[:, 3], units.heading_unit)
+        logged = pose_table.values[:, 1:]
+        _warn_units(pose_file, np.column_stack([logged[:, :2] * length, logged[:, 2]]), units)
         pose_si = pose_table.values * np.array([seconds, length, length, angle])
         table.values[:, 0] *= seconds
         times, range_raw, poses = posed_rows(
@@ -532,10 +549,16 @@ def finish_log(
     return SonarLog(times, poses, ranges, rows, tuple(skipped))
 
 
-def _warn_heading_unit(path: Path, headings: FloatArray, unit: str) -> None:
-    hint = heading_unit_hint(headings, unit)
-    if hint is not None:
-        logger.warning("%s: %s", path, hint)
+def _warn_units(path: Path, poses: FloatArray, units: LogUnits) -> None:
+    """Warn of positions and headings ``(n, 3)`` [m, m, as logged] that look like another
+    unit than the log's."""
+    hints = (
+        position_unit_hint(poses[:, :2], units.position_unit),
+        heading_unit_hint(poses[:, 2], units.heading_unit),
+    )
+    for hint in hints:
+        if hint is not None:
+            logger.warning("%s: %s", path, hint)
 
 
 def _report_glitches(path: Path, lines: npt.NDArray[np.int64], skipped: list[SkippedRow]) -> None:
