@@ -543,7 +543,7 @@ def convert(
     """Convert a network between XMLBIF, BIF, XBN, Hugin NET, GeNIe XDSL and UAI (by extension)."""
     from bayesmap import bn
 
-    if target.exists() and source.exists() and target.resolve() == source.resolve():
+    if target.exists() and source.exists() and target.samefile(source):
         _fail(f"{target} is the input file; write the conversion to another path", code=2)
     net = _load(source)
     try:

@@ -100,8 +100,7 @@ def _geometry(
         _usage("give the ring either as --ring or as --angles-deg, not both")
     _check_overrides(max_range, beam_width_deg, sigma)
     metres = LENGTH_UNITS[range_unit]
-    problem = None if max_range is None else reach_problem(max_range * metres)
-    if max_range is not None and problem is not None:
+    if max_range is not None and (problem := reach_problem(max_range * metres)) is not None:
         raise InputError(
             f"--max-range {max_range:g} in --range-unit {range_unit} is "
             f"{max_range * metres:g} m, {problem}; is --range-unit right?"
