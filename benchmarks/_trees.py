@@ -3,12 +3,15 @@
 A tree is given as a directory (a worktree or an exported copy) or as a commit of this
 repository, which is exported (``git archive``, its ``src`` only) to a temporary directory
 for the run. Either way the report names it by its commit, so that a table in
-docs/benchmarks.md never points at a temporary path.
+docs/benchmarks.md never points at a temporary path. A tree with C extension sources
+(``src/bayesmap/**/*.c``, as from 2026-12-05) has them compiled in place where they are
+not yet, as ``pip install`` would.
 """
 
 from __future__ import annotations
 
 import subprocess
+import sysconfig
 import tarfile
 import tempfile
 from contextlib import ExitStack
@@ -40,6 +43,7 @@ def source_tree(spec: str, stack: ExitStack) -> tuple[Path, str]:
     path = Path(spec)
     if (path / "src" / "bayesmap").is_dir():
         path = path.resolve()
+        _compile_extensions(path)
         head = _git("rev-parse", "--short", "HEAD", cwd=path)
         if head is None or _git("rev-parse", "--show-toplevel", cwd=path) != str(path):
             return path, f"`{path}`"
@@ -56,4 +60,21 @@ def source_tree(spec: str, stack: ExitStack) -> tuple[Path, str]:
     target = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix=f"bayesmap-{commit}-")))
     with tarfile.open(fileobj=BytesIO(archive)) as tar:
         tar.extractall(target, filter="data")
+    _compile_extensions(target)
     return target, f"`{commit}`"
+
+
+def _compile_extensions(tree: Path) -> None:
+    """Compile each C extension source of ``tree`` whose module is missing or older, with
+    the compiler and flags this Python was built with (what setuptools does on install)."""
+    suffix = sysconfig.get_config_var("EXT_SUFFIX")
+    compiler = (sysconfig.get_config_var("CC") or "cc").split()
+    include = sysconfig.get_paths()["include"]
+    for source in sorted((tree / "src" / "bayesmap").rglob("*.c")):
+        module = source.with_name(source.stem + suffix)
+        if module.exists() and module.stat().st_mtime >= source.stat().st_mtime:
+            continue
+        subprocess.run(
+            [*compiler, "-O2", "-shared", "-fPIC", f"-I{include}", str(source), "-o", str(module)],
+            check=True,
+        )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gc
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -275,7 +276,7 @@ def test_order_and_program_built_in_one_pass_equal_the_two_passes(
         assert cost <= bound + int(np.prod([compiled.card[v] for v in output]))
     two = elimination.SumProgram(scopes, output, specs, path, kept, tuning=tuning)
     one = elimination.SumProgram(scopes, output, specs, None, tuning=tuning)
-    assert plans.order_steps(compiled, scopes, output, emit=one.add, tuning=tuning) == (
+    assert plans.order_steps(compiled, scopes, output, emit=one.extend, tuning=tuning) == (
         path,
         kept,
         cost,
@@ -395,7 +396,7 @@ def test_one_pass_program_puts_the_last_steps_labels_in_the_outputs_order(consta
     arrays = [rng.random((card[0], card[1])), rng.random((card[1], card[2]))]
     specs = [a if constant else a.shape for a in arrays]
     program = elimination.SumProgram(scopes, (2, 0), specs, None)
-    path, kept, _ = plans.order_steps(compiled, scopes, (2, 0), emit=program.add)
+    path, kept, _ = plans.order_steps(compiled, scopes, (2, 0), emit=program.extend)
     program.finish()
     assert path == [(0, 1)] and kept == [(0, 2)]
     got = program() if constant else program(*arrays)
@@ -418,7 +419,7 @@ def test_the_network_order_restricted_to_a_plan_contracts_exactly(seed: int, alw
         scopes, output, [a if c else a.shape for a, c in zip(arrays, constant, strict=True)], None
     )
     path, kept, _ = plans.order_steps(
-        compiled, scopes, output, emit=program.add, network=constant, tuning=tuning
+        compiled, scopes, output, emit=program.extend, network=constant, tuning=tuning
     )
     program.finish()
     args: list[object] = []
@@ -475,9 +476,11 @@ def test_a_costly_network_order_gives_way_to_the_plans_own() -> None:
     positions, _ = plans.network_order(compiled)
     labels = sorted({u for scope in scopes for u in scope} - {0}, key=positions.__getitem__)
     walker = elimination.Walker(scopes, (0,))
-    expected = plans._eliminate(walker, labels, (0,), compiled.card.__getitem__)
-    assert expected is not None
-    assert restricted == (expected[0], expected[1], expected[3])
+    steps = [walker.step(tuple(walker.holders[u])) for u in labels if walker.holders[u]]
+    if len(walker.open) > 1 or not steps:  # the last step joins what is left into (0,)
+        steps.append(walker.step(tuple(walker.open)))
+    cost = sum(math.prod(compiled.card[u] for u in step.union) for step in steps)
+    assert restricted == ([step.inputs for step in steps], [step.kept for step in steps], cost)
 
 
 @FAST

@@ -186,7 +186,7 @@ def single_program(plan: Plan, compiled: Compiled, tuning: Tuning) -> tuple[Any,
             compiled,
             scopes,
             plan.targets,
-            emit=program.add,
+            emit=program.extend,
             network=list(map(not_, flags)),
             tuning=tuning,
         )

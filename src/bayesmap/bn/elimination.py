@@ -12,17 +12,17 @@ a true joint maximisation, never per-variable arg-maxes of marginals.
 
 from __future__ import annotations
 
-import importlib
 import math
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from dataclasses import dataclass
-from itertools import chain, compress, count
+from itertools import chain, compress
 from typing import Any, Generic, NamedTuple, Protocol, TypeVar
 
 import numpy as np
 
 from bayesmap._lazy import lazy_module
 from bayesmap._typing import FloatArray, IntArray
+from bayesmap.bn import _orders
 from bayesmap.bn.tuning import TUNING, Tuning
 from bayesmap.errors import ModelError
 
@@ -205,24 +205,15 @@ def _align(algebra: Algebra[T], value: T, term: str, order: str, sizes: dict[str
     return algebra.rearrange(value, axes, shape)
 
 
-def _c_einsum() -> Callable[..., Any]:
-    """numpy's C ``einsum``: what :func:`numpy.einsum` calls when ``optimize`` is off, minus
-    its ``__array_function__`` dispatch, which costs 2–3 µs per call — more than the
-    arithmetic of most steps of a Bayesian-network contraction (a warm question makes
-    about seven calls). Same arguments, same results; :func:`numpy.einsum` itself if numpy
-    keeps the function elsewhere."""
-    for module in ("numpy._core.multiarray", "numpy.core.multiarray"):  # numpy 2, numpy 1
-        try:
-            found: Callable[..., Any] = importlib.import_module(module).c_einsum
-        except (ImportError, AttributeError):
-            continue
-        return found
-    return np.einsum
-
-
-einsum = _c_einsum()
-"""Sum-product in sub-list form (``einsum(a, [0, 1], b, [1, 2], [0, 2])``), as
-:func:`numpy.einsum` without ``optimize``."""
+einsum: Callable[..., Any] = _orders.contract
+"""Sum-product in sub-list form (``einsum(a, (0, 1), b, (1, 2), (0, 2))``), as numpy's C
+``einsum`` without ``optimize`` (and without :func:`numpy.einsum`'s ``__array_function__``
+dispatch, 2–3 µs a call). A product of at most 4,096 entries over float64 operands — most
+steps of a Bayesian network's contractions — is summed by one loop in ``_orders.c``:
+numpy's einsum builds an iterator per call (1.2–1.6 µs on 24–512 entries, against 0.4–1.0
+here), and a question asked between other work pays more still for the code and data
+those calls bring back into the caches. Larger products, other dtypes, diagonals and
+broadcast axes go to numpy's einsum unchanged; the answers agree to rounding."""
 
 
 _MAX_OPERANDS = 24
@@ -240,6 +231,12 @@ class ConstantMemo:
     def __init__(self, budget: int = 1 << 22) -> None:
         self._results: dict[Any, tuple[tuple[Any, ...], FloatArray]] = {}
         self._left = budget
+
+    @property
+    def results(self) -> dict[Any, tuple[tuple[Any, ...], FloatArray]]:
+        """The stored steps: ``{key: (input arrays, result)}`` (read by the compiled
+        steps of :class:`SumProgram`)."""
+        return self._results
 
     def get(self, key: Any) -> FloatArray | None:
         """The stored result of step ``key``, or ``None``."""
@@ -301,7 +298,6 @@ class SumProgram:
         "_memo",
         "_operands",
         "_output",
-        "_register",
         "_size_table",
         "_steps",
         "_tuning",
@@ -313,11 +309,11 @@ class SumProgram:
 
     def __init__(
         self,
-        scopes: Sequence[Sequence[Hashable]],
-        output: Sequence[Hashable],
+        scopes: Sequence[Sequence[int]],
+        output: Sequence[int],
         operands: Sequence[FloatArray | tuple[int, ...]],
         path: Sequence[Sequence[int]] | None,
-        kept: Sequence[Sequence[Hashable]] | None = None,
+        kept: Sequence[Sequence[int]] | None = None,
         memo: ConstantMemo | None = None,
         *,
         tuning: Tuning = TUNING,
@@ -326,7 +322,7 @@ class SumProgram:
         self._tuning = tuning
         self._output = output
         # live operands: (constant value or None, register or -1, labels)
-        live: list[tuple[Any, int, Sequence[Hashable]]] = []
+        live: list[tuple[Any, int, Sequence[int]]] = []
         self._live = live
         n_inputs = 0
         for scope, op in zip(scopes, operands, strict=True):
@@ -337,9 +333,8 @@ class SumProgram:
                 live.append((op, -1, scope))
         self.n_inputs = n_inputs
         self._operands = (scopes, operands)
-        self._size_table: dict[Hashable, int] | None = None
-        self._steps: list[ProgramStep] = []
-        self._register = n_inputs
+        self._size_table: dict[int, int] | None = None
+        self._steps: list[ProgramStep] = []  # step k writes register n_inputs + k
         self.steps: tuple[ProgramStep, ...] = ()
         self.n_registers = n_inputs
         self.result: tuple[Any, int] = (None, -1)
@@ -353,7 +348,7 @@ class SumProgram:
         self.finish()
 
     @property
-    def _sizes(self) -> dict[Hashable, int]:
+    def _sizes(self) -> dict[int, int]:
         """Entries of each label, from the operands (built when a step first needs it)."""
         table = self._size_table
         if table is None:
@@ -365,31 +360,54 @@ class SumProgram:
     def add(
         self,
         position: Sequence[int],
-        kept: Sequence[Hashable],
+        kept: Sequence[int],
         entries: int | None = None,
-        union: Iterable[Hashable] | None = None,
+        union: Iterable[int] | None = None,
     ) -> None:
         """Append the step contracting the operands at SSA numbers ``position`` into
         ``kept`` (the last step's labels may come in any order: :meth:`finish` puts them in
         the output's). ``entries``: the size of the operands' product, if known; ``union``:
-        their labels in order of first appearance, if known (as :meth:`Walker.join` gives
-        them)."""
-        live = self._live
-        chosen = list(map(live.__getitem__, position))
+        their labels in order of first appearance, if known."""
         if union is None:
-            union = dict.fromkeys(chain.from_iterable([scope for _, _, scope in chosen]))
-        if entries is None and len(chosen) > 1:
+            scopes = [self._live[i][2] for i in position]
+            union = tuple(dict.fromkeys(chain.from_iterable(scopes)))
+        else:
+            union = tuple(union)
+        if entries is None:
             sizes = self._sizes
             entries = math.prod([sizes[label] for label in union])
-        if len(chosen) <= 2:
-            live.append(self._emit(chosen, kept, entries or 0, union))
-            return
-        assert entries is not None
-        large = entries > self._tuning.split_above
-        if large or len(chosen) > _MAX_OPERANDS:
-            live.append(self._split(chosen, kept, large))
-        else:
-            live.append(self._emit(chosen, kept, entries, union))
+        self.extend([tuple(position)], [tuple(kept)], [(entries, union)])
+
+    def extend(
+        self,
+        path: Sequence[Sequence[int]],
+        kept: Sequence[Sequence[int]],
+        records: Sequence[tuple[int, Iterable[int]]],
+    ) -> None:
+        """Append the steps of an order walked by :func:`bayesmap.bn.plans.order_steps`: their
+        SSA operands, kept labels, and the entries and labels of each step's product.
+
+        Compiled (``_orders.c``): each step's ``einsum`` arguments are numbered there, and a
+        step of constant operands looked up in the memo (most constant steps of a new
+        pattern's program were met in an earlier one's); only the rare step that must be
+        split or checked against :data:`MAX_STEP_ENTRIES` comes back to :meth:`_wide`."""
+        memo = self._memo
+        tuning = self._tuning
+        _orders.emit(
+            self._live,
+            path,
+            kept,
+            records,
+            None if memo is None else memo.results,
+            self._steps,
+            self.n_inputs,
+            tuning.blas_above,
+            tuning.split_above,
+            _MAX_OPERANDS,
+            MAX_STEP_ENTRIES,
+            self._constant,
+            self._wide,
+        )
 
     def finish(self) -> None:
         """Close the program after its last step: the result's axes in the output's order."""
@@ -409,17 +427,37 @@ class SumProgram:
                     large,
                 )
         self.steps = tuple(self._steps)
-        self.n_registers = self._register
+        self.n_registers = self.n_inputs + len(self._steps)
         self.result = (value, source)
         # a cached program keeps its steps alone: what only building needed goes
         del self._live, self._steps, self._operands, self._size_table, self._memo
 
+    def _wide(
+        self,
+        chosen: list[tuple[Any, int, Sequence[int]]],
+        kept: Sequence[int],
+        entries: int,
+        union: Iterable[int],
+    ) -> tuple[Any, int, Sequence[int]]:
+        """A step the compiled :meth:`extend` hands back: one whose product has over
+        :data:`MAX_STEP_ENTRIES` entries (a ModelError if the table it writes has too,
+        before any allocation), or of many operands, split here."""
+        if entries > MAX_STEP_ENTRIES:  # only then can the table it writes be too large
+            sizes = self._sizes
+            written = math.prod([sizes[label] for label in kept])
+            if written > MAX_STEP_ENTRIES:
+                raise _too_wide(written)
+        large = entries > self._tuning.split_above
+        if len(chosen) > 2 and (large or len(chosen) > _MAX_OPERANDS):
+            return self._split(chosen, kept, large)
+        return self._emit(chosen, kept, entries, union)
+
     def _split(
         self,
-        chosen: list[tuple[Any, int, Sequence[Hashable]]],
-        kept: Sequence[Hashable],
+        chosen: list[tuple[Any, int, Sequence[int]]],
+        kept: Sequence[int],
         large: bool,
-    ) -> tuple[Any, int, Sequence[Hashable]]:
+    ) -> tuple[Any, int, Sequence[int]]:
         """Contract a step of many operands in groups (pairwise if ``large``).
 
         np.einsum would loop over the whole union of a step's indices (or refuse more than
@@ -442,52 +480,29 @@ class SumProgram:
 
     def _emit(
         self,
-        chosen: Sequence[tuple[Any, int, Sequence[Hashable]]],
-        kept: Sequence[Hashable],
+        chosen: Sequence[tuple[Any, int, Sequence[int]]],
+        kept: Sequence[int],
         entries: int,
-        union: Iterable[Hashable],
-    ) -> tuple[Any, int, Sequence[Hashable]]:
-        """Add the step contracting ``chosen`` (``entries`` in their product, ``union`` their
-        labels in order of first appearance) into ``kept`` (run now if all are constant).
-        A result table over :data:`MAX_STEP_ENTRIES` entries is a ModelError, before any
-        allocation.
-
-        A constant step is looked up in the memo before its arguments are built: most
-        constant steps of a new pattern's program were met in an earlier one's."""
-        if entries > MAX_STEP_ENTRIES:  # only then can the table it writes be too large
-            sizes = self._sizes
-            written = math.prod([sizes[label] for label in kept])
-            if written > MAX_STEP_ENTRIES:
-                raise _too_wide(written)
+        union: Iterable[int],
+    ) -> tuple[Any, int, Sequence[int]]:
+        """The step contracting ``chosen`` (``entries`` in their product, ``union`` their
+        labels in order of first appearance) into ``kept``, by the compiled step of
+        :meth:`extend`: a pairwise step over ``blas_above`` entries goes to BLAS."""
         memo = self._memo
-        key = None
-        if memo is not None:
-            for _, source, _ in chosen:
-                if source >= 0:
-                    break  # an operand supplied per call: not a constant step
-            else:
-                key = (*[(id(value), tuple(scope)) for value, _, scope in chosen], tuple(kept))
-                result = memo.get(key)
-                if result is not None:
-                    return result, -1, kept
-        number = dict(zip(union, count())).__getitem__  # einsum's sub-list labels 0, 1, ...
-        args: list[Any] = []
-        fills: list[tuple[int, int]] = []
-        for value, source, scope in chosen:
-            if source >= 0:
-                fills.append((len(args), source))
-            args.append(value)
-            args.append(tuple(map(number, scope)))
-        args.append(tuple(map(number, kept)))
         large = len(chosen) == 2 and entries > self._tuning.blas_above
-        if not fills:
-            result = _call(args, large)
-            if memo is not None:
-                memo.put(key, tuple([value for value, _, _ in chosen]), result)
-            return result, -1, kept
-        self._steps.append((tuple(args), tuple(fills), self._register, large))
-        self._register += 1
-        return None, self._register - 1, kept
+        results = None if memo is None else memo.results
+        return _orders.step(
+            chosen, kept, tuple(union), large, results, self._steps, self.n_inputs, self._constant
+        )
+
+    def _constant(
+        self, args: tuple[Any, ...], large: bool, key: Any, inputs: tuple[Any, ...]
+    ) -> FloatArray:
+        """Contract a step of constant operands now (``key``: its memo key, if memoised)."""
+        result = _call(args, large)
+        if key is not None and self._memo is not None:
+            self._memo.put(key, inputs, result)
+        return result
 
     def __call__(self, *inputs: FloatArray) -> FloatArray:
         """Contract, given the per-call operands in their order among ``operands``."""
@@ -596,5 +611,5 @@ def walk(
     return [walker.step(position) for position in path]
 
 
-def _call(args: list[Any], large: bool) -> FloatArray:
+def _call(args: Sequence[Any], large: bool) -> FloatArray:
     return np.asarray(opt_einsum.contract(*args) if large else einsum(*args))

@@ -33,9 +33,8 @@ few integer operations per relevant variable, not a walk over the network.
 
 from __future__ import annotations
 
-import heapq
 import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 from itertools import chain
@@ -44,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 from bayesmap._lazy import lazy_module
 from bayesmap._typing import FloatArray
+from bayesmap.bn import _orders
 from bayesmap.bn.compiled import Compiled, bits
 from bayesmap.bn.elimination import Walker, walk
 from bayesmap.bn.tuning import TUNING, Tuning
@@ -449,9 +449,13 @@ def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int
     return chosen
 
 
-Steps = tuple[list[tuple[int, ...]], list[tuple[int, ...]], list[tuple[int, Iterable[int]]], int]
-"""An order walked: SSA path, the labels each step keeps, each step's entries and labels,
-and the total multiply-adds."""
+Records = Sequence[tuple[int, tuple[int, ...]]]
+"""Each step of an order: the entries of its operands' product and their labels, in order
+of first appearance."""
+
+Steps = tuple[list[tuple[int, ...]], list[tuple[int, ...]], Records, int]
+"""An order walked: SSA path, the labels each step keeps, each step's records, and the
+total multiply-adds."""
 
 
 def order(
@@ -477,7 +481,8 @@ def order_steps(
     sizes: Mapping[int, int] | None = None,
     *,
     search: bool = False,
-    emit: Callable[[tuple[int, ...], tuple[int, ...], int, Iterable[int]], None] | None = None,
+    emit: Callable[[Sequence[tuple[int, ...]], Sequence[tuple[int, ...]], Records], None]
+    | None = None,
     network: Sequence[bool] | None = None,
     tuning: Tuning = TUNING,
 ) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]] | None, int]:
@@ -490,8 +495,12 @@ def order_steps(
 
     With ``network`` (a one-case question: whether each factor is evidence-free), the
     order is first the network-wide one restricted to these factors' variables
-    (:func:`network_order`), the evidence-free sub-trees first (:func:`_eliminate`),
-    which needs no search. It is kept when it costs at most
+    (:func:`network_order`), which needs no search, with the evidence-free sub-trees
+    first: a label is passed over while a factor holding it depends on the evidence, and
+    the passed-over labels are summed out after the rest, in the same order, so the
+    evidence-free steps are contracted into steps a program computes once (and shares
+    between patterns), and the steps a question repeats for new values are the few that
+    join the evidence. It is kept when it costs at most
     ``tuning.network_order_per_factor`` multiply-adds per factor: then all of its
     arithmetic is worth less than a fraction of the contraction calls' fixed cost, and no
     order could save more than that; the walk stops as soon as it passes that bound, and
@@ -508,23 +517,21 @@ def order_steps(
     where min-weight's order cost andes 1.3–1.8× more time). The kept labels feed
     :class:`~bayesmap.bn.elimination.SumProgram`, which would otherwise recount them.
 
-    ``emit`` (e.g. :meth:`SumProgram.add <bayesmap.bn.elimination.SumProgram.add>`) is
-    given each step of the returned order with the labels it keeps (the last step's in
-    any order), the entries of its operands' product and their labels. A min-weight order
-    that is sure to be kept — the weights of its eliminations, which bound its cost, stay
-    under the search threshold — is emitted step by step as it is walked; any other order's
-    steps are recorded as it is walked and replayed once it is decided, so no order is
-    walked twice.
+    The orders are walked by compiled code (``_orders.c``: each label summed out with
+    the operands then holding it, as :class:`~bayesmap.bn.elimination.Walker` reads a
+    path), which also gives each step's entries and labels; the walk stops as soon as it
+    passes a bound. ``emit`` (e.g. :meth:`SumProgram.extend
+    <bayesmap.bn.elimination.SumProgram.extend>`) is given the returned order: its path,
+    the labels each step keeps (the last step's in any order), and each step's entries and
+    labels, so no order is walked twice.
     """
     card = compiled.card
     extra = sizes or {}
-    # entries of a label: variables by id, other labels (the case axis) from ``sizes``
-    size_of = (lambda w: card[w] if w >= 0 else extra[w]) if extra else card.__getitem__
     n = len(scopes)
     if n == 1:
-        entries = math.prod(map(size_of, scopes[0]))
+        entries = math.prod([card[w] if w >= 0 else extra[w] for w in scopes[0]])
         if emit is not None:
-            emit((0,), tuple(output), entries, scopes[0])
+            emit([(0,)], [tuple(output)], [(entries, tuple(scopes[0]))])
         return [(0,)], [tuple(output)], entries
     steps: Steps | None = None
     if network is not None and not extra and not search:
@@ -537,112 +544,36 @@ def order_steps(
         # the kept output labels, before the evidence-free steps move first); far above the
         # limit, the order is not worth a walk
         if sum(map(weights.__getitem__, summed)) <= tuning.network_order_slack * limit:
-            walker = Walker(scopes, output)
             ordered = sorted(summed, key=positions.__getitem__)
-            steps = _eliminate(walker, ordered, output, size_of, list(network), limit)
-    emitted = None
+            steps = _orders.eliminate(scopes, ordered, output, card, None, network, limit)
     if steps is None:
-        walker = Walker(scopes, output)
-        rank, bound = elimination_rank(scopes, output, card)
-        for w in extra:
-            bound *= extra[w]  # a label left out of the graph (the case axis) widens every step
-        bound += math.prod(map(size_of, output))  # the last step, over the output labels at most
-        may_search = search or (
-            bound > tuning.greedy_above and bound > tuning.greedy_per_factor * n
-        )
+        rank, _ = elimination_rank(scopes, output, card)
         # the ranked labels in rank order, then the labels not ranked (the case axis)
-        unranked = [u for u in walker.holders if u < 0 and u not in output] if extra else []
-        # the order is final unless opt_einsum's search may replace it: then emitted as walked
-        emitted = None if may_search or unranked else emit
-        steps = _eliminate(walker, [*rank, *unranked], output, size_of, emit=emitted)
+        unranked = (
+            [u for u in dict.fromkeys(chain.from_iterable(scopes)) if u < 0 and u not in output]
+            if extra
+            else []
+        )
+        steps = _orders.eliminate(scopes, [*rank, *unranked], output, card, extra, None, None)
         assert steps is not None  # no limit
     path, kept_steps, records, total = steps
     if search or (total > tuning.greedy_above and total > tuning.greedy_per_factor * n):
-        if emitted is not None:
-            raise AssertionError("an emitted order's cost exceeded its bound")
         sets = [frozenset(scope) for scope in scopes]
-        table = {u: card[u] if u >= 0 else extra[u] for u in walker.holders}
+        table = {u: card[u] if u >= 0 else extra[u] for u in chain(*scopes, output)}
         greedy = _greedy(sets, frozenset(output), table)
         greedy_total = _cost(sets, set(output), greedy, table)
         if greedy_total < _cost(sets, set(output), path, table):
             if emit is not None:
-                for step in walk(scopes, output, greedy):
-                    emit(step.inputs, step.kept, math.prod(map(size_of, step.union)), step.union)
+                steps_taken = walk(scopes, output, greedy)
+                emit(
+                    greedy,
+                    [step.kept for step in steps_taken],
+                    [(math.prod([table[u] for u in s.union]), s.union) for s in steps_taken],
+                )
             return greedy, None, greedy_total
-    if emit is not None and emitted is None:
-        for chosen, kept, (entries, union) in zip(path, kept_steps, records, strict=True):
-            emit(chosen, kept, entries, union)
+    if emit is not None:
+        emit(path, kept_steps, records)
     return path, kept_steps, total
-
-
-def _eliminate(
-    walker: Walker[int],
-    labels: Iterable[int],
-    output: Sequence[int],
-    size_of: Callable[[int], int],
-    constant: list[bool] | None = None,
-    limit: int | None = None,
-    emit: Callable[[tuple[int, ...], tuple[int, ...], int, Iterable[int]], None] | None = None,
-) -> Steps | None:
-    """Sum ``labels`` out in this order (each with the factors then holding it), then
-    multiply what is left into ``output``: the steps, as :data:`Steps` (``None`` as soon
-    as they cost more than ``limit`` multiply-adds).
-
-    With ``constant`` (whether each input is evidence-free), a label is passed over while
-    a factor holding it depends on the evidence, and the passed-over labels are summed out
-    after the rest, in the same order: the evidence-free sub-trees are contracted first,
-    into steps a program computes once (and shares between patterns), so the steps a
-    question repeats for new values are the few that join the evidence.
-
-    ``emit`` (an order known to be final) is given each step as it is taken, and the steps'
-    entries and labels are then not recorded.
-    """
-    holders = walker.holders
-    path: list[tuple[int, ...]] = []
-    kept_steps: list[tuple[int, ...]] = []
-    records: list[tuple[int, Iterable[int]]] = []
-    total = 0
-    rounds: list[Iterable[int]] = [labels]
-    if constant is not None:
-        free = constant.__getitem__
-        deferred: list[int] = []
-        rounds.append(deferred)
-    for batch in rounds:
-        for u in batch:
-            chosen = tuple(holders[u])
-            if not chosen:
-                continue
-            if constant is not None:
-                fixed = all(map(free, chosen))
-                if not fixed and batch is not deferred:
-                    deferred.append(u)
-                    continue
-                constant.append(fixed)
-            union, kept = walker.join(chosen)
-            entries = math.prod(map(size_of, union))
-            total += entries
-            if limit is not None and total > limit:
-                return None
-            path.append(chosen)
-            kept_steps.append(kept)
-            if emit is None:
-                records.append((entries, union))
-            else:
-                emit(chosen, kept, entries, union)
-    rest = tuple(walker.open)
-    if len(rest) > 1 or not path:
-        path.append(rest)
-        kept_steps.append(tuple(output))
-        last = dict.fromkeys(chain.from_iterable([walker.live[k] for k in rest]))
-        entries = math.prod(map(size_of, last))
-        total += entries
-        if limit is not None and total > limit:
-            return None
-        if emit is None:
-            records.append((entries, last))
-        else:
-            emit(rest, tuple(output), entries, last)
-    return path, kept_steps, records, total
 
 
 def network_order(compiled: Compiled) -> tuple[dict[int, int], dict[int, int]]:
@@ -669,12 +600,6 @@ def network_order(compiled: Compiled) -> tuple[dict[int, int], dict[int, int]]:
     return known
 
 
-_SCAN_UP_TO = 32
-"""Up to this many labels to rank, :func:`elimination_rank` finds the next by scanning their
-weights rather than keeping a heap (the scan is one C call; the heap's pushes and stale pops
-are interpreter steps)."""
-
-
 def elimination_rank(
     scopes: Sequence[Sequence[int]],
     output: Sequence[int],
@@ -686,79 +611,19 @@ def elimination_rank(
 
     Variable elimination on the interaction graph of ``scopes`` (the labels of each factor
     linked) repeatedly sums out the label whose factor — the label and its current
-    neighbours — has the fewest entries, then links its neighbours (Koller & Friedman
-    2009, §9.4.3.2). Labels in ``output`` are never summed out. Each neighbour's weight (an
-    exact integer, the entries of its factor) is updated by the labels it gains rather than
-    recounted, and the next label is found by one C scan of the weights when there are at
-    most :data:`_SCAN_UP_TO`, else from a heap with stale entries skipped (near-linear in
-    the size of the graph), so a cold question pays set operations, not a Python loop per
-    neighbour's neighbour. (Recounting a changed weight over the whole neighbourhood in C
-    executes fewer bytecode steps but took longer: 25–33 % on alarm and andes.)
-    ``card`` gives the variables' sizes; other labels (the case axis of a batch, label −1)
-    are left out of the graph: the order is the one-case order, which keeps a case axis off
-    the evidence-free steps (with it, min-weight spreads the axis early and a batch costs
-    30× more on alarm). The summed weights bound the multiply-adds of the steps that sum
-    these labels out in this order (each step's operands lie within the label's factor).
-    ``weights``, if given, receives each label's weight when it is summed out.
+    neighbours — has the fewest entries (ties: the least label), then links its
+    neighbours (Koller & Friedman 2009, §9.4.3.2). Labels in ``output`` are never summed
+    out. Compiled (``_orders.c``: the graph as bit rows, the next label from a heap whose
+    stale entries are skipped), as it runs on every cold question whose network order is
+    not kept. ``card`` gives the variables' sizes; other labels (the case axis of a batch,
+    label −1) are left out of the graph: the order is the one-case order, which keeps a
+    case axis off the evidence-free steps (with it, min-weight spreads the axis early and a
+    batch costs 30× more on alarm). The summed weights bound the multiply-adds of the steps
+    that sum these labels out in this order (each step's operands lie within the label's
+    factor). ``weights``, if given, receives each label's weight when it is summed out.
     """
-    neighbours: dict[int, set[int]] = {}
-    for scope in scopes:
-        for u in scope:
-            linked = neighbours.get(u)
-            if linked is None:
-                neighbours[u] = set(scope)
-            else:
-                linked.update(scope)
-    kept = set(output)
-    others = [u for u in neighbours if u < 0]  # labels that are not variables (a case axis)
-    for u in others:
-        del neighbours[u]
-        for linked in neighbours.values():
-            linked.discard(u)
-    weigh = card.__getitem__
-    current: dict[int, int] = {}
-    for u, linked in neighbours.items():
-        linked.discard(u)
-        if u not in kept:
-            current[u] = card[u] * math.prod(map(weigh, linked))
-    # the next label: of least weight, then least id; a scan of the weights (in C) where
-    # there are few, else a heap whose stale entries are skipped
-    heap: list[tuple[int, int]] | None = None
-    if len(current) > _SCAN_UP_TO:
-        heap = [(w, u) for u, w in current.items()]
-        heapq.heapify(heap)
-    rank: dict[int, int] = {}
-    bound = 0
-    pop, push = heapq.heappop, heapq.heappush
-    while current:
-        if heap is None:
-            w, u = min(zip(current.values(), current.keys(), strict=True))
-        else:
-            w, u = pop(heap)
-            if current.get(u) != w:
-                continue  # stale: ranked already, or its weight changed since
-        del current[u]
-        rank[u] = len(rank)
-        bound += w
-        if weights is not None:
-            weights[u] = w
-        around = neighbours.pop(u)
-        size = card[u]
-        for x in around:
-            linked = neighbours[x]
-            linked.discard(u)
-            gained = around - linked
-            gained.discard(x)
-            linked |= gained
-            old = current.get(x)
-            if old is not None:
-                weight = old // size
-                for y in gained:
-                    weight *= card[y]
-                if weight != old:
-                    current[x] = weight
-                    if heap is not None:
-                        push(heap, (weight, x))
+    rank: dict[int, int]
+    rank, bound = _orders.min_weight(scopes, output, card, weights)
     return rank, bound
 
 
