@@ -109,9 +109,10 @@ def _two_parts() -> BayesNet:
 
 @given(seed=SEEDS)
 @FAST
-def test_the_engines_einsum_equals_numpys_bit_for_bit(seed: int) -> None:
-    """``elimination.einsum`` (numpy's C function, no dispatch) answers exactly as
-    ``np.einsum`` for sub-list contractions of random tables, summing any labels."""
+def test_the_engines_einsum_agrees_with_numpys(seed: int) -> None:
+    """``elimination.einsum`` (small products summed in ``_orders.c``, the rest by numpy's
+    C function without dispatch) answers as ``np.einsum``, to rounding, for sub-list
+    contractions of random tables, summing any labels."""
     rng = np.random.default_rng(seed)
     sizes = rng.integers(1, 5, size=4)
     args: list[object] = []
@@ -121,7 +122,7 @@ def test_the_engines_einsum_equals_numpys_bit_for_bit(seed: int) -> None:
         args += [rng.random(tuple(sizes[labels])), labels]
         used.update(labels)
     args.append(sorted(used)[: int(rng.integers(0, len(used) + 1))])
-    np.testing.assert_array_equal(elimination.einsum(*args), np.einsum(*args))
+    np.testing.assert_allclose(elimination.einsum(*args), np.einsum(*args), rtol=1e-13, atol=0)
 
 
 def test_impossible_evidence_in_a_pruned_part_is_reported() -> None:

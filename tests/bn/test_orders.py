@@ -24,11 +24,13 @@ def factor_scopes(draw: st.DrawFn) -> tuple[list[tuple[int, ...]], list[int]]:
     card = draw(st.lists(st.integers(1, 4), min_size=n_vars, max_size=n_vars))
     labels = st.integers(-1, n_vars - 1) if draw(st.booleans()) else st.integers(0, n_vars - 1)
     scopes = draw(
-        st.lists(
-            st.lists(labels, max_size=4, unique=True).map(tuple), min_size=1, max_size=12
-        )
+        st.lists(st.lists(labels, max_size=4, unique=True).map(tuple), min_size=1, max_size=12)
     )
     return scopes, card
+
+
+Walked = tuple[list[tuple[int, ...]], list[tuple[int, ...]], list[tuple[int, tuple[int, ...]]], int]
+"""An order walked: path, kept labels, each step's entries and labels, total."""
 
 
 def reference_walk(
@@ -38,7 +40,7 @@ def reference_walk(
     size: dict[int, int],
     constant: list[bool] | None,
     limit: int | None,
-) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]], list[tuple[int, tuple[int, ...]]], int] | None:
+) -> Walked | None:
     """What :func:`_orders.eliminate` documents, by the Python path reader: each label in turn
     summed with the operands holding it — passed over while one of them depends on the
     evidence, then summed after the rest — and what is left joined into ``output``."""
@@ -175,7 +177,8 @@ def sum_products(draw: st.DrawFn) -> list[object]:
         array = rng.random(shape)
         how = draw(st.sampled_from(["plain", "strided", "transposed"]))
         if how == "strided":
-            array = rng.random(tuple(2 * n for n in shape))[tuple(slice(None, None, 2) for _ in shape)]
+            every_other = tuple(slice(None, None, 2) for _ in shape)
+            array = rng.random(tuple(2 * n for n in shape))[every_other]
         elif how == "transposed" and len(shape) > 1:
             array = np.ascontiguousarray(array.T).T
         args += [array, labels]
@@ -197,13 +200,15 @@ def test_contract_sums_products_as_numpy_einsum(args: list[object]) -> None:
 
 
 def test_contract_hands_numpy_what_it_does_not_compute() -> None:
-    """Other dtypes, list sub-lists, diagonals, broadcast axes, implicit outputs and large
-    products give numpy's answers; a size mismatch numpy's error."""
+    """List sub-lists, and what goes to numpy — other dtypes, sub-lists that are neither
+    tuples nor lists, diagonals, broadcast axes, implicit outputs, large products — give
+    numpy's answers; a size mismatch numpy's error."""
     a = np.arange(6.0).reshape(2, 3)
     square = np.arange(9.0).reshape(3, 3)
     cases = [
         (a.astype(np.float32), (0, 1), (0,)),
         (a, [0, 1], [0]),
+        (a, range(2), (0,)),
         (square, (0, 0), (0,)),
         (np.broadcast_to(np.arange(3.0), (2, 3)), (0, 1), (1,)),
         (a, (0, 1)),

@@ -28,6 +28,7 @@
 #include <Python.h>
 #include <stdint.h>
 #include <stdlib.h>
+#include <limits.h>
 #include <string.h>
 
 typedef uint64_t count_t;
@@ -426,6 +427,96 @@ done:
     return result;
 }
 
+typedef struct {
+    long long place;
+    long label;
+} placed_t;
+
+static int by_place(const void *a, const void *b) {
+    long long x = ((const placed_t *)a)->place, y = ((const placed_t *)b)->place;
+    return (x > y) - (x < y);
+}
+
+/* restrict(scopes, output, positions, weights, bound) -> labels | None
+ *
+ * The labels of `scopes` that are not in `output`, in the order of `positions` (each
+ * variable's place in the network-wide elimination order, by id), or None when their
+ * `weights` (each variable's weight there) sum to more than `bound`. */
+static PyObject *restrict_order(PyObject *self, PyObject *args) {
+    PyObject *scopes, *output, *positions, *weights, *bound_obj;
+    if (!PyArg_ParseTuple(args, "OOOOO", &scopes, &output, &positions, &weights, &bound_obj))
+        return NULL;
+    int overflow;
+    unsigned long long bound = ULLONG_MAX;
+    long long small = PyLong_AsLongLongAndOverflow(bound_obj, &overflow);
+    if (small == -1 && PyErr_Occurred()) return NULL;
+    int refused = overflow < 0 || (!overflow && small < 0);
+    if (!overflow && small >= 0) bound = (unsigned long long)small;
+    PyObject *scopes_fast = NULL, *output_fast = NULL, *result = NULL;
+    char *mark = NULL;
+    placed_t *chosen = NULL;
+    long lo, hi;
+    scopes_fast = PySequence_Fast(scopes, "scopes must be a sequence");
+    output_fast = PySequence_Fast(output, "output must be a sequence");
+    if (!scopes_fast || !output_fast) goto done;
+    if (read_range(scopes_fast, output_fast, &lo, &hi) < 0) goto done;
+    if (lo < 0) {
+        PyErr_SetString(PyExc_ValueError, "a network order has variables only");
+        goto done;
+    }
+    mark = PyMem_Calloc((size_t)hi + 2, 1);
+    chosen = PyMem_Malloc(((size_t)hi + 2) * sizeof(placed_t));
+    if (!mark || !chosen) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t j = 0; j < PySequence_Fast_GET_SIZE(output_fast); j++)
+        mark[PyLong_AsLong(PySequence_Fast_GET_ITEM(output_fast, j))] = 1;
+    Py_ssize_t n_chosen = 0;
+    count_t total = 0;
+    for (Py_ssize_t k = 0; k < PySequence_Fast_GET_SIZE(scopes_fast); k++) {
+        PyObject *fast = PySequence_Fast(PySequence_Fast_GET_ITEM(scopes_fast, k), "a scope");
+        if (fast == NULL) goto done;
+        for (Py_ssize_t j = 0; j < PySequence_Fast_GET_SIZE(fast); j++) {
+            long u = PyLong_AsLong(PySequence_Fast_GET_ITEM(fast, j));
+            if (mark[u]) continue;
+            mark[u] = 1;
+            PyObject *p = PySequence_GetItem(positions, u);
+            PyObject *w = p ? PySequence_GetItem(weights, u) : NULL;
+            long long at = p ? PyLong_AsLongLong(p) : -1;
+            unsigned long long weight = w ? PyLong_AsUnsignedLongLong(w) : 0;
+            Py_XDECREF(p);
+            Py_XDECREF(w);
+            if (PyErr_Occurred()) {
+                Py_DECREF(fast);
+                goto done;
+            }
+            total = add_sat(total, (count_t)weight);
+            chosen[n_chosen].place = at;
+            chosen[n_chosen++].label = u;
+        }
+        Py_DECREF(fast);
+    }
+    if (refused || total > bound) {
+        result = Py_None;
+        Py_INCREF(result);
+        goto done;
+    }
+    qsort(chosen, (size_t)n_chosen, sizeof(placed_t), by_place);
+    result = PyList_New(n_chosen);
+    for (Py_ssize_t k = 0; result != NULL && k < n_chosen; k++) {
+        PyObject *x = PyLong_FromLong(chosen[k].label);
+        if (x == NULL) Py_CLEAR(result);
+        else PyList_SET_ITEM(result, k, x);
+    }
+done:
+    Py_XDECREF(scopes_fast);
+    Py_XDECREF(output_fast);
+    PyMem_Free(mark);
+    PyMem_Free(chosen);
+    return result;
+}
+
 /* ---- min_weight ----------------------------------------------------------------------- */
 
 typedef struct {
@@ -648,6 +739,256 @@ done:
     PyMem_Free(adj);
     PyMem_Free(members.a);
     PyMem_Free(heap.a);
+    return result;
+}
+
+/* ---- pruning ------------------------------------------------------------------------- */
+
+/* A network's variable sets as bit rows (Compiled.mask_table): a header (n, words), then
+ * per variable its lineage (itself and its ancestors), ancestors, the children of its
+ * ancestors ("reach") and family (itself and its parents), each `words` 64-bit words; the
+ * data nodes; and the topological order and each variable's place in it. */
+typedef struct {
+    int64_t n, words;
+    const uint64_t *lineage, *ancestors, *reach, *family, *sources;
+    const int64_t *topo, *topo_pos;
+} table_t;
+
+static int read_table(PyObject *blob, table_t *t) {
+    if (!PyBytes_Check(blob) || PyBytes_GET_SIZE(blob) < 16) {
+        PyErr_SetString(PyExc_TypeError, "not a mask table");
+        return -1;
+    }
+    const char *at = PyBytes_AS_STRING(blob);
+    memcpy(&t->n, at, 8);
+    memcpy(&t->words, at + 8, 8);
+    int64_t row = t->n * t->words;
+    Py_ssize_t expected = 16 + (Py_ssize_t)((4 * row + t->words) * 8 + 2 * t->n * 8);
+    if (t->n < 0 || t->words < 1 || PyBytes_GET_SIZE(blob) != expected) {
+        PyErr_SetString(PyExc_ValueError, "a mask table of the wrong size");
+        return -1;
+    }
+    const uint64_t *words = (const uint64_t *)(at + 16);
+    t->lineage = words;
+    t->ancestors = words + row;
+    t->reach = words + 2 * row;
+    t->family = words + 3 * row;
+    t->sources = words + 4 * row;
+    t->topo = (const int64_t *)(t->sources + t->words);
+    t->topo_pos = t->topo + t->n;
+    return 0;
+}
+
+#define BIT(mask, v) (((mask)[(v) / 64] >> ((v) % 64)) & 1)
+
+static int any_and(const uint64_t *a, const uint64_t *b, int64_t words) {
+    for (int64_t k = 0; k < words; k++)
+        if (a[k] & b[k]) return 1;
+    return 0;
+}
+
+static int is_zero(const uint64_t *a, int64_t words) {
+    for (int64_t k = 0; k < words; k++)
+        if (a[k]) return 0;
+    return 1;
+}
+
+/* Read a sequence of variable ids (each < n) into `out`; -1 on error. */
+static Py_ssize_t read_ids(PyObject *seq, int64_t n, int64_t **out) {
+    PyObject *fast = PySequence_Fast(seq, "variable ids must be a sequence");
+    if (fast == NULL) return -1;
+    Py_ssize_t m = PySequence_Fast_GET_SIZE(fast);
+    *out = PyMem_Malloc(((size_t)m + 1) * sizeof(int64_t));
+    if (*out == NULL) {
+        Py_DECREF(fast);
+        PyErr_NoMemory();
+        return -1;
+    }
+    for (Py_ssize_t k = 0; k < m; k++) {
+        long v = PyLong_AsLong(PySequence_Fast_GET_ITEM(fast, k));
+        if (v < 0 || v >= n) {
+            if (!PyErr_Occurred()) PyErr_Format(PyExc_IndexError, "no variable %ld", v);
+            Py_DECREF(fast);
+            return -1;
+        }
+        (*out)[k] = v;
+    }
+    Py_DECREF(fast);
+    return m;
+}
+
+static PyObject *id_list(const int64_t *ids, Py_ssize_t n, int as_tuple) {
+    PyObject *out = as_tuple ? PyTuple_New(n) : PyList_New(n);
+    if (out == NULL) return NULL;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        PyObject *x = PyLong_FromLongLong(ids[k]);
+        if (x == NULL) {
+            Py_DECREF(out);
+            return NULL;
+        }
+        if (as_tuple)
+            PyTuple_SET_ITEM(out, k, x);
+        else
+            PyList_SET_ITEM(out, k, x);
+    }
+    return out;
+}
+
+/* Sort a few ids ascending by key[id] (or by id, with key NULL): an insertion sort. */
+static void sort_ids(int64_t *ids, Py_ssize_t n, const int64_t *key) {
+    for (Py_ssize_t i = 1; i < n; i++) {
+        int64_t x = ids[i], kx = key ? key[x] : x;
+        Py_ssize_t j = i;
+        for (; j > 0 && (key ? key[ids[j - 1]] : ids[j - 1]) > kx; j--) ids[j] = ids[j - 1];
+        ids[j] = x;
+    }
+}
+
+/* prune(table, targets, evidence, kind, priors) -> (kept, replaced, dropped)
+ *
+ * Which CPTs a question's plan keeps (bayesmap.bn.plans.build documents the steps): kind 0
+ * (marginal) keeps the targets, the evidence and their ancestors, and the connected
+ * component of the targets; kind 1 (evidence) all components; kind 2 (whole) every
+ * variable. With `priors`, each maximal evidence-free ancestral sub-network that meets the
+ * rest through one variable is replaced by that variable's prior, and a single target that
+ * the evidence cannot reach is answered by its prior alone. Returns the kept
+ * variables in topological order (their CPTs, or priors for those in `replaced`, in the
+ * order they were found, last first), and the observed variables whose CPTs were dropped,
+ * ascending. */
+static PyObject *prune(PyObject *self, PyObject *args) {
+    PyObject *blob, *targets_obj, *evidence_obj;
+    int kind, priors;
+    if (!PyArg_ParseTuple(args, "OOOip", &blob, &targets_obj, &evidence_obj, &kind, &priors))
+        return NULL;
+    table_t t;
+    if (read_table(blob, &t) < 0) return NULL;
+    int64_t W = t.words, n = t.n;
+    int64_t *targets = NULL, *evidence = NULL, *relevant = NULL, *kept = NULL, *replaced = NULL;
+    int64_t *dropped = NULL;
+    uint64_t *work = NULL, *scope = NULL;
+    PyObject *result = NULL;
+    Py_ssize_t n_targets = read_ids(targets_obj, n, &targets);
+    Py_ssize_t n_evidence = n_targets < 0 ? -1 : read_ids(evidence_obj, n, &evidence);
+    if (n_targets < 0 || n_evidence < 0) goto done;
+    /* working rows: evidence, its lineage, targets, relevant, skip, covered, reached, before */
+    work = PyMem_Calloc((size_t)(8 * W), sizeof(uint64_t));
+    relevant = PyMem_Malloc(((size_t)n + n_evidence + 2) * sizeof(int64_t));
+    kept = PyMem_Malloc(((size_t)n + n_evidence + 2) * sizeof(int64_t));
+    replaced = PyMem_Malloc(((size_t)n + 1) * sizeof(int64_t));
+    dropped = PyMem_Malloc(((size_t)n_evidence + 1) * sizeof(int64_t));
+    if (!work || !relevant || !kept || !replaced || !dropped) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    uint64_t *ev = work, *ev_lineage = work + W, *tm = work + 2 * W, *r = work + 3 * W;
+    uint64_t *skip = work + 4 * W, *covered = work + 5 * W, *reached = work + 6 * W;
+    uint64_t *before = work + 7 * W;
+    for (Py_ssize_t k = 0; k < n_evidence; k++) {
+        int64_t v = evidence[k];
+        ev[v / 64] |= (uint64_t)1 << (v % 64);
+        for (int64_t j = 0; j < W; j++) ev_lineage[j] |= t.lineage[v * W + j];
+    }
+    for (Py_ssize_t k = 0; k < n_targets; k++) tm[targets[k] / 64] |= (uint64_t)1 << (targets[k] % 64);
+    Py_ssize_t n_relevant = 0, n_kept = 0, n_replaced = 0, n_dropped = 0;
+    int alone = 0;
+    if (priors && n_evidence > 0 && n_targets == 1 && kind == 0) {
+        int64_t v = targets[0];
+        alone = 1;
+        for (int64_t j = 0; j < W; j++)
+            if (t.lineage[v * W + j] & (ev_lineage[j] | t.sources[j])) alone = 0;
+    }
+    if (alone) { /* the target's prior, with the evidence's checks */
+        relevant[n_relevant++] = targets[0];
+        for (Py_ssize_t k = 0; k < n_evidence; k++) relevant[n_relevant++] = evidence[k];
+        sort_ids(relevant, n_relevant, t.topo_pos);
+        replaced[n_replaced++] = targets[0];
+    } else {
+        if (kind == 2) {
+            for (int64_t v = 0; v < n; v++) r[v / 64] |= (uint64_t)1 << (v % 64);
+        } else {
+            memcpy(r, ev_lineage, (size_t)W * sizeof(uint64_t));
+            for (Py_ssize_t k = 0; k < n_targets; k++)
+                for (int64_t j = 0; j < W; j++) r[j] |= t.lineage[targets[k] * W + j];
+        }
+        if (priors) { /* evidence-free ancestral sub-networks, the lowest first */
+            for (int64_t j = 0; j < W; j++) skip[j] = ev[j] | tm[j] | t.sources[j];
+            for (int64_t p = n - 1; p >= 0; p--) {
+                int64_t v = t.topo[p];
+                if (!BIT(r, v)) continue;
+                const uint64_t *line = t.lineage + v * W, *anc = t.ancestors + v * W;
+                if (any_and(line, skip, W) || is_zero(anc, W) || BIT(covered, v)) continue;
+                int meets = 0;
+                for (int64_t j = 0; j < W; j++)
+                    if (t.reach[v * W + j] & r[j] & ~line[j]) meets = 1;
+                if (meets) continue;
+                replaced[n_replaced++] = v;
+                for (int64_t j = 0; j < W; j++) covered[j] |= anc[j];
+            }
+            for (int64_t j = 0; j < W; j++) r[j] &= ~covered[j];
+        }
+        for (int64_t p = 0; p < n; p++)
+            if (BIT(r, t.topo[p])) relevant[n_relevant++] = t.topo[p];
+    }
+    /* the free variables of each relevant CPT (of a replaced variable's prior: itself) */
+    scope = PyMem_Calloc((size_t)(n_relevant * W) + 1, sizeof(uint64_t));
+    if (scope == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t k = 0; k < n_relevant; k++) {
+        int64_t v = relevant[k];
+        int is_replaced = 0;
+        for (Py_ssize_t i = 0; i < n_replaced; i++)
+            if (replaced[i] == v) is_replaced = 1;
+        uint64_t *row = scope + k * W;
+        if (is_replaced)
+            row[v / 64] |= (uint64_t)1 << (v % 64);
+        else
+            for (int64_t j = 0; j < W; j++) row[j] = t.family[v * W + j] & ~ev[j];
+    }
+    /* which CPTs stay: with one target the evidence cannot reach, those sharing a variable
+     * with the target's prior; for a marginal, those in the targets' component (passes
+     * over the scopes, alternately upwards and downwards, until one reaches nothing new);
+     * otherwise all */
+    int filtered = alone || kind == 0;
+    memcpy(reached, tm, (size_t)W * sizeof(uint64_t));
+    for (int pass = 0; kind == 0 && !alone; pass++) {
+        memcpy(before, reached, (size_t)W * sizeof(uint64_t));
+        for (Py_ssize_t i = 0; i < n_relevant; i++) {
+            Py_ssize_t k = pass % 2 == 0 ? n_relevant - 1 - i : i;
+            const uint64_t *row = scope + k * W;
+            if (any_and(row, reached, W))
+                for (int64_t j = 0; j < W; j++) reached[j] |= row[j];
+        }
+        if (memcmp(before, reached, (size_t)W * sizeof(uint64_t)) == 0) break;
+    }
+    for (Py_ssize_t k = 0; k < n_relevant; k++) {
+        int64_t v = relevant[k];
+        const uint64_t *row = scope + k * W;
+        if (filtered && !is_zero(row, W) && !any_and(row, reached, W)) {
+            if (BIT(ev, v)) dropped[n_dropped++] = v;
+            continue;
+        }
+        kept[n_kept++] = v;
+    }
+    sort_ids(dropped, n_dropped, NULL);
+    PyObject *kept_list = id_list(kept, n_kept, 0);
+    PyObject *replaced_tuple = id_list(replaced, n_replaced, 1);
+    PyObject *dropped_tuple = id_list(dropped, n_dropped, 1);
+    if (kept_list && replaced_tuple && dropped_tuple)
+        result = PyTuple_Pack(3, kept_list, replaced_tuple, dropped_tuple);
+    Py_XDECREF(kept_list);
+    Py_XDECREF(replaced_tuple);
+    Py_XDECREF(dropped_tuple);
+done:
+    PyMem_Free(targets);
+    PyMem_Free(evidence);
+    PyMem_Free(relevant);
+    PyMem_Free(kept);
+    PyMem_Free(replaced);
+    PyMem_Free(dropped);
+    PyMem_Free(work);
+    PyMem_Free(scope);
     return result;
 }
 
@@ -903,7 +1244,8 @@ static PyObject *numpy_empty, *numpy_float64, *numpy_einsum;
  * the product's entries here (numpy's einsum sets up an iterator per call, several
  * microseconds, and brings much more code and data into the caches than a Bayesian
  * network's small steps need); anything else (a large product, another dtype, a label
- * repeated in one operand, an implicit output) goes to numpy's einsum unchanged. */
+ * repeated in one operand, a broadcast axis, an implicit output) goes to numpy's einsum
+ * unchanged. Sub-lists are tuples or lists of ints. */
 static Py_ssize_t small_entries = 4096;
 
 static PyObject *contract(PyObject *self, PyObject *args) {
@@ -925,7 +1267,7 @@ static PyObject *contract(PyObject *self, PyObject *args) {
     for (Py_ssize_t k = 0; k < m && !fallback; k++) {
         PyObject *op = PyTuple_GET_ITEM(args, 2 * k);
         PyObject *labels = PyTuple_GET_ITEM(args, 2 * k + 1);
-        if (!PyTuple_Check(labels) || !PyObject_CheckBuffer(op)) {
+        if (!(PyTuple_Check(labels) || PyList_Check(labels)) || !PyObject_CheckBuffer(op)) {
             fallback = 1;
             break;
         }
@@ -937,14 +1279,14 @@ static PyObject *contract(PyObject *self, PyObject *args) {
         }
         n_views++;
         if (view->itemsize != 8 || view->format == NULL || strcmp(view->format, "d") != 0 ||
-            view->ndim != PyTuple_GET_SIZE(labels)) {
+            view->ndim != PySequence_Fast_GET_SIZE(labels)) {
             fallback = 1;
             break;
         }
         base[k] = (const double *)view->buf;
         for (Py_ssize_t u = 0; u < MAX_LABELS; u++) strides[k][u] = 0;
         for (Py_ssize_t j = 0; j < view->ndim; j++) {
-            long u = PyLong_AsLong(PyTuple_GET_ITEM(labels, j));
+            long u = PyLong_AsLong(PySequence_Fast_GET_ITEM(labels, j));
             if (u < 0 || u >= MAX_LABELS || strides[k][u] != 0 || view->strides[j] % 8 != 0) {
                 PyErr_Clear();
                 fallback = 1;
@@ -970,8 +1312,8 @@ static PyObject *contract(PyObject *self, PyObject *args) {
         if (!fallback) {
             for (Py_ssize_t j = 0; j < view->ndim && !fallback; j++)
                 for (Py_ssize_t i = 0; i < j; i++)
-                    if (PyLong_AsLong(PyTuple_GET_ITEM(labels, i)) ==
-                        PyLong_AsLong(PyTuple_GET_ITEM(labels, j)))
+                    if (PyLong_AsLong(PySequence_Fast_GET_ITEM(labels, i)) ==
+                        PyLong_AsLong(PySequence_Fast_GET_ITEM(labels, j)))
                         fallback = 1;
         }
     }
@@ -980,14 +1322,15 @@ static PyObject *contract(PyObject *self, PyObject *args) {
     long out_label[MAX_LABELS];
     Py_ssize_t entries = 1;
     if (!fallback) {
-        if (!PyTuple_Check(out_labels) || PyTuple_GET_SIZE(out_labels) > MAX_LABELS) {
+        if (!(PyTuple_Check(out_labels) || PyList_Check(out_labels)) ||
+            PySequence_Fast_GET_SIZE(out_labels) > MAX_LABELS) {
             fallback = 1;
         } else {
-            n_out = PyTuple_GET_SIZE(out_labels);
+            n_out = PySequence_Fast_GET_SIZE(out_labels);
             char in_out[MAX_LABELS];
             memset(in_out, 0, sizeof in_out);
             for (Py_ssize_t j = 0; j < n_out; j++) {
-                long u = PyLong_AsLong(PyTuple_GET_ITEM(out_labels, j));
+                long u = PyLong_AsLong(PySequence_Fast_GET_ITEM(out_labels, j));
                 if (u < 0 || u >= MAX_LABELS || !seen[u] || in_out[u]) {
                     PyErr_Clear();
                     fallback = 1;
@@ -1100,11 +1443,15 @@ static PyMethodDef methods[] = {
     {"eliminate", eliminate, METH_VARARGS,
      "eliminate(scopes, labels, output, card, extra, constant, limit) -> "
      "(path, kept, records, total) | None"},
+    {"restrict", restrict_order, METH_VARARGS,
+     "restrict(scopes, output, positions, weights, bound) -> labels | None"},
     {"min_weight", min_weight, METH_VARARGS,
      "min_weight(scopes, output, card, weights) -> (rank, bound)"},
     {"contract", contract, METH_VARARGS,
      "contract(a, labels_a, b, labels_b, ..., labels_out): numpy's einsum in sub-list form, "
      "small float64 products computed here"},
+    {"prune", prune, METH_VARARGS,
+     "prune(table, targets, evidence, kind, priors) -> (kept, replaced, dropped)"},
     {"step", step, METH_VARARGS,
      "step(chosen, kept, union, large, results, steps, n_inputs, constant) -> operand"},
     {"emit", emit, METH_VARARGS,

@@ -52,3 +52,13 @@ def emit(
     wide: Callable[..., Any],
 ) -> None: ...
 def contract(*operands: Any) -> Any: ...
+def prune(
+    table: bytes, targets: Sequence[int], evidence: Sequence[int], kind: int, priors: bool
+) -> tuple[list[int], tuple[int, ...], tuple[int, ...]]: ...
+def restrict(
+    scopes: Sequence[Sequence[int]],
+    output: Sequence[int],
+    positions: Sequence[int],
+    weights: Sequence[int],
+    bound: int,
+) -> list[int] | None: ...

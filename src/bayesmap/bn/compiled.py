@@ -8,6 +8,8 @@ variable), rebuilt only when the network's version counter changes.
 
 from __future__ import annotations
 
+import sys
+from array import array
 from collections.abc import Mapping, Sequence
 from itertools import compress, count
 from typing import Any, Protocol
@@ -110,7 +112,7 @@ class Compiled:
                 reach[v] |= reach[parent] | self.child_masks[parent]
         self.reach_masks = tuple(reach)
         """The children of each variable's ancestors as a bit mask: where the sub-network
-        above a variable meets the rest of the network (``plans.clean_roots``)."""
+        above a variable meets the rest of the network (``plans.build``, step 2)."""
         self.source_mask = sum(1 << v for v in self.sources)
         """Data nodes as a bit mask."""
         self._transposed: dict[tuple[int, tuple[int, ...]], FloatArray] = {}
@@ -119,12 +121,46 @@ class Compiled:
         self.constants = ConstantMemo()
         """Evidence-independent contraction steps already computed (``SumProgram`` memo)."""
         self._independent: list[bool | None] = [None] * len(self.names)
-        self.network_order: tuple[dict[int, int], dict[int, int]] | None = None
-        """Each variable's position and weight in the network-wide elimination order, once
-        a question has needed it (``plans.network_order``)."""
+        self.network_order: tuple[list[int], list[int]] | None = None
+        """Each variable's position and weight in the network-wide elimination order (by
+        id), once a question has needed it (``plans.network_order``)."""
         self.layouts: dict[tuple[int, int], Any] = {}
         """Observed-first layouts of CPTs and their factors, by variable and observed family
         (``plans.build``)."""
+        self._mask_table: bytes | None = None
+
+    @property
+    def mask_table(self) -> bytes:
+        """The variable sets pruning reads, as bit rows for the compiled ``_orders.prune``
+        (built on the first question): the number of variables and of 64-bit words per
+        row; each variable's lineage, ancestors, reach and family; the data nodes; the
+        topological order and each variable's place in it."""
+        table = self._mask_table
+        if table is None:
+            n = len(self.names)
+            words = max(1, (n + 63) // 64)
+            size = 8 * words
+            rows = [
+                mask.to_bytes(size, sys.byteorder)
+                for masks in (
+                    self.lineage_masks,
+                    self.ancestor_masks,
+                    self.reach_masks,
+                    self.family_masks,
+                    (self.source_mask,),
+                )
+                for mask in masks
+            ]
+            places = [self.topo_pos[v] for v in range(n)]
+            table = self._mask_table = b"".join(
+                [
+                    array("q", [n, words]).tobytes(),
+                    *rows,
+                    array("q", self.topo).tobytes(),
+                    array("q", places).tobytes(),
+                ]
+            )
+        return table
 
     def transposed(self, var: int, perm: tuple[int, ...]) -> FloatArray:
         """CPT of ``var`` with axes permuted by ``perm``, C-contiguous (cached)."""

@@ -32,6 +32,7 @@ CASE = -1
 """Label of the case axis in batched contractions (variable ids are >= 0)."""
 
 _OBSERVED, _FREE, _SPEC = attrgetter("observed"), attrgetter("free"), attrgetter("spec")
+_SUM = np.add.reduce
 """Getters of a plan's factors, mapped over them in C (:func:`single_program`)."""
 
 
@@ -275,7 +276,7 @@ def patterns(table: IntArray) -> list[tuple[IntArray, IntArray]]:
 
 def normalised(table: FloatArray, evidence: Mapping[str, object]) -> FloatArray:
     """``table / Σ table``; raises on impossible evidence (a zero sum)."""
-    total = table.sum()
+    total = _SUM(table, axis=None)  # the ufunc itself: ``table.sum()`` adds a Python wrapper
     if not total > 0.0:
         raise InputError(impossible(evidence))
     return np.asarray(table / total)

@@ -37,7 +37,7 @@ from bayesmap.bn import (
     posteriors,
     probabilities,
 )
-from bayesmap.bn.compiled import Compiled, NetworkLike, bits
+from bayesmap.bn.compiled import Compiled, NetworkLike
 from bayesmap.bn.fixed_point import FixedResult, QFormat
 from bayesmap.bn.numbers import FLOATS, FixedPoint
 from bayesmap.bn.plans import Plan, QueryKind
@@ -142,9 +142,7 @@ class Engine:
         its plan replaces by their priors."""
         if compiled.independent_parents(var):
             return True, list(compiled.parents[var])
-        r_mask = compiled.lineage_masks[var]
-        relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
-        return False, plans.clean_roots(compiled, relevant, r_mask, 1 << var)
+        return False, plans.replaced_roots(compiled, var)
 
     def _marginal(self, compiled: Compiled, var: int, independent: bool) -> FloatArray:
         """``P(var)`` once the priors it uses are cached: one ``einsum``
@@ -160,7 +158,7 @@ class Engine:
         else:
             plan = plans.build(compiled, QueryKind.MARGINAL, (var,), (), prior=self.prior)
             table, _ = contraction.single_program(plan, compiled, self.tuning)
-        return np.asarray(table / table.sum())
+        return np.asarray(table / np.add.reduce(table, axis=None))
 
     def check_dropped(
         self, plan: Plan, values: Callable[[int], Any], case: Callable[[], str]
@@ -180,7 +178,8 @@ class Engine:
                 v for v in plan.dropped if not compiled.source_mask & compiled.lineage_masks[v]
             )
         for v in checkable:
-            if not (self.prior(v)[values(v)] > 0.0).all():  # a numpy bool or bool array
+            found = self.prior(v)[values(v)]  # one case's probability, or a batch's array
+            if not ((found > 0.0).all() if isinstance(found, np.ndarray) else found > 0.0):
                 raise InputError(case())
 
     def evidence_ids(self, evidence: Evidence) -> dict[int, int]:

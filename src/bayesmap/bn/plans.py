@@ -6,18 +6,21 @@ Building one:
 
 0. **Unreachable evidence**: a single target that shares no ancestor with any evidence
    variable (and has no data node among its ancestors) has its prior as its answer; its
-   plan is that one factor, with the evidence's checks (:func:`_prior_plan`), and no
-   pruning, order or contraction is needed.
+   plan is that one factor, with the evidence's checks, and no pruning, order or
+   contraction is needed.
 1. **Barren nodes** (Post et al. 2016 §3.2: only ancestors matter): keep the targets, the
    evidence and their ancestors; every other CPT sums to 1 and drops out.
-2. **Evidence slicing**: each CPT is transposed so its observed axes come first, so that
+2. **Evidence-free sub-networks**: an ancestral sub-network with no target, evidence or
+   data node that meets the rest only through one variable ``Y`` is replaced by the prior
+   ``P(Y)`` (:func:`replaced_roots`).
+3. **d-separation**: factors link the remaining free variables; connected components
+   that hold no target are independent of the targets given the evidence and are dropped
+   (their factors only scale the answer). Factors whose every variable is observed become
+   scalar checks (a zero means impossible evidence).
+4. **Evidence slicing**: each CPT is transposed so its observed axes come first, so that
    ``table[e1, e2]`` (one case) or ``table[cols1, cols2]`` (a batch, giving a leading case
    axis) selects the evidence rows without copying the rest.
-3. **d-separation**: after slicing, factors link the remaining free variables; connected
-   components that hold no target are independent of the targets given the evidence and
-   are dropped (their factors only scale the answer). Factors whose every variable is
-   observed become scalar checks (a zero means impossible evidence).
-4. **Contraction order** (:func:`order_steps`): for a one-case question, the network-wide
+5. **Contraction order** (:func:`order_steps`): for a one-case question, the network-wide
    min-weight elimination order (:func:`network_order`, computed once per network)
    restricted to the plan's variables, evidence-free sub-trees first — no search per
    pattern; where that order's arithmetic is not negligible, and for batches, a greedy
@@ -27,8 +30,10 @@ Building one:
    :class:`~bayesmap.bn.elimination.SumProgram` replays it with every evidence-independent
    sub-tree pre-contracted once.
 
-Variable sets are Python-int bit masks (bit ``i`` = variable id ``i``), so pruning costs a
-few integer operations per relevant variable, not a walk over the network.
+Variable sets are bit masks (bit ``i`` = variable id ``i``), precomputed per network
+version; steps 0–3 run in compiled code over them as rows of 64-bit words
+(``_orders.c``), and so do the order walks of step 5 — a few word operations per relevant
+variable and step, where a new pattern in Python paid thousands of interpreter steps.
 """
 
 from __future__ import annotations
@@ -44,7 +49,7 @@ from typing import TYPE_CHECKING, Any
 from bayesmap._lazy import lazy_module
 from bayesmap._typing import FloatArray
 from bayesmap.bn import _orders
-from bayesmap.bn.compiled import Compiled, bits
+from bayesmap.bn.compiled import Compiled
 from bayesmap.bn.elimination import Walker, walk
 from bayesmap.bn.tuning import TUNING, Tuning
 
@@ -240,6 +245,10 @@ class Plan:
         return "".join(symbol(v) for v in self.targets)
 
 
+_KINDS = {QueryKind.MARGINAL: 0, QueryKind.EVIDENCE: 1, QueryKind.WHOLE: 2}
+"""How the compiled pruning (``_orders.prune``) numbers the kinds of question."""
+
+
 def build(
     compiled: Compiled,
     kind: QueryKind,
@@ -267,86 +276,64 @@ def build(
     prior
         Gives the (cached) prior marginal of a variable; with it, every evidence-free
         ancestral sub-network that meets the rest only through one variable ``Y`` is
-        replaced by ``P(Y)`` (see :func:`clean_roots`), and a :attr:`QueryKind.MARGINAL`
-        question about one target the evidence cannot reach is its prior (see
-        :func:`_prior_plan`).
+        replaced by ``P(Y)`` (see :func:`replaced_roots`), and a :attr:`QueryKind.MARGINAL`
+        question about one target the evidence cannot reach is its prior: when no evidence
+        variable shares an ancestor (or itself) with the target and no data node is among
+        the target and its ancestors, the pruned plan would have no factor that depends on
+        the evidence — the target's component is the target and its ancestors, whose CPTs
+        multiply to ``P(target)`` — and, conversely, a shared ancestor links the target to
+        some evidence through a factor that holds an observed variable. That plan is the
+        prior alone, with the evidence's own CPTs as checks (every variable observed) or
+        dropped (in a component without the target).
+
+    Which CPTs stay (steps 0–3 of the module's list) is decided by compiled code over the
+    network's bit rows (:attr:`Compiled.mask_table`, ``_orders.prune``): a few word
+    operations per relevant variable.
     """
-    prune_barren = kind is not QueryKind.WHOLE
-    keep_all_components = kind is not QueryKind.MARGINAL
     ev = tuple(evidence)
-    lineage = compiled.lineage_masks
-    ev_mask = t_mask = ev_lineage = 0  # ev_lineage: the evidence and its ancestors
-    for v in ev:
-        ev_mask |= 1 << v
-        ev_lineage |= lineage[v]
-    if (
-        prior is not None
-        and ev
-        and len(targets) == 1
-        and not keep_all_components
-        and not lineage[targets[0]] & (ev_lineage | compiled.source_mask)
-    ):
-        return _prior_plan(compiled, targets[0], ev, ev_mask, prior)
-    for v in targets:
-        t_mask |= 1 << v
-    anc = compiled.ancestor_masks
-    if prune_barren:
-        r_mask = ev_lineage
-        for v in targets:
-            r_mask |= lineage[v]
-        relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
-    else:
-        relevant = list(compiled.topo)
-        r_mask = (1 << len(relevant)) - 1
-    replaced: list[int] = []
-    if prior is not None:
-        replaced = clean_roots(compiled, relevant, r_mask, ev_mask | t_mask)
-        if replaced:
-            removed = 0
-            for y in replaced:
-                removed |= anc[y]
-            r_mask &= ~removed
-            relevant = sorted(bits(r_mask), key=compiled.topo_pos.__getitem__)
-    # the free variables of each relevant CPT (of a replaced variable's prior: itself)
-    scope_masks = list(map((~ev_mask).__and__, map(compiled.family_masks.__getitem__, relevant)))
-    replaced_mask = 0
-    for y in replaced:
-        replaced_mask |= 1 << y
-        scope_masks[relevant.index(y)] = 1 << y
-    keep = -1 if keep_all_components else _component(scope_masks, t_mask)
-    return _plan(compiled, targets, ev, ev_mask, relevant, scope_masks, keep, replaced_mask, prior)
+    kept, replaced, dropped = _orders.prune(
+        compiled.mask_table, targets, ev, _KINDS[kind], prior is not None
+    )
+    return _plan(compiled, targets, ev, kept, replaced, dropped, prior)
+
+
+def replaced_roots(compiled: Compiled, var: int) -> list[int]:
+    """The variables ``Y`` whose priors stand for evidence-free ancestral sub-networks in
+    the plan of ``P(var)`` (no evidence): those with at least one ancestor, none of them
+    ``var`` or a data node, whose ancestors have no child in the plan outside ``Y`` and its
+    ancestors (the sub-network meets the rest only through ``Y``), so that
+    ``Σ_{An(Y)} Π P(· | ·) = P(Y)``; only maximal ones (two such sub-networks are nested or
+    disjoint), the lowest in topological order first."""
+    marginal = _KINDS[QueryKind.MARGINAL]
+    _, replaced, _ = _orders.prune(compiled.mask_table, (var,), (), marginal, True)
+    return list(replaced)
 
 
 def _plan(
     compiled: Compiled,
     targets: Sequence[int],
     ev: tuple[int, ...],
-    ev_mask: int,
-    relevant: Sequence[int],
-    scope_masks: Sequence[int],
-    keep: int,
-    replaced_mask: int,
+    kept: Sequence[int],
+    replaced: tuple[int, ...],
+    dropped: tuple[int, ...],
     prior: Callable[[int], FloatArray] | None,
 ) -> Plan:
-    """The plan made of the CPTs of ``relevant`` (in topological order; their free variables
-    ``scope_masks``): those in a component without a target (no variable in ``keep``) left
-    out, the others laid out for the evidence ``ev`` — each replaced variable's (bit set in
-    ``replaced_mask``) by its prior, each whose every variable is observed as a check
-    (``ev_mask`` masks ``ev``). Factors are made once per network version and shared by
-    every plan."""
+    """The plan made of the CPTs of ``kept`` (in topological order), laid out for the
+    evidence ``ev`` — each of ``replaced`` by its prior, each whose every variable is
+    observed as a check — with the observed variables ``dropped`` in components without a
+    target. Factors are made once per network version and shared by every plan."""
     ev_index = {v: k for k, v in enumerate(ev)}
+    ev_mask = 0
+    for v in ev:
+        ev_mask |= 1 << v
     parents = compiled.parents
     family_masks = compiled.family_masks
     shared = compiled.factors  # evidence-free factors, the same in every plan
     layouts = compiled.layouts  # observed-first layouts of CPTs, by observed family members
     factors: list[Factor] = []
     checks: list[Factor] = []
-    dropped = 0
-    for v, mask in zip(relevant, scope_masks, strict=True):
-        if mask and not keep & mask:
-            dropped |= (1 << v) & ev_mask
-            continue
-        if (replaced_mask >> v) & 1:
+    for v in kept:
+        if replaced and v in replaced:
             assert prior is not None
             factor = shared.get(-1 - v)
             if factor is None:
@@ -383,33 +370,8 @@ def _plan(
         evidence=ev,
         factors=factors,
         checks=tuple(checks),
-        dropped=tuple(bits(dropped)),
+        dropped=dropped,
     )
-
-
-def _prior_plan(
-    compiled: Compiled,
-    target: int,
-    ev: tuple[int, ...],
-    ev_mask: int,
-    prior: Callable[[int], FloatArray],
-) -> Plan:
-    """The plan of ``P(target | ev)`` when the evidence cannot change it: one factor, the
-    target's prior ``P(target)``.
-
-    :func:`build` makes it when no evidence variable shares an ancestor (or itself) with
-    the target and no data node is among the target and its ancestors: the plan it would
-    make otherwise has no factor that depends on the evidence — the target's component is
-    the target and its ancestors, whose CPTs multiply to ``P(target)`` — and conversely, a
-    shared ancestor links the target to some evidence through a factor that holds an
-    observed variable. The evidence's own CPTs are the plan's checks (every variable
-    observed) or dropped (in a component without the target), sorted by the same
-    :func:`_plan` as :func:`build`'s; no pruning is needed.
-    """
-    relevant = sorted((target, *ev), key=compiled.topo_pos.__getitem__)
-    scope_masks = [compiled.family_masks[v] & ~ev_mask for v in relevant]
-    scope_masks[relevant.index(target)] = alone = 1 << target  # its prior
-    return _plan(compiled, (target,), ev, ev_mask, relevant, scope_masks, alone, alone, prior)
 
 
 def _layout(compiled: Compiled, v: int, ev_mask: int) -> Layout:
@@ -422,31 +384,6 @@ def _layout(compiled: Compiled, v: int, ev_mask: int) -> Layout:
     array = None if v in compiled.sources else compiled.transposed(v, perm)
     seen = tuple(variables[k] for k in observed_axes)
     return array, perm, seen, tuple(variables[k] for k in free_axes), {}
-
-
-def clean_roots(compiled: Compiled, order: Sequence[int], r_mask: int, skip: int) -> list[int]:
-    """Variables ``Y`` whose ancestors can be summed out into the prior ``P(Y)``.
-
-    ``order`` lists the relevant variables (bit mask ``r_mask``) in topological order;
-    ``skip`` masks the targets and the evidence. ``Y`` qualifies when no target, evidence or
-    data node is among ``Y`` and its ancestors, and no ancestor of ``Y`` has a child in the
-    relevant set outside ``Y`` and its ancestors (the sub-network meets the rest of the
-    question only through ``Y``); then ``Σ_{An(Y)} Π P(· | ·) = P(Y)``. Only maximal ones
-    with at least one ancestor are returned (two such sub-networks are nested or disjoint).
-    """
-    anc = compiled.ancestor_masks
-    lineage = compiled.lineage_masks
-    reach = compiled.reach_masks
-    skip |= compiled.source_mask
-    chosen: list[int] = []
-    covered = 0
-    for v in reversed(order):
-        if lineage[v] & skip or not anc[v] or (covered >> v) & 1:
-            continue
-        if reach[v] & r_mask & ~lineage[v] == 0:
-            chosen.append(v)
-            covered |= anc[v]
-    return chosen
 
 
 Records = Sequence[tuple[int, tuple[int, ...]]]
@@ -536,15 +473,13 @@ def order_steps(
     steps: Steps | None = None
     if network is not None and not extra and not search:
         positions, weights = network_order(compiled)
-        summed = dict.fromkeys(chain.from_iterable(scopes))
-        for u in output:
-            summed.pop(u, None)
         limit = tuning.network_order_per_factor * n
-        # the network-wide weights of these labels bound the restricted order's steps (up to
-        # the kept output labels, before the evidence-free steps move first); far above the
-        # limit, the order is not worth a walk
-        if sum(map(weights.__getitem__, summed)) <= tuning.network_order_slack * limit:
-            ordered = sorted(summed, key=positions.__getitem__)
+        # the labels to sum, in the network's order; their network-wide weights bound the
+        # restricted order's steps (up to the kept output labels, before the evidence-free
+        # steps move first): far above the limit, the order is not worth a walk
+        bound = tuning.network_order_slack * limit
+        ordered = _orders.restrict(scopes, output, positions, weights, bound)
+        if ordered is not None:
             steps = _orders.eliminate(scopes, ordered, output, card, None, network, limit)
     if steps is None:
         rank, _ = elimination_rank(scopes, output, card)
@@ -576,10 +511,10 @@ def order_steps(
     return path, kept_steps, total
 
 
-def network_order(compiled: Compiled) -> tuple[dict[int, int], dict[int, int]]:
+def network_order(compiled: Compiled) -> tuple[list[int], list[int]]:
     """Each variable's position in a network-wide elimination order and the weight of its
-    elimination there (the entries of its factor with its neighbours then), computed once
-    per network version (:attr:`Compiled.network_order`).
+    elimination there (the entries of its factor with its neighbours then), by variable
+    id, computed once per network version (:attr:`Compiled.network_order`).
 
     The greedy min-weight order (:func:`elimination_rank`) of the moral graph, every CPT's
     variables linked. A plan's interaction graph is a subgraph of it (evidence, barren
@@ -594,9 +529,10 @@ def network_order(compiled: Compiled) -> tuple[dict[int, int], dict[int, int]]:
     known = compiled.network_order
     if known is None:
         families = [(v, *ps) for v, ps in enumerate(compiled.parents)]
-        weights: dict[int, int] = {}
-        positions, _ = elimination_rank(families, (), compiled.card, weights)
-        known = compiled.network_order = (positions, weights)
+        found: dict[int, int] = {}
+        rank, _ = elimination_rank(families, (), compiled.card, found)
+        ids = range(len(families))
+        known = compiled.network_order = ([rank[v] for v in ids], [found[v] for v in ids])
     return known
 
 
@@ -681,23 +617,3 @@ def _cost(
     for step in walk(sets, output, path):
         total += math.prod([size[u] for u in step.union])
     return total
-
-
-def _component(scope_masks: Sequence[int], seed: int) -> int:
-    """Bit mask of the free variables linked to ``seed`` (the targets) through shared factors.
-
-    ``scope_masks`` come in topological order. Passes over them alternate direction, the
-    first from the last (a factor holds a child and its parents: a pass upwards carries the
-    targets to their ancestors, the next one down to the ancestors' other children), until
-    one pass reaches nothing new.
-    """
-    reached = seed
-    masks = scope_masks[::-1]
-    while True:
-        before = reached
-        for mask in masks:
-            if mask & reached:
-                reached |= mask
-        if reached == before:
-            return reached
-        masks = masks[::-1]
