@@ -1,5 +1,5 @@
-"""Where a pattern's first ("cold") question spends its time, and how much of it numpy's
-per-call cost could explain.
+"""Where a pattern's first ("cold") question spends its time, and how much of it the
+per-call cost of its sum-products could explain.
 
 For each bnlearn network of ``benchmarks/bn_inference.py`` (up to munin's size): 40 random
 patterns (a target and 3 observed variables, values drawn by forward sampling, as there),
@@ -13,8 +13,8 @@ wrapping the engine's functions for this run only:
   impossible evidence; cached for the network's later questions;
 - *plan*: pruning and slicing (``plans.build``, priors excluded);
 - *order*: the contraction order (``plans.order_steps``) — for a one-case question this
-  also builds the compiled program's steps, handed to it as the order chooses them
-  (``SumProgram.add``), including the evidence-free steps contracted now (those another
+  also builds the compiled program's steps, handed to it once the order is chosen
+  (``SumProgram.extend``), including the evidence-free steps contracted now (those another
   pattern already contracted are looked up);
 - *compile*: ``SumProgram``'s constructor — for a one-case question only its set-up (the
   steps come through *order*), all of the program where the order came from a cache or
@@ -24,9 +24,10 @@ wrapping the engine's functions for this run only:
 
 Each part excludes the priors computed inside it.
 
-And the numpy ``einsum`` calls a cold question makes (compile and run), and the fixed cost of
-one such call (a 2×3 by 3×4 product, best of 5 × 2,000), whose product is the share of the
-question that numpy's per-call cost alone accounts for. And the *interpreter steps* of a cold
+And the sum-product calls a cold question makes (``elimination.einsum``: small products
+summed in ``_orders.c``, larger ones by numpy; compile and run), and the fixed cost of one
+such call (a 2×3 by 3×4 product, best of 5 × 2,000), whose product is the share of the
+question that this per-call cost alone accounts for. And the *interpreter steps* of a cold
 question: the Python bytecode instructions it executes (counted with ``sys.settrace``
 opcode events, the same questions asked again of a fresh copy of the network, untimed) —
 a count no other job on the machine can move, and the Python bookkeeping that is most of a
@@ -115,7 +116,7 @@ def instrument(meter: Meter) -> None:
 
 
 def call_cost() -> float:
-    """CPU seconds of one small numpy einsum call (its fixed cost), best of 5."""
+    """CPU seconds of one small ``elimination.einsum`` call (its fixed cost), best of 5."""
     a, b = np.ones((2, 3)), np.ones((3, 4))
     einsum = elimination.einsum
     runs = timeit.repeat(lambda: einsum(a, [0, 1], b, [1, 2], [0, 2]), number=2000, repeat=5)
@@ -190,14 +191,15 @@ def markdown(rows: list[dict[str, Any]], cost: float, load: tuple[float, float])
         f"target and {N_EVIDENCE} observed variables, each asked once after one untimed "
         "question of another pattern; CPU ms. *cold*: median; the parts are means (they add "
         "up to the mean question, which a few large patterns pull above the median). "
-        "*einsum calls*: numpy calls per question (median, mean); *numpy share*: mean calls "
+        "*einsum calls*: sum-product calls per question (`elimination.einsum`, median, "
+        "mean); *call share*: mean calls "
         f"× the fixed cost of one call ({cost * 1e6:.2f} µs here) / mean question. "
         "*interpreter steps*: Python bytecode instructions per question (mean; the same "
         "questions on a fresh copy of the network, counted, not timed: the load cannot move "
         "it).",
         "",
         "| network | cold (median) | mean | priors | plan | order | compile | first run | rest "
-        "| einsum calls | numpy share | interpreter steps |",
+        "| einsum calls | call share | interpreter steps |",
         "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|",
     ]
     for r in rows:

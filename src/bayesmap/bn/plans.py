@@ -322,7 +322,7 @@ def _plan(
     evidence ``ev`` — each of ``replaced`` by its prior, each whose every variable is
     observed as a check — with the observed variables ``dropped`` in components without a
     target. Factors are made once per network version and shared by every plan."""
-    ev_index = {v: k for k, v in enumerate(ev)}
+    position = dict(zip(ev, range(len(ev)))).__getitem__  # of each observed variable in ev
     ev_mask = 0
     for v in ev:
         ev_mask |= 1 << v
@@ -359,7 +359,7 @@ def _plan(
         if layout is None:
             layout = layouts[key] = _layout(compiled, v, ev_mask)
         array, perm, seen, free, made = layout
-        ev_pos = tuple([ev_index[u] for u in seen])
+        ev_pos = tuple(map(position, seen))
         factor = made.get(ev_pos)
         if factor is None:
             shape = tuple(map(compiled.card.__getitem__, free))
