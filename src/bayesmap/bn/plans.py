@@ -322,7 +322,7 @@ def _plan(
     evidence ``ev`` — each of ``replaced`` by its prior, each whose every variable is
     observed as a check — with the observed variables ``dropped`` in components without a
     target. Factors are made once per network version and shared by every plan."""
-    position = dict(zip(ev, range(len(ev)))).__getitem__  # of each observed variable in ev
+    position = dict(zip(ev, range(len(ev)), strict=True)).__getitem__  # place of each in ev
     ev_mask = 0
     for v in ev:
         ev_mask |= 1 << v
