@@ -3,9 +3,8 @@
 A tree is given as a directory (a worktree or an exported copy) or as a commit of this
 repository, which is exported (``git archive``, its ``src`` only) to a temporary directory
 for the run. Either way the report names it by its commit, so that a table in
-docs/benchmarks.md never points at a temporary path. A tree with C extension sources
-(``src/bayesmap/**/*.c``, as from 2026-12-05) has them compiled in place where they are
-not yet, as ``pip install`` would.
+docs/benchmarks.md never points at a temporary path. A tree with the engine's C core (from
+2026-12-05) has it compiled in place where it is not yet, as ``pip install`` would.
 """
 
 from __future__ import annotations
@@ -65,16 +64,19 @@ def source_tree(spec: str, stack: ExitStack) -> tuple[Path, str]:
 
 
 def _compile_extensions(tree: Path) -> None:
-    """Compile each C extension source of ``tree`` whose module is missing or older, with
-    the compiler and flags this Python was built with (what setuptools does on install)."""
-    suffix = sysconfig.get_config_var("EXT_SUFFIX")
+    """Compile the engine's C core of ``tree`` into ``bayesmap/bn/_orders`` where it is
+    missing or older than its sources (what setuptools does on install), with the compiler
+    this Python was built with: the sources of ``bn/csrc`` (from 2026-12-05), or the one
+    ``bn/_orders.c`` of the commits just before them."""
+    package = tree / "src" / "bayesmap" / "bn"
+    sources = sorted((package / "csrc").glob("*.c")) or sorted(package.glob("_orders.c"))
+    if not sources:
+        return
+    module = package / ("_orders" + sysconfig.get_config_var("EXT_SUFFIX"))
+    inputs = [*sources, *(package / "csrc").glob("*.h")]
+    if module.exists() and module.stat().st_mtime >= max(p.stat().st_mtime for p in inputs):
+        return
     compiler = (sysconfig.get_config_var("CC") or "cc").split()
     include = sysconfig.get_paths()["include"]
-    for source in sorted((tree / "src" / "bayesmap").rglob("*.c")):
-        module = source.with_name(source.stem + suffix)
-        if module.exists() and module.stat().st_mtime >= source.stat().st_mtime:
-            continue
-        subprocess.run(
-            [*compiler, "-O2", "-shared", "-fPIC", f"-I{include}", str(source), "-o", str(module)],
-            check=True,
-        )
+    flags = ["-O2", "-shared", "-fPIC", f"-I{include}"]
+    subprocess.run([*compiler, *flags, *map(str, sources), "-o", str(module)], check=True)

@@ -25,7 +25,7 @@ wrapping the engine's functions for this run only:
 Each part excludes the priors computed inside it.
 
 And the sum-product calls a cold question makes (``elimination.einsum``: small products
-summed in ``_orders.c``, larger ones by numpy; compile and run), and the fixed cost of one
+summed in the compiled core, larger ones by numpy; compile and run), and the fixed cost of one
 such call (a 2×3 by 3×4 product, best of 5 × 2,000), whose product is the share of the
 question that this per-call cost alone accounts for. And the *interpreter steps* of a cold
 question: the Python bytecode instructions it executes (counted with ``sys.settrace``

@@ -110,7 +110,7 @@ def _two_parts() -> BayesNet:
 @given(seed=SEEDS)
 @FAST
 def test_the_engines_einsum_agrees_with_numpys(seed: int) -> None:
-    """``elimination.einsum`` (small products summed in ``_orders.c``, the rest by numpy's
+    """``elimination.einsum`` (small products summed in the compiled core, the rest by numpy's
     C function without dispatch) answers as ``np.einsum``, to rounding, for sub-list
     contractions of random tables, summing any labels."""
     rng = np.random.default_rng(seed)

@@ -1,4 +1,4 @@
-"""Compiled elimination orders, program steps and small sum-products (``_orders.c``)."""
+"""Compiled elimination orders, program steps and small sum-products (sources in ``csrc/``)."""
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any

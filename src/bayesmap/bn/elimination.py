@@ -209,7 +209,7 @@ einsum: Callable[..., Any] = _orders.contract
 """Sum-product in sub-list form (``einsum(a, (0, 1), b, (1, 2), (0, 2))``), as numpy's C
 ``einsum`` without ``optimize`` (and without :func:`numpy.einsum`'s ``__array_function__``
 dispatch, 2–3 µs a call). A product of at most 4,096 entries over float64 operands — most
-steps of a Bayesian network's contractions — is summed by one loop in ``_orders.c``:
+steps of a Bayesian network's contractions — is summed by one loop in ``csrc/contract.c``:
 numpy's einsum builds an iterator per call (1.2–1.6 µs on 24–512 entries, against 0.4–1.0
 here), and a question asked between other work pays more still for the code and data
 those calls bring back into the caches. Larger products, other dtypes, diagonals and
@@ -387,7 +387,7 @@ class SumProgram:
         """Append the steps of an order walked by :func:`bayesmap.bn.plans.order_steps`: their
         SSA operands, kept labels, and the entries and labels of each step's product.
 
-        Compiled (``_orders.c``): each step's ``einsum`` arguments are numbered there, and a
+        Compiled (``csrc/steps.c``): each step's ``einsum`` arguments are numbered there, and a
         step of constant operands looked up in the memo (most constant steps of a new
         pattern's program were met in an earlier one's); only the rare step that must be
         split or checked against :data:`MAX_STEP_ENTRIES` comes back to :meth:`_wide`."""

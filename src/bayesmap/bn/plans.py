@@ -32,7 +32,7 @@ Building one:
 
 Variable sets are bit masks (bit ``i`` = variable id ``i``), precomputed per network
 version; steps 0–3 run in compiled code over them as rows of 64-bit words
-(``_orders.c``), and so do the order walks of step 5 — a few word operations per relevant
+(``csrc/prune.c``), and so do the order walks of step 5 — a few word operations per relevant
 variable and step, where a new pattern in Python paid thousands of interpreter steps.
 """
 
@@ -454,7 +454,7 @@ def order_steps(
     where min-weight's order cost andes 1.3–1.8× more time). The kept labels feed
     :class:`~bayesmap.bn.elimination.SumProgram`, which would otherwise recount them.
 
-    The orders are walked by compiled code (``_orders.c``: each label summed out with
+    The orders are walked by compiled code (``csrc/walk.c``: each label summed out with
     the operands then holding it, as :class:`~bayesmap.bn.elimination.Walker` reads a
     path), which also gives each step's entries and labels; the walk stops as soon as it
     passes a bound. ``emit`` (e.g. :meth:`SumProgram.extend
@@ -549,7 +549,7 @@ def elimination_rank(
     linked) repeatedly sums out the label whose factor — the label and its current
     neighbours — has the fewest entries (ties: the least label), then links its
     neighbours (Koller & Friedman 2009, §9.4.3.2). Labels in ``output`` are never summed
-    out. Compiled (``_orders.c``: the graph as bit rows, the next label from a heap whose
+    out. Compiled (``csrc/rank.c``: the graph as bit rows, the next label from a heap whose
     stale entries are skipped), as it runs on every cold question whose network order is
     not kept. ``card`` gives the variables' sizes; other labels (the case axis of a batch,
     label −1) are left out of the graph: the order is the one-case order, which keeps a
