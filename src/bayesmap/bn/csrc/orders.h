@@ -55,6 +55,8 @@ static inline void vec_remove(vec *v, Py_ssize_t x) {
 
 /* The smallest and largest label of `scopes` and `output` (sequences of ints); walk.c. */
 int orders_read_range(PyObject *scopes_fast, PyObject *output_fast, long *lo, long *hi);
+/* A tuple of Python ints; walk.c. */
+PyObject *orders_int_tuple(const Py_ssize_t *xs, Py_ssize_t n);
 
 PyObject *orders_eliminate(PyObject *self, PyObject *args);      /* walk.c */
 PyObject *orders_restrict_order(PyObject *self, PyObject *args); /* walk.c */

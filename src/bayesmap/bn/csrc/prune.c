@@ -51,11 +51,11 @@ static int is_zero(const uint64_t *a, int64_t words) {
 }
 
 /* Read a sequence of variable ids (each < n) into `out`; -1 on error. */
-static Py_ssize_t read_ids(PyObject *seq, int64_t n, int64_t **out) {
+static Py_ssize_t read_ids(PyObject *seq, int64_t n, Py_ssize_t **out) {
     PyObject *fast = PySequence_Fast(seq, "variable ids must be a sequence");
     if (fast == NULL) return -1;
     Py_ssize_t m = PySequence_Fast_GET_SIZE(fast);
-    *out = PyMem_Malloc(((size_t)m + 1) * sizeof(int64_t));
+    *out = PyMem_Malloc(((size_t)m + 1) * sizeof(Py_ssize_t));
     if (*out == NULL) {
         Py_DECREF(fast);
         PyErr_NoMemory();
@@ -74,27 +74,11 @@ static Py_ssize_t read_ids(PyObject *seq, int64_t n, int64_t **out) {
     return m;
 }
 
-static PyObject *id_list(const int64_t *ids, Py_ssize_t n, int as_tuple) {
-    PyObject *out = as_tuple ? PyTuple_New(n) : PyList_New(n);
-    if (out == NULL) return NULL;
-    for (Py_ssize_t k = 0; k < n; k++) {
-        PyObject *x = PyLong_FromLongLong(ids[k]);
-        if (x == NULL) {
-            Py_DECREF(out);
-            return NULL;
-        }
-        if (as_tuple)
-            PyTuple_SET_ITEM(out, k, x);
-        else
-            PyList_SET_ITEM(out, k, x);
-    }
-    return out;
-}
-
 /* Sort a few ids ascending by key[id] (or by id, with key NULL): an insertion sort. */
-static void sort_ids(int64_t *ids, Py_ssize_t n, const int64_t *key) {
+static void sort_ids(Py_ssize_t *ids, Py_ssize_t n, const int64_t *key) {
     for (Py_ssize_t i = 1; i < n; i++) {
-        int64_t x = ids[i], kx = key ? key[x] : x;
+        Py_ssize_t x = ids[i];
+        int64_t kx = key ? key[x] : x;
         Py_ssize_t j = i;
         for (; j > 0 && (key ? key[ids[j - 1]] : ids[j - 1]) > kx; j--) ids[j] = ids[j - 1];
         ids[j] = x;
@@ -120,8 +104,8 @@ PyObject *orders_prune(PyObject *self, PyObject *args) {
     table_t t;
     if (read_table(blob, &t) < 0) return NULL;
     int64_t W = t.words, n = t.n;
-    int64_t *targets = NULL, *evidence = NULL, *relevant = NULL, *kept = NULL, *replaced = NULL;
-    int64_t *dropped = NULL;
+    Py_ssize_t *targets = NULL, *evidence = NULL, *relevant = NULL, *kept = NULL;
+    Py_ssize_t *replaced = NULL, *dropped = NULL;
     uint64_t *work = NULL, *scope = NULL;
     PyObject *result = NULL;
     Py_ssize_t n_targets = read_ids(targets_obj, n, &targets);
@@ -129,10 +113,10 @@ PyObject *orders_prune(PyObject *self, PyObject *args) {
     if (n_targets < 0 || n_evidence < 0) goto done;
     /* working rows: evidence, its lineage, targets, relevant, skip, covered, reached, before */
     work = PyMem_Calloc((size_t)(8 * W), sizeof(uint64_t));
-    relevant = PyMem_Malloc(((size_t)n + n_evidence + 2) * sizeof(int64_t));
-    kept = PyMem_Malloc(((size_t)n + n_evidence + 2) * sizeof(int64_t));
-    replaced = PyMem_Malloc(((size_t)n + 1) * sizeof(int64_t));
-    dropped = PyMem_Malloc(((size_t)n_evidence + 1) * sizeof(int64_t));
+    relevant = PyMem_Malloc(((size_t)n + n_evidence + 2) * sizeof(Py_ssize_t));
+    kept = PyMem_Malloc(((size_t)n + n_evidence + 2) * sizeof(Py_ssize_t));
+    replaced = PyMem_Malloc(((size_t)n + 1) * sizeof(Py_ssize_t));
+    dropped = PyMem_Malloc(((size_t)n_evidence + 1) * sizeof(Py_ssize_t));
     if (!work || !relevant || !kept || !replaced || !dropped) {
         PyErr_NoMemory();
         goto done;
@@ -141,7 +125,7 @@ PyObject *orders_prune(PyObject *self, PyObject *args) {
     uint64_t *skip = work + 4 * W, *covered = work + 5 * W, *reached = work + 6 * W;
     uint64_t *before = work + 7 * W;
     for (Py_ssize_t k = 0; k < n_evidence; k++) {
-        int64_t v = evidence[k];
+        Py_ssize_t v = evidence[k];
         ev[v / 64] |= (uint64_t)1 << (v % 64);
         for (int64_t j = 0; j < W; j++) ev_lineage[j] |= t.lineage[v * W + j];
     }
@@ -150,7 +134,7 @@ PyObject *orders_prune(PyObject *self, PyObject *args) {
     Py_ssize_t n_relevant = 0, n_kept = 0, n_replaced = 0, n_dropped = 0;
     int alone = 0;
     if (priors && n_evidence > 0 && n_targets == 1 && kind == 0) {
-        int64_t v = targets[0];
+        Py_ssize_t v = targets[0];
         alone = 1;
         for (int64_t j = 0; j < W; j++)
             if (t.lineage[v * W + j] & (ev_lineage[j] | t.sources[j])) alone = 0;
@@ -194,7 +178,7 @@ PyObject *orders_prune(PyObject *self, PyObject *args) {
         goto done;
     }
     for (Py_ssize_t k = 0; k < n_relevant; k++) {
-        int64_t v = relevant[k];
+        Py_ssize_t v = relevant[k];
         int is_replaced = 0;
         for (Py_ssize_t i = 0; i < n_replaced; i++)
             if (replaced[i] == v) is_replaced = 1;
@@ -221,7 +205,7 @@ PyObject *orders_prune(PyObject *self, PyObject *args) {
         if (memcmp(before, reached, (size_t)W * sizeof(uint64_t)) == 0) break;
     }
     for (Py_ssize_t k = 0; k < n_relevant; k++) {
-        int64_t v = relevant[k];
+        Py_ssize_t v = relevant[k];
         const uint64_t *row = scope + k * W;
         if (filtered && !is_zero(row, W) && !any_and(row, reached, W)) {
             if (BIT(ev, v)) dropped[n_dropped++] = v;
@@ -230,12 +214,12 @@ PyObject *orders_prune(PyObject *self, PyObject *args) {
         kept[n_kept++] = v;
     }
     sort_ids(dropped, n_dropped, NULL);
-    PyObject *kept_list = id_list(kept, n_kept, 0);
-    PyObject *replaced_tuple = id_list(replaced, n_replaced, 1);
-    PyObject *dropped_tuple = id_list(dropped, n_dropped, 1);
-    if (kept_list && replaced_tuple && dropped_tuple)
-        result = PyTuple_Pack(3, kept_list, replaced_tuple, dropped_tuple);
-    Py_XDECREF(kept_list);
+    PyObject *kept_tuple = orders_int_tuple(kept, n_kept);
+    PyObject *replaced_tuple = orders_int_tuple(replaced, n_replaced);
+    PyObject *dropped_tuple = orders_int_tuple(dropped, n_dropped);
+    if (kept_tuple && replaced_tuple && dropped_tuple)
+        result = PyTuple_Pack(3, kept_tuple, replaced_tuple, dropped_tuple);
+    Py_XDECREF(kept_tuple);
     Py_XDECREF(replaced_tuple);
     Py_XDECREF(dropped_tuple);
 done:

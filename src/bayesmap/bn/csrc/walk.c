@@ -101,7 +101,7 @@ static PyObject *label_tuple(const labels_t *L, const Py_ssize_t *ds, Py_ssize_t
     return t;
 }
 
-static PyObject *index_tuple(const Py_ssize_t *xs, Py_ssize_t n) {
+PyObject *orders_int_tuple(const Py_ssize_t *xs, Py_ssize_t n) {
     PyObject *t = PyTuple_New(n);
     if (t == NULL) return NULL;
     for (Py_ssize_t k = 0; k < n; k++) {
@@ -187,7 +187,7 @@ static int walk_join(walk_t *w, Py_ssize_t step, int join, count_t *entries) {
 
 static PyObject *record_step(walk_t *w, PyObject *path, PyObject *kept_steps, PyObject *records,
                              PyObject *kept_labels, count_t entries) {
-    PyObject *chosen = index_tuple(w->chosen.a, w->chosen.n);
+    PyObject *chosen = orders_int_tuple(w->chosen.a, w->chosen.n);
     PyObject *uni = label_tuple(&w->L, w->uni.a, w->uni.n);
     PyObject *kept = kept_labels != NULL ? (Py_INCREF(kept_labels), kept_labels)
                                          : label_tuple(&w->L, w->kept.a, w->kept.n);
