@@ -238,11 +238,6 @@ class ConstantMemo:
         steps of :class:`SumProgram`)."""
         return self._results
 
-    def get(self, key: Any) -> FloatArray | None:
-        """The stored result of step ``key``, or ``None``."""
-        entry = self._results.get(key)
-        return None if entry is None else entry[1]
-
     def put(self, key: Any, inputs: tuple[Any, ...], result: FloatArray) -> None:
         """Store ``result`` (of ``inputs``) if the budget allows."""
         if result.size <= self._left:
@@ -543,10 +538,11 @@ class Walker(Generic[L]):
     """An SSA path read one step at a time: each operand's labels (inputs, then each step's
     result), which live operands hold each label, and which operands are still live.
 
-    The one reader of paths: :func:`walk` reads a whole path with it, and the builders of
-    orders (:func:`~bayesmap.bn.plans.order_steps`) take each step through it as they
-    choose it — the holders of a label are the operands the step that sums it out joins,
-    so an order builder reads them here rather than keeping a list of its own.
+    The Python reader of paths: :func:`walk` reads a whole path with it, and opt_einsum's
+    greedy order is merged through it (:func:`~bayesmap.bn.plans.order_steps`). The
+    elimination orders of a question are walked the same way by compiled code
+    (``csrc/walk.c``: the holders of a label are the operands the step that sums it out
+    joins), which ``tests/bn/test_orders.py`` checks step for step against this reader.
     """
 
     def __init__(self, scopes: Sequence[Iterable[L]], output: Iterable[L]) -> None:
@@ -574,12 +570,6 @@ class Walker(Generic[L]):
 
     def step(self, position: Sequence[int]) -> Step[L]:
         """Multiply the operands at SSA numbers ``position``; the step, its result appended."""
-        union, kept = self.join(position)
-        return Step(tuple(position), tuple(union), kept)
-
-    def join(self, position: Sequence[int]) -> tuple[dict[L, None], tuple[L, ...]]:
-        """:meth:`step`'s labels of the product (as dictionary keys) and kept labels, without
-        building the :class:`Step` (an order builder's inner loop)."""
         holders, live, open_ = self.holders, self.live, self.open
         result = len(live)
         union: dict[L, None] = {}
@@ -593,7 +583,7 @@ class Walker(Generic[L]):
             holders[label][result] = None
         live.append(kept)
         open_[result] = None
-        return union, kept
+        return Step(tuple(position), tuple(union), kept)
 
 
 def walk(

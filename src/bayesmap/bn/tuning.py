@@ -32,7 +32,11 @@ class Tuning:
     call_cost
         Fixed cost of one contraction call, in multiply-adds (a few µs of Python and numpy).
     calls_per_question
-        Calls of one single-variable question (evidence, slicing, contraction, normalising).
+        The fixed cost of one single-variable question (evidence, slicing, contraction,
+        normalising), in calls of ``call_cost``: with the compiled planner a warm one takes
+        8–14 µs beside its arithmetic (pigs, alarm, munin1), about four calls (it was eight
+        before; pigs' every-posterior questions then took the two-pass contraction, 16×
+        slower there than a question per variable).
     one_step
         A one-case contraction over at most this many joint entries (and at most
         ``one_step_operands`` factors) is one ``np.einsum`` call: its fixed cost, a few µs,
@@ -75,7 +79,7 @@ class Tuning:
     max_lookup: int = 1 << 16
     joint_above: int = 1 << 20
     call_cost: int = 4000
-    calls_per_question: int = 8
+    calls_per_question: int = 4
     one_step: int = 1 << 10
     one_step_operands: int = 16
     greedy_above: int = 1 << 20
