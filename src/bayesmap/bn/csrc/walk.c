@@ -205,6 +205,18 @@ static PyObject *record_step(walk_t *w, PyObject *path, PyObject *kept_steps, Py
     return ok ? Py_None : NULL;
 }
 
+/* One step of the walk over the operands in w->chosen: joined and recorded (the last step,
+ * `output` given, only recorded, its kept labels the output). 1 once recorded, 0 when the
+ * running `total` passes `bound` (or every step is `refused`), -1 on error. */
+static int take_step(walk_t *w, Py_ssize_t step, PyObject *output, count_t *total, int refused,
+                     count_t bound, PyObject *path, PyObject *kept_steps, PyObject *records) {
+    count_t entries;
+    if (walk_join(w, step, output == NULL, &entries) < 0) return -1;
+    *total = add_sat(*total, entries);
+    if (refused || *total > bound) return 0;
+    return record_step(w, path, kept_steps, records, output, entries) == NULL ? -1 : 1;
+}
+
 PyObject *orders_eliminate(PyObject *self, PyObject *args) {
     PyObject *scopes, *labels, *output, *card, *extra, *constant, *limit;
     if (!PyArg_ParseTuple(args, "OOOOOOO", &scopes, &labels, &output, &card, &extra, &constant,
@@ -313,15 +325,12 @@ PyObject *orders_eliminate(PyObject *self, PyObject *args) {
                 }
                 if (vec_push(&w.fixed, fixed) < 0) goto done;
             }
-            count_t entries;
-            if (walk_join(&w, step++, 1, &entries) < 0) goto done;
-            total = add_sat(total, entries);
-            if (refused || total > bound) {
-                result = Py_None;
-                Py_INCREF(result);
+            int taken =
+                take_step(&w, step++, NULL, &total, refused, bound, path, kept_steps, records);
+            if (taken <= 0) {
+                if (taken == 0) result = Py_NewRef(Py_None);
                 goto done;
             }
-            if (record_step(&w, path, kept_steps, records, NULL, entries) == NULL) goto done;
         }
     }
     w.chosen.n = 0;
@@ -329,19 +338,14 @@ PyObject *orders_eliminate(PyObject *self, PyObject *args) {
         if (w.open.a[i] && vec_push(&w.chosen, i) < 0) goto done;
     }
     if (w.chosen.n > 1 || PyList_GET_SIZE(path) == 0) {
-        count_t entries;
-        if (walk_join(&w, step++, 0, &entries) < 0) goto done;
-        total = add_sat(total, entries);
-        if (refused || total > bound) {
-            result = Py_None;
-            Py_INCREF(result);
-            goto done;
-        }
         PyObject *out = PySequence_Tuple(output_fast);
         if (out == NULL) goto done;
-        PyObject *ok = record_step(&w, path, kept_steps, records, out, entries);
+        int taken = take_step(&w, step++, out, &total, refused, bound, path, kept_steps, records);
         Py_DECREF(out);
-        if (ok == NULL) goto done;
+        if (taken <= 0) {
+            if (taken == 0) result = Py_NewRef(Py_None);
+            goto done;
+        }
     }
     result = Py_BuildValue("(OOOK)", path, kept_steps, records, (unsigned long long)total);
 done:
